@@ -1,0 +1,3 @@
+from aerofid.cli import main
+
+main()

@@ -1,0 +1,94 @@
+"""Thresholds that separate a mark's pixels from its ground.
+
+- :func:`optimum_threshold`: the optimum threshold of Reddi, Rudin & Keshavan (1984) used by Hunt, Ryan &
+  Gifford (seed 001, eq. 4; thesis 000, section 4.2.8.1 and Appendix B): the threshold k that maximises the
+  interclass variance sigma^2(k) = p_D (m_D - m_O)^2 + p_B (m_B - m_O)^2, found by iterating the condition
+  of Appendix B eq. 5, k = (m_D(k) + m_B(k)) / 2, exactly as the thesis' C function ``cthval`` does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+N_BINS = 256
+"""Histogram bins (thesis Appendix C, ``NBIN``)."""
+
+MAX_ITERATIONS = 50
+"""Iterations after which ``cthval`` declares the window homogeneous (Appendix C: ``count > 50``)."""
+
+MIN_CONTRAST = 0.02
+"""Windows whose grey range (max - min, on the [0, 1] scale) is below this are 'substantially homogeneous,
+all black or all white' (seed 001, Optimum Thresholding) and are rejected. About 5 grey levels of 8 bits."""
+
+
+@dataclass(frozen=True)
+class Threshold:
+    """An optimum threshold and the two classes it separates (grey levels on the window's scale)."""
+
+    value: float
+    mean_dark: float
+    mean_bright: float
+    bright_fraction: float
+    iterations: int
+
+
+def optimum_threshold(window: np.ndarray, n_bins: int = N_BINS, max_iterations: int = MAX_ITERATIONS,
+                      min_contrast: float = MIN_CONTRAST) -> Threshold | None:
+    """Reddi's optimum threshold of ``window`` (any shape), or None for a homogeneous window.
+
+    The grey levels are binned into ``n_bins`` between the window's minimum and maximum. Starting at the
+    middle bin, k is moved by e = (m(0, k) + m(k, N)) / 2 - k (m = mean bin of the dark and bright classes)
+    until |e| < 0.5 bin or k repeats; a window that needs more than ``max_iterations`` steps, or whose grey
+    range is below ``min_contrast``, returns None (the seed's "flag").
+    """
+    v = np.asarray(window, dtype=np.float64).ravel()
+    v = v[np.isfinite(v)]
+    if v.size < 2:
+        return None
+    lo, hi = float(v.min()), float(v.max())
+    if hi - lo < min_contrast:
+        return None
+    width = (hi - lo) / n_bins
+    idx = np.minimum(((v - lo) / width).astype(np.int64), n_bins - 1)
+    hist = np.bincount(idx, minlength=n_bins).astype(np.float64)
+    bins = np.arange(n_bins, dtype=np.float64)
+    c0 = np.concatenate([[0.0], np.cumsum(hist)])          # c0[k] = pixels in bins < k
+    c1 = np.concatenate([[0.0], np.cumsum(hist * bins)])   # c1[k] = sum of bin indices below k
+    total0, total1 = c0[-1], c1[-1]
+
+    def class_means(k: int) -> tuple[float, float]:
+        # bins 0 and n_bins - 1 hold the minimum and maximum, so both classes are populated for 1 <= k < n_bins
+        return c1[k] / c0[k], (total1 - c1[k]) / (total0 - c0[k])
+
+    k, visited = n_bins // 2, {}
+    for it in range(1, max_iterations + 1):
+        m_dark, m_bright = class_means(k)
+        e = (m_dark + m_bright) / 2.0 + 0.5 - k   # +0.5: from bin centres to the edge between the classes
+        if abs(e) < 0.5:
+            break
+        visited[k] = abs(e)
+        k_next = int(np.clip(round(k + e), 1, n_bins - 1))
+        if k_next in visited:  # a cycle: keep the k that came closest to the condition (cthval's ikbest)
+            k = min(visited, key=visited.get)
+            break
+        k = k_next
+    else:
+        return None
+    m_dark, m_bright = class_means(k)
+    value = lo + k * width
+    return Threshold(value=value, mean_dark=lo + (m_dark + 0.5) * width,
+                     mean_bright=lo + (m_bright + 0.5) * width,
+                     bright_fraction=float((total0 - c0[k]) / total0), iterations=it)
+
+
+def interclass_variance(window: np.ndarray, k: float) -> float:
+    """sigma^2(k) = p_D (m_D - m_O)^2 + p_B (m_B - m_O)^2 (seed 001, eq. 4) for a threshold ``k``."""
+    v = np.asarray(window, dtype=np.float64).ravel()
+    dark, bright = v[v < k], v[v >= k]
+    if dark.size == 0 or bright.size == 0:
+        return 0.0
+    m_o = v.mean()
+    p_d, p_b = dark.size / v.size, bright.size / v.size
+    return float(p_d * (dark.mean() - m_o) ** 2 + p_b * (bright.mean() - m_o) ** 2)

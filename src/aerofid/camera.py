@@ -1,0 +1,349 @@
+"""The camera's calibration certificate: fiducial coordinates in mm, focal length, principal point.
+
+A camera file is JSON or YAML (see docs/orientation.md)::
+
+    name: Wild RC20 s/n 5046                # required
+    focal_length_mm: 153.664                # calibrated focal length (optional)
+    principal_point:                        # optional; mm in the fiducial frame
+      ppa: [0.001, 0.002]                   #   principal point of autocollimation
+      pbs: [0.000, -0.003]                  #   principal point of best symmetry
+    pixel_size_um: 21.0                     # nominal scan pixel size (optional)
+    y_axis: up                              # film y axis: up (certificates) or down (image-like)
+    fiducials:                              # >= 3, unique names
+      P1: [106.004, -106.002]               #   name: [x_mm, y_mm]
+      P2: {x: -105.998, y: -105.998, style: wild_corner}
+
+The minimal JSON ``{"name": "...", "fiducials": {"P1": [x_mm, y_mm], ...}}`` is always accepted; the
+fiducials may also be a list of ``{"name", "x", "y", "style"}`` objects. MicMac's ``MeasuresCamera.xml``
+(:func:`aerofid.formats.micmac.read_measures_camera`) is read as well.
+
+Film coordinates: mm as the certificate gives them, x right, y up (``y_axis: up``) unless stated.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from aerofid.errors import AerofidInputError
+
+#: Largest plausible |coordinate| of a fiducial, mm (the largest film formats are 23 x 46 cm).
+MAX_FIDUCIAL_MM = 500.0
+#: Plausible calibrated focal lengths, mm.
+FOCAL_RANGE_MM = (1.0, 5000.0)
+#: Plausible scan pixel sizes, micrometres.
+PIXEL_SIZE_RANGE_UM = (0.1, 1000.0)
+
+
+@dataclass(frozen=True)
+class Fiducial:
+    """One calibrated fiducial mark: name, x and y in mm, optional mark style (e.g. ``wild_corner``)."""
+
+    name: str
+    x_mm: float
+    y_mm: float
+    style: str | None = None
+
+    def to_dict(self) -> dict:
+        d = {"x": self.x_mm, "y": self.y_mm}
+        if self.style:
+            d["style"] = self.style
+        return d
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A camera's calibration certificate as far as interior orientation needs it.
+
+    Attributes:
+        name: camera name (make, model, serial, report number...).
+        fiducials: the calibrated fiducials, in file order.
+        focal_length_mm: calibrated focal length, or None.
+        ppa_mm: principal point of autocollimation (x, y) in mm, or None.
+        pbs_mm: principal point of best symmetry (x, y) in mm, or None.
+        pixel_size_um: nominal scan pixel size, or None.
+        y_axis: ``"up"`` (certificate convention) or ``"down"`` (image-like, e.g. MicMac's corner origin).
+    """
+
+    name: str
+    fiducials: tuple[Fiducial, ...]
+    focal_length_mm: float | None = None
+    ppa_mm: tuple[float, float] | None = None
+    pbs_mm: tuple[float, float] | None = None
+    pixel_size_um: float | None = None
+    y_axis: str = "up"
+    source: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        _validate(self)
+
+    # -- access -------------------------------------------------------------------------------------
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(f.name for f in self.fiducials)
+
+    @property
+    def xy_mm(self) -> np.ndarray:
+        """n x 2 array of calibrated coordinates in file order."""
+        return np.array([[f.x_mm, f.y_mm] for f in self.fiducials], dtype=float)
+
+    def fiducial(self, name: str) -> Fiducial:
+        for f in self.fiducials:
+            if f.name == name:
+                return f
+        raise AerofidInputError(
+            f"camera {self.name!r} has no fiducial {name!r} (it has {', '.join(self.names)})")
+
+    @property
+    def principal_point_mm(self) -> tuple[tuple[float, float], str]:
+        """The principal point to report in pixels and which one it is (ppa, pbs, or the origin)."""
+        if self.ppa_mm is not None:
+            return self.ppa_mm, "ppa"
+        if self.pbs_mm is not None:
+            return self.pbs_mm, "pbs"
+        return (0.0, 0.0), "origin"
+
+    def fiducial_centre_mm(self, names: Iterable[str] | None = None) -> tuple[float, float]:
+        """Fiducial centre: least-squares intersection of the lines joining opposite fiducials.
+
+        Opposite pairs are those whose midpoint lies closest to the centroid of all fiducials (within 2 %
+        of the frame size); with no such pairs the centroid is returned.
+        """
+        xy = self.xy_mm if names is None else np.array([[self.fiducial(n).x_mm, self.fiducial(n).y_mm]
+                                                        for n in names])
+        c = xy.mean(axis=0)
+        size = float(np.max(np.ptp(xy, axis=0))) or 1.0
+        lines = []
+        for i in range(len(xy)):
+            for j in range(i + 1, len(xy)):
+                mid = (xy[i] + xy[j]) / 2
+                if np.hypot(*(mid - c)) < 0.02 * size and np.hypot(*(xy[i] - xy[j])) > 0.5 * size:
+                    lines.append((xy[i], xy[j]))
+        if len(lines) < 2:
+            return float(c[0]), float(c[1])
+        # point minimising the squared distances to the lines
+        A = np.zeros((2, 2))
+        b = np.zeros(2)
+        for p, q in lines:
+            d = (q - p) / np.hypot(*(q - p))
+            Pn = np.eye(2) - np.outer(d, d)
+            A += Pn
+            b += Pn @ p
+        if np.linalg.cond(A) > 1e8:
+            return float(c[0]), float(c[1])
+        s = np.linalg.solve(A, b)
+        return float(s[0]), float(s[1])
+
+    # -- files --------------------------------------------------------------------------------------
+    @classmethod
+    def load(cls, path: str | Path) -> "Camera":
+        """Read a camera file: ``.json``, ``.yaml``/``.yml`` or MicMac ``.xml`` (MeasuresCamera)."""
+        path = Path(path)
+        if not path.is_file():
+            raise AerofidInputError(f"camera file {str(path)!r} does not exist")
+        suffix = path.suffix.lower()
+        if suffix == ".xml":
+            from aerofid.formats.micmac import read_measures_camera
+
+            return read_measures_camera(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise AerofidInputError(f"cannot read camera file {str(path)!r}: {e}") from None
+        if suffix in (".yaml", ".yml"):
+            data = _load_yaml_unique(text, path)
+        else:
+            try:
+                data = json.loads(text, object_pairs_hook=_unique_pairs(path))
+            except json.JSONDecodeError as e:
+                raise AerofidInputError(f"camera file {str(path)!r} is not valid JSON: {e}") from None
+        return cls.from_dict(data, source=str(path))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "") -> "Camera":
+        """Build a camera from the JSON/YAML structure (see the module docstring)."""
+        where = f" in {source!r}" if source else ""
+        if not isinstance(data, Mapping):
+            raise AerofidInputError(f"a camera must be an object with 'name' and 'fiducials'{where}")
+        unknown = set(data) - {"name", "fiducials", "focal_length_mm", "principal_point", "ppa_mm", "pbs_mm",
+                               "pixel_size_um", "y_axis", "description", "serial", "lens", "report"}
+        if unknown:
+            raise AerofidInputError(f"unknown camera field(s) {', '.join(sorted(unknown))}{where}")
+        name = data.get("name")
+        if not isinstance(name, str) or not name.strip():
+            raise AerofidInputError(f"the camera needs a non-empty 'name'{where}")
+        raw = data.get("fiducials")
+        fids: list[Fiducial] = []
+        if isinstance(raw, Mapping):
+            for k, v in raw.items():
+                fids.append(_fiducial(str(k), v, where))
+        elif isinstance(raw, list):
+            for item in raw:
+                if not isinstance(item, Mapping) or "name" not in item:
+                    raise AerofidInputError(f"each fiducial in the list needs a 'name', 'x' and 'y'{where}")
+                fids.append(_fiducial(str(item["name"]), item, where))
+        else:
+            raise AerofidInputError(f"'fiducials' must map names to [x_mm, y_mm]{where}")
+        pp = data.get("principal_point") or {}
+        if not isinstance(pp, Mapping):
+            raise AerofidInputError(f"'principal_point' must be an object with 'ppa' and/or 'pbs'{where}")
+        ppa = pp.get("ppa", data.get("ppa_mm"))
+        pbs = pp.get("pbs", data.get("pbs_mm"))
+        return cls(
+            name=name.strip(),
+            fiducials=tuple(fids),
+            focal_length_mm=_opt_number(data.get("focal_length_mm"), "focal_length_mm", where),
+            ppa_mm=_opt_pair(ppa, "principal_point.ppa", where),
+            pbs_mm=_opt_pair(pbs, "principal_point.pbs", where),
+            pixel_size_um=_opt_number(data.get("pixel_size_um"), "pixel_size_um", where),
+            y_axis=str(data.get("y_axis", "up")),
+            source=source,
+        )
+
+    def to_dict(self) -> dict:
+        d: dict[str, Any] = {"name": self.name}
+        if self.focal_length_mm is not None:
+            d["focal_length_mm"] = self.focal_length_mm
+        pp = {}
+        if self.ppa_mm is not None:
+            pp["ppa"] = list(self.ppa_mm)
+        if self.pbs_mm is not None:
+            pp["pbs"] = list(self.pbs_mm)
+        if pp:
+            d["principal_point"] = pp
+        if self.pixel_size_um is not None:
+            d["pixel_size_um"] = self.pixel_size_um
+        d["y_axis"] = self.y_axis
+        d["fiducials"] = {f.name: ([f.x_mm, f.y_mm] if not f.style else f.to_dict()) for f in self.fiducials}
+        return d
+
+    def save(self, path: str | Path) -> None:
+        """Write the camera as JSON, YAML (by extension) or MicMac MeasuresCamera ``.xml``."""
+        from aerofid.formats.atomic import write_text_atomic
+
+        path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix == ".xml":
+            from aerofid.formats.micmac import write_measures_camera
+
+            write_measures_camera(path, self)
+        elif suffix in (".yaml", ".yml"):
+            import yaml
+
+            write_text_atomic(path, yaml.safe_dump(self.to_dict(), sort_keys=False))
+        else:
+            write_text_atomic(path, json.dumps(self.to_dict(), indent=2) + "\n")
+
+
+# ---------------------------------------------------------------------------------------------------
+def _validate(cam: Camera) -> None:
+    where = f" in {cam.source!r}" if cam.source else ""
+    if cam.y_axis not in ("up", "down"):
+        raise AerofidInputError(f"'y_axis' must be 'up' or 'down', not {cam.y_axis!r}{where}")
+    names = [f.name for f in cam.fiducials]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise AerofidInputError(f"duplicate fiducial name(s) {', '.join(dup)}{where}")
+    if len(cam.fiducials) < 3:
+        raise AerofidInputError(
+            f"camera {cam.name!r} has {len(cam.fiducials)} fiducial(s); at least 3 are needed{where}")
+    for f in cam.fiducials:
+        for v in (f.x_mm, f.y_mm):
+            if not math.isfinite(v) or abs(v) > MAX_FIDUCIAL_MM:
+                raise AerofidInputError(
+                    f"fiducial {f.name!r} at ({f.x_mm}, {f.y_mm}) mm is implausible (|x|, |y| <= "
+                    f"{MAX_FIDUCIAL_MM:g} mm expected){where}")
+    xy = np.array([[f.x_mm, f.y_mm] for f in cam.fiducials])
+    for i in range(len(xy)):
+        for j in range(i + 1, len(xy)):
+            if np.hypot(*(xy[i] - xy[j])) < 1e-3:
+                raise AerofidInputError(f"fiducials {names[i]!r} and {names[j]!r} have the same coordinates{where}")
+    centred = xy - xy.mean(axis=0)
+    sv = np.linalg.svd(centred, compute_uv=False)
+    if sv[-1] < 1e-6 * max(sv[0], 1e-12):
+        raise AerofidInputError(f"the fiducials of camera {cam.name!r} are collinear{where}")
+    if cam.focal_length_mm is not None and not (FOCAL_RANGE_MM[0] <= cam.focal_length_mm <= FOCAL_RANGE_MM[1]):
+        raise AerofidInputError(f"focal length {cam.focal_length_mm} mm is implausible{where}")
+    if cam.pixel_size_um is not None and not (PIXEL_SIZE_RANGE_UM[0] <= cam.pixel_size_um <= PIXEL_SIZE_RANGE_UM[1]):
+        raise AerofidInputError(f"pixel size {cam.pixel_size_um} um is implausible{where}")
+    for label, pp in (("ppa", cam.ppa_mm), ("pbs", cam.pbs_mm)):
+        if pp is not None and max(abs(pp[0]), abs(pp[1])) > MAX_FIDUCIAL_MM:
+            raise AerofidInputError(f"principal point {label} {pp} mm is implausible{where}")
+
+
+def _number(v: Any, what: str, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+        raise AerofidInputError(f"{what} must be a number, not {v!r}{where}")
+    try:
+        x = float(v)
+    except ValueError:
+        raise AerofidInputError(f"{what} must be a number, not {v!r}{where}") from None
+    if not math.isfinite(x):
+        raise AerofidInputError(f"{what} must be a finite number, not {v!r}{where}")
+    return x
+
+
+def _opt_number(v: Any, what: str, where: str) -> float | None:
+    return None if v is None else _number(v, what, where)
+
+
+def _opt_pair(v: Any, what: str, where: str) -> tuple[float, float] | None:
+    if v is None:
+        return None
+    if isinstance(v, Mapping):
+        v = [v.get("x"), v.get("y")]
+    if not isinstance(v, (list, tuple)) or len(v) != 2:
+        raise AerofidInputError(f"{what} must be [x_mm, y_mm]{where}")
+    return _number(v[0], what, where), _number(v[1], what, where)
+
+
+def _fiducial(name: str, v: Any, where: str) -> Fiducial:
+    if not name.strip():
+        raise AerofidInputError(f"a fiducial has an empty name{where}")
+    style = None
+    if isinstance(v, Mapping):
+        style = v.get("style")
+        if style is not None and not isinstance(style, str):
+            raise AerofidInputError(f"fiducial {name!r}: 'style' must be a string{where}")
+        v = [v.get("x"), v.get("y")]
+    if not isinstance(v, (list, tuple)) or len(v) != 2:
+        raise AerofidInputError(f"fiducial {name!r} must be [x_mm, y_mm] or {{x, y}}, not {v!r}{where}")
+    return Fiducial(name.strip(), _number(v[0], f"fiducial {name!r} x", where),
+                    _number(v[1], f"fiducial {name!r} y", where), style)
+
+
+def _unique_pairs(path):
+    def hook(pairs):
+        keys = [k for k, _ in pairs]
+        dup = sorted({k for k in keys if keys.count(k) > 1})
+        if dup:
+            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {str(path)!r}")
+        return dict(pairs)
+
+    return hook
+
+
+def _load_yaml_unique(text: str, path) -> Any:
+    import yaml
+
+    class UniqueLoader(yaml.SafeLoader):
+        pass
+
+    def construct_mapping(loader, node, deep=False):
+        keys = [loader.construct_object(k, deep=deep) for k, _ in node.value]
+        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
+        if dup:
+            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {str(path)!r}")
+        return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+    UniqueLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+    try:
+        return yaml.load(text, Loader=UniqueLoader)
+    except yaml.YAMLError as e:
+        msg = " ".join(str(e).split())
+        raise AerofidInputError(f"camera file {str(path)!r} is not valid YAML: {msg}") from None

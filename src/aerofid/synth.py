@@ -306,14 +306,17 @@ def _notch(img, centre, size, angle_deg, frame_level, supersample):
 
 
 def panel_scene(rng: np.random.Generator, shape_hw: tuple[int, int] = (404, 404),
-                centre: tuple[float, float] | None = None, size: float = 8.0, width: float = 2.0,
+                centre: tuple[float, float] | None = None, size: float = 8.0, width: float | None = None,
                 angle_deg: float | None = None, contrast: float = 0.25, blur_sigma: float = 0.6,
                 noise_sigma: float = 0.015, ground: np.ndarray | None = None) -> Scene:
     """A thesis-like test scene (chapter 5, figure 5.6): a 404 x 404 suburban aerial photograph with one
     cloth panel of about 8 px at (200, 200) (or ``centre``) among houses, roads and trees.
 
     ``ground`` may be a real aerial texture (float32 in [0, 1]) to render the panel on instead.
+    ``width`` (the strips' width) defaults to size / 6, at least 1.2 px: cloth strips are 5-10 times as
+    long as they are wide.
     """
+    width = width if width is not None else max(1.2, size / 6.0)
     if ground is None:
         ground = aerial_ground(shape_hw, rng)
     else:

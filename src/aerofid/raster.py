@@ -1,0 +1,597 @@
+"""Open scanned aerial photographs lazily, read windows of them, and turn windows into grey levels.
+
+Formats: TIFF and BigTIFF (a GeoTIFF is a TIFF), tiled or striped, any compression that tifffile with
+imagecodecs decodes (none, LZW, deflate, JPEG, PackBits, ...); JPEG; PNG. The format is recognised from
+the file's first bytes, not from its name. Samples: unsigned integers (8, 16 or 32-bit) or floats, grey or
+RGB; the alpha band of RGBA is dropped.
+
+How :meth:`Raster.read_window` reads a window, cheapest first:
+
+* a TIFF page stored uncompressed and contiguously is memory-mapped, so only the window's bytes are read;
+* any other TIFF page is read tile by tile (or strip by strip): only the segments that intersect the window
+  are read from the file and decoded, with tifffile's ``TiffPage.decode`` on the bytes at
+  ``page.dataoffsets`` / ``page.databytecounts``;
+* a TIFF layout that cannot be windowed (segments that do not tile the image as the tags say, NDPI-style
+  JPEG) is decoded whole on the first read and kept in memory;
+* a JPEG or PNG is decoded whole when opened (OpenCV cannot read a window of it) and kept in memory.
+
+Pixel conventions (see DESIGN.md): x = column, y = row, boxes are ``(x0, y0, x1, y1)`` with x1, y1
+exclusive. Every bad input raises :class:`aerofid.errors.AerofidInputError` with a one-line message.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+import tifffile
+
+from aerofid.errors import AerofidInputError
+
+__all__ = [
+    "COLOUR_POLICIES",
+    "MIX_WEIGHTS",
+    "POLARITIES",
+    "WINDOW_LIMIT_BYTES",
+    "Raster",
+    "channel_mix",
+    "check_window_size",
+    "choose_channel_mix",
+    "clip_box",
+    "mark_contrast",
+    "normalise",
+    "open_raster",
+    "segment_indices",
+    "to_grey",
+]
+
+SUPPORTED_FORMATS = "TIFF/BigTIFF/GeoTIFF, JPEG or PNG"
+COLOUR_POLICIES = ("auto", "luminance", "red", "green", "blue", "max")
+POLARITIES = ("bright", "dark")
+WINDOW_LIMIT_BYTES = 1_000_000_000
+
+#: Weights of the channel mixes that ``to_grey(policy="auto")`` chooses among. Luminance uses the
+#: ITU-R BT.601 luma weights, as OpenCV and Pillow do.
+MIX_WEIGHTS = {
+    "luminance": (0.299, 0.587, 0.114),
+    "red": (1.0, 0.0, 0.0),
+    "green": (0.0, 1.0, 0.0),
+    "blue": (0.0, 0.0, 1.0),
+}
+#: Scale of the median absolute deviation to the standard deviation of Gaussian noise.
+MAD_TO_SIGMA = 1.4826
+#: Noise floor (grey levels in [0, 1]) for float windows, which have no quantisation step.
+FLOAT_NOISE_FLOOR = 1e-6
+
+_TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
+_JPEG_MAGIC = b"\xff\xd8\xff"
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+_JPEG_COMPRESSIONS = frozenset({6, 7, 33007, 34892})
+_PHOTOMETRIC = tifffile.PHOTOMETRIC
+
+
+# --------------------------------------------------------------------------------------------------
+# Boxes
+# --------------------------------------------------------------------------------------------------
+
+
+def _box_numbers(box: Sequence[float]) -> tuple[float, float, float, float]:
+    """Return the four numbers of a box as floats, or raise if it is not four finite numbers."""
+    try:
+        numbers = tuple(float(v) for v in box)
+    except (TypeError, ValueError) as exc:
+        raise AerofidInputError(
+            f"box {box!r} is not four numbers; give (x0, y0, x1, y1) in pixels"
+        ) from exc
+    if len(numbers) != 4:
+        raise AerofidInputError(f"box {box!r} has {len(numbers)} numbers; give (x0, y0, x1, y1) in pixels")
+    if not all(math.isfinite(v) for v in numbers):
+        raise AerofidInputError(f"box {box!r} has a non-finite number; give finite pixel coordinates")
+    return numbers
+
+
+def clip_box(
+    box: Sequence[float], width: int, height: int
+) -> tuple[tuple[int, int, int, int], bool]:
+    """Clip a box to an image of ``width`` x ``height`` pixels.
+
+    The box is first widened to whole pixels (x0, y0 rounded down; x1, y1 rounded up), then cut to the
+    image. Returns ``(clipped_box, was_clipped)``; ``was_clipped`` says whether the whole-pixel box reached
+    outside the image.
+
+    Raises:
+        AerofidInputError: the box is not four finite numbers, is empty (x1 <= x0 or y1 <= y0), or lies
+            wholly outside the image.
+    """
+    x0, y0, x1, y1 = _box_numbers(box)
+    if x1 <= x0 or y1 <= y0:
+        raise AerofidInputError(
+            f"box {tuple(box)} is empty; give (x0, y0, x1, y1) with x1 > x0 and y1 > y0"
+        )
+    rounded = (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))
+    clipped = (max(rounded[0], 0), max(rounded[1], 0), min(rounded[2], width), min(rounded[3], height))
+    if clipped[2] <= clipped[0] or clipped[3] <= clipped[1]:
+        raise AerofidInputError(
+            f"box {tuple(box)} lies outside the {width} x {height} image; "
+            "give a box that overlaps the image"
+        )
+    return clipped, clipped != rounded
+
+
+def _window_box(box: Sequence[int], width: int, height: int) -> tuple[int, int, int, int]:
+    """Return ``box`` as four ints after checking that it is a non-empty window inside the image."""
+    try:
+        x0, y0, x1, y1 = (operator.index(v) for v in box)
+    except (TypeError, ValueError) as exc:
+        raise AerofidInputError(
+            f"window box {box!r} is not four integers; round it with clip_box() first"
+        ) from exc
+    if x1 <= x0 or y1 <= y0:
+        raise AerofidInputError(f"window box {tuple(box)} is empty; give x1 > x0 and y1 > y0")
+    if x0 < 0 or y0 < 0 or x1 > width or y1 > height:
+        raise AerofidInputError(
+            f"window box {tuple(box)} reaches outside the {width} x {height} image; "
+            "clip it with clip_box() first"
+        )
+    return x0, y0, x1, y1
+
+
+def check_window_size(
+    box: Sequence[int], bands: int, itemsize: int, limit_bytes: int = WINDOW_LIMIT_BYTES
+) -> None:
+    """Raise :class:`AerofidInputError` if reading ``box`` would need more than ``limit_bytes`` bytes."""
+    x0, y0, x1, y1 = box
+    nbytes = (x1 - x0) * (y1 - y0) * bands * itemsize
+    if nbytes > limit_bytes:
+        raise AerofidInputError(
+            f"window {tuple(box)} would need {nbytes / 1e9:.1f} GB, more than the "
+            f"{limit_bytes / 1e9:.1f} GB limit; give a smaller box"
+        )
+
+
+def segment_indices(
+    box: Sequence[int],
+    segment_shape: tuple[int, int],
+    image_shape: tuple[int, int],
+    planes: int = 1,
+) -> np.ndarray:
+    """Indices of the TIFF tiles or strips that intersect a window, in TIFF segment order.
+
+    Args:
+        box: ``(x0, y0, x1, y1)`` window inside the image, x1 and y1 exclusive.
+        segment_shape: ``(rows, columns)`` of one tile; for strips ``(rows_per_strip, image_width)``.
+        image_shape: ``(height, width)`` of the image.
+        planes: number of separately stored sample planes (``PlanarConfiguration`` 2), else 1.
+
+    Returns:
+        Sorted int64 array of indices into ``page.dataoffsets``: per plane, segments run row by row.
+    """
+    x0, y0, x1, y1 = box
+    seg_rows, seg_cols = segment_shape
+    across = -(-image_shape[1] // seg_cols)
+    per_plane = -(-image_shape[0] // seg_rows) * across
+    rows = np.arange(y0 // seg_rows, (y1 - 1) // seg_rows + 1)
+    cols = np.arange(x0 // seg_cols, (x1 - 1) // seg_cols + 1)
+    in_plane = (rows[:, None] * across + cols[None, :]).ravel()
+    return (np.arange(planes)[:, None] * per_plane + in_plane[None, :]).ravel()
+
+
+# --------------------------------------------------------------------------------------------------
+# Grey levels and colour policy (pure)
+# --------------------------------------------------------------------------------------------------
+
+
+def normalise(window: np.ndarray) -> np.ndarray:
+    """Return ``window`` as float32 grey levels in [0, 1].
+
+    Integer samples are divided by the largest value of their dtype (255 for uint8, 65535 for uint16; a
+    16-bit file that holds 12-bit data is still divided by 65535: the bit depth is not guessed). Float
+    samples are returned unchanged, as float32.
+    """
+    array = np.asarray(window)
+    if array.dtype.kind in "ui":
+        return array.astype(np.float32) / np.float32(np.iinfo(array.dtype).max)
+    if array.dtype.kind == "f":
+        return array.astype(np.float32, copy=False)
+    raise AerofidInputError(
+        f"cannot use samples of type {array.dtype} as grey levels; give integer or float samples"
+    )
+
+
+def _noise_floor(dtype: np.dtype) -> float:
+    """Smallest noise level worth believing for samples of ``dtype``, in [0, 1] grey levels."""
+    if dtype.kind in "ui":
+        return 1.0 / float(np.iinfo(dtype).max)
+    return FLOAT_NOISE_FLOOR
+
+
+def mark_contrast(grey: np.ndarray, polarity: str = "bright", *, noise_floor: float) -> float:
+    """Contrast of a mark in a grey window relative to the window's robust noise.
+
+    For ``polarity="bright"`` the signal is the 99th percentile minus the median; for ``"dark"`` it is the
+    median minus the 1st percentile. The noise is the median absolute deviation of the window, scaled to a
+    Gaussian sigma (x 1.4826) and floored at ``noise_floor`` so that a flat background does not divide by 0.
+    """
+    _check_choice(polarity, POLARITIES, "polarity")
+    low, median, high = np.percentile(grey, (1.0, 50.0, 99.0))
+    signal = high - median if polarity == "bright" else median - low
+    noise = MAD_TO_SIGMA * float(np.median(np.abs(grey - median)))
+    return float(signal) / max(noise, noise_floor)
+
+
+def channel_mix(rgb: np.ndarray, mix: str) -> np.ndarray:
+    """Mix an ``(h, w, 3)`` float window to grey: ``"max"`` of the channels, or a weighted sum from
+    :data:`MIX_WEIGHTS` (``"luminance"``, ``"red"``, ``"green"``, ``"blue"``)."""
+    if mix == "max":
+        return rgb.max(axis=-1)
+    return rgb @ np.asarray(MIX_WEIGHTS[mix], dtype=np.float32)
+
+
+def _best_mix(rgb: np.ndarray, polarity: str, noise_floor: float) -> str:
+    """Name of the mix in :data:`MIX_WEIGHTS` whose grey window gives the mark the most contrast."""
+    scores = [
+        mark_contrast(channel_mix(rgb, mix), polarity, noise_floor=noise_floor) for mix in MIX_WEIGHTS
+    ]
+    return list(MIX_WEIGHTS)[int(np.argmax(scores))]
+
+
+def _rgb_window(window: np.ndarray) -> np.ndarray:
+    """Return ``window`` if it is a non-empty ``(h, w)`` or ``(h, w, 3)`` array, else raise."""
+    array = np.asarray(window)
+    if array.size == 0 or not (array.ndim == 2 or (array.ndim == 3 and array.shape[2] == 3)):
+        raise AerofidInputError(
+            f"window of shape {array.shape} is not a non-empty grey (h, w) or RGB (h, w, 3) array; "
+            "read it with Raster.read_window()"
+        )
+    return array
+
+
+def choose_channel_mix(window: np.ndarray, polarity: str = "bright") -> str:
+    """The channel mix (``"luminance"``, ``"red"``, ``"green"`` or ``"blue"``) that ``to_grey(window,
+    "auto", polarity)`` uses for an RGB window: the one with the largest :func:`mark_contrast`, the noise
+    floored at one quantisation step of the window's dtype. Ties go to luminance."""
+    _check_choice(polarity, POLARITIES, "polarity")
+    array = _rgb_window(window)
+    if array.ndim == 2:
+        raise AerofidInputError("window is grey; a channel mix needs an RGB (h, w, 3) window")
+    return _best_mix(normalise(array), polarity, _noise_floor(array.dtype))
+
+
+def to_grey(window: np.ndarray, policy: str = "auto", polarity: str = "bright") -> np.ndarray:
+    """Turn a window into float32 grey levels in [0, 1] by a colour policy.
+
+    Args:
+        window: ``(h, w)`` grey or ``(h, w, 3)`` RGB samples, as :meth:`Raster.read_window` returns them.
+        policy: one of :data:`COLOUR_POLICIES`. ``"auto"`` picks, per window, the mix among luminance,
+            red, green and blue that gives the mark the most contrast (:func:`choose_channel_mix`): colour
+            scans often print the marks in red on a black film border, where luminance loses most of the
+            contrast. ``"max"`` takes the brightest channel of each pixel. Grey windows ignore the policy.
+        polarity: ``"bright"`` (mark brighter than its surround, most fiducials) or ``"dark"``; only
+            ``"auto"`` uses it.
+    """
+    _check_choice(policy, COLOUR_POLICIES, "colour policy")
+    _check_choice(polarity, POLARITIES, "polarity")
+    array = _rgb_window(window)
+    grey = normalise(array)
+    if array.ndim == 2:
+        return grey
+    mix = _best_mix(grey, polarity, _noise_floor(array.dtype)) if policy == "auto" else policy
+    return channel_mix(grey, mix)
+
+
+def _check_choice(value: str, choices: Sequence[str], what: str) -> None:
+    """Raise :class:`AerofidInputError` unless ``value`` is one of ``choices``."""
+    if value not in choices:
+        raise AerofidInputError(f"unknown {what} {value!r}; use one of {', '.join(choices)}")
+
+
+# --------------------------------------------------------------------------------------------------
+# Files
+# --------------------------------------------------------------------------------------------------
+
+
+def _one_line(exc: BaseException) -> str:
+    """A library exception's message on one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _sniff_format(head: bytes) -> str | None:
+    """``"tiff"``, ``"jpeg"`` or ``"png"`` from a file's first bytes, or None."""
+    if head[:4] in _TIFF_MAGIC:
+        return "tiff"
+    if head.startswith(_JPEG_MAGIC):
+        return "jpeg"
+    if head.startswith(_PNG_MAGIC):
+        return "png"
+    return None
+
+
+def _file_format(path: Path) -> str:
+    """Check that ``path`` is a readable file of a supported format and return the format's name."""
+    if not path.exists():
+        raise AerofidInputError(f"no such file: {path}; check the path")
+    if path.is_dir():
+        raise AerofidInputError(f"{path} is a directory; give the path of an image file")
+    try:
+        with path.open("rb") as file:
+            head = file.read(8)
+    except OSError as exc:
+        raise AerofidInputError(f"cannot read {path}: {_one_line(exc)}; check its permissions") from exc
+    kind = _sniff_format(head)
+    if kind is None:
+        what = "an empty file" if not head else "not a supported image format"
+        raise AerofidInputError(
+            f"{path} is {what}; aerofid reads {SUPPORTED_FORMATS}: convert the scan to one of these"
+        )
+    return kind
+
+
+def _bands_for_samples(samples: int, path: Path) -> int:
+    """Bands returned for ``samples`` samples per pixel: 1 (grey) or 3 (RGB, alpha dropped)."""
+    if samples == 1:
+        return 1
+    if samples in (3, 4):
+        return 3
+    raise AerofidInputError(
+        f"{path} has {samples} samples per pixel; aerofid reads grey (1), RGB (3) or RGBA (4, alpha "
+        "dropped): export the scan as grey or RGB"
+    )
+
+
+def _check_dtype(dtype: np.dtype | None, path: Path) -> np.dtype:
+    """Return ``dtype`` in native byte order if aerofid reads it (unsigned integer or float), else raise."""
+    if dtype is None or dtype.kind not in "uf":
+        raise AerofidInputError(
+            f"{path} has {dtype if dtype is not None else 'undecodable'} samples; aerofid reads unsigned "
+            "8-, 16- or 32-bit integer or float samples: convert the scan to 8- or 16-bit"
+        )
+    return dtype.newbyteorder("=")
+
+
+def _hwc(shaped: np.ndarray) -> np.ndarray:
+    """View a tifffile array of normalised shape (planes, depth, rows, columns, contig samples) of one
+    depth as (rows, columns, samples)."""
+    planes, _, rows, cols, contig = shaped.shape
+    return shaped[:, 0].transpose(1, 2, 0, 3).reshape(rows, cols, planes * contig)
+
+
+def _decode_with_cv2(path: Path) -> np.ndarray:
+    """Decode a whole JPEG or PNG file into a (rows, columns, samples) array, colour in RGB(A) order."""
+    try:
+        image = cv2.imdecode(np.fromfile(path, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+    except (OSError, cv2.error) as exc:
+        raise AerofidInputError(f"cannot decode {path}: {_one_line(exc)}; re-export the scan") from exc
+    if image is None:
+        raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
+    if image.ndim == 2:
+        return image[:, :, None]
+    if image.shape[2] in (3, 4):
+        return image[:, :, [2, 1, 0]]
+    return image
+
+
+class _ArrayReader:
+    """Windows of a (rows, columns, samples) array that is made on first need and then kept: a whole
+    decoded image, or a memory map of the file."""
+
+    def __init__(self, load: Callable[[], np.ndarray]):
+        self._load = load
+        self._array: np.ndarray | None = None
+
+    def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        """Samples of the window ``box`` (a view of the kept array)."""
+        if self._array is None:
+            self._array = self._load()
+        x0, y0, x1, y1 = box
+        return self._array[y0:y1, x0:x1]
+
+    def close(self) -> None:
+        """Drop the array (and with it any memory map)."""
+        self._array = None
+
+
+class _TiffSegmentReader:
+    """Windows of a TIFF page, reading and decoding only the tiles or strips that intersect a window."""
+
+    def __init__(self, tif: tifffile.TiffFile, page: tifffile.TiffPage):
+        self._filehandle = tif.filehandle
+        self._page = page
+        if page.is_tiled:
+            self.segment_shape = (page.tilelength, page.tilewidth)
+        else:
+            self.segment_shape = (min(page.rowsperstrip, page.imagelength), page.imagewidth)
+        self.planes = page.samplesperpixel if page.planarconfig == 2 else 1
+        self._decode_args = (
+            {"jpegtables": page.jpegtables} if page.compression in _JPEG_COMPRESSIONS else {}
+        )
+
+    def expected_segments(self) -> int:
+        """Number of segments this layout needs; a page with another number cannot be windowed."""
+        rows, cols = self.segment_shape
+        page = self._page
+        return self.planes * -(-page.imagelength // rows) * -(-page.imagewidth // cols)
+
+    def _segment_bytes(self, index: int) -> bytes | None:
+        """Encoded bytes of one segment, or None for a segment that the file leaves empty."""
+        offset, count = self._page.dataoffsets[index], self._page.databytecounts[index]
+        if offset == 0 or count == 0:
+            return None
+        with self._filehandle.lock:
+            self._filehandle.seek(offset)
+            return self._filehandle.read(count)
+
+    def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        """Samples of the window ``box``, assembled from the decoded segments it intersects."""
+        page = self._page
+        x0, y0, x1, y1 = box
+        out = np.full((y1 - y0, x1 - x0, page.samplesperpixel), page.nodata, dtype=page.dtype)
+        indices = segment_indices(box, self.segment_shape, (page.imagelength, page.imagewidth), self.planes)
+        for index in indices.tolist():
+            segment, (plane, _, top, left, _), _ = page.decode(
+                self._segment_bytes(index), index, **self._decode_args
+            )
+            if segment is None:  # empty segment: keep the nodata fill
+                continue
+            segment = segment[0]
+            r0, r1 = max(top, y0), min(top + segment.shape[0], y1)
+            c0, c1 = max(left, x0), min(left + segment.shape[1], x1)
+            out[r0 - y0 : r1 - y0, c0 - x0 : c1 - x0, plane : plane + segment.shape[2]] = segment[
+                r0 - top : r1 - top, c0 - left : c1 - left
+            ]
+        return out
+
+    def close(self) -> None:
+        """Drop the page and file handle (the :class:`Raster` closes the file itself)."""
+        self._page = self._filehandle = None
+
+
+class Raster:
+    """A scanned photograph opened for windowed reading; use as a context manager or call :meth:`close`.
+
+    Attributes:
+        path: the file.
+        format: ``"tiff"``, ``"jpeg"`` or ``"png"`` (from the file's first bytes).
+        width, height: image size in pixels.
+        bands: 1 (grey) or 3 (RGB; an alpha band is dropped).
+        dtype: numpy dtype of the samples that :meth:`read_window` returns (native byte order).
+        tiled: whether the file stores tiles (only TIFF can).
+    """
+
+    def __init__(self, path: str | os.PathLike[str]):
+        self.path = Path(path)
+        self.format = _file_format(self.path)
+        self._tif: tifffile.TiffFile | None = None
+        self._reader: _ArrayReader | _TiffSegmentReader | None = None
+        self._invert = False
+        if self.format == "tiff":
+            self._open_tiff()
+        else:
+            self._open_cv2()
+
+    def _open_cv2(self) -> None:
+        """Decode a JPEG or PNG whole; it stays in memory for all window reads."""
+        image = _decode_with_cv2(self.path)
+        self.height, self.width, samples = image.shape
+        self.bands = _bands_for_samples(samples, self.path)
+        self.dtype = _check_dtype(image.dtype, self.path)
+        self.tiled = False
+        self._reader = _ArrayReader(lambda: image)
+
+    def _open_tiff(self) -> None:
+        """Open the first page of a TIFF and choose how windows of it are read."""
+        try:
+            self._tif = tifffile.TiffFile(self.path)
+            page = self._tif.pages[0]
+        except Exception as exc:  # tifffile raises many types for corrupt files
+            self.close()
+            raise AerofidInputError(
+                f"cannot read {self.path} as TIFF: {_one_line(exc)}; the file may be corrupt or truncated"
+            ) from exc
+        try:
+            self._describe_tiff_page(page)
+            self._reader = self._tiff_reader(page)
+        except AerofidInputError:
+            self.close()
+            raise
+
+    def _describe_tiff_page(self, page: tifffile.TiffPage) -> None:
+        """Set size, bands, dtype and inversion from a TIFF page, or raise if aerofid cannot read it."""
+        if page.imagedepth != 1 or page.imagewidth == 0 or page.imagelength == 0:
+            raise AerofidInputError(
+                f"{self.path} has a {page.imagedepth} x {page.imagelength} x {page.imagewidth} image; "
+                "aerofid reads non-empty 2-D images: export the scan as a plain 2-D TIFF"
+            )
+        self.width, self.height = page.imagewidth, page.imagelength
+        self.bands = _bands_for_samples(page.samplesperpixel, self.path)
+        self.dtype = _check_dtype(page.dtype, self.path)
+        self.tiled = bool(page.is_tiled)
+        photometric = page.photometric
+        jpeg = page.compression in _JPEG_COMPRESSIONS
+        usable = photometric in (_PHOTOMETRIC.MINISBLACK, _PHOTOMETRIC.RGB) or (
+            photometric == _PHOTOMETRIC.YCBCR and jpeg
+        )
+        if photometric == _PHOTOMETRIC.MINISWHITE and self.bands == 1 and self.dtype.kind == "u":
+            self._invert = True
+        elif not usable:
+            name = getattr(photometric, "name", photometric)
+            raise AerofidInputError(
+                f"{self.path} stores {name} colour with {page.samplesperpixel} samples of {self.dtype}; "
+                "aerofid reads grey or RGB TIFFs: convert the scan to one of these"
+            )
+
+    def _tiff_reader(self, page: tifffile.TiffPage) -> _ArrayReader | _TiffSegmentReader:
+        """The cheapest reader that can window ``page``: memory map, segments, or whole-page decode."""
+        if page.is_memmappable:
+            file_dtype = np.dtype(self._tif.byteorder + page.dtype.char)
+            return _ArrayReader(
+                lambda: _hwc(
+                    np.memmap(self.path, file_dtype, "r", offset=page.dataoffsets[0], shape=page.shaped)
+                )
+            )
+        segments = _TiffSegmentReader(self._tif, page)
+        if page.jpegheader is None and len(page.dataoffsets) == segments.expected_segments():
+            return segments
+        return _ArrayReader(lambda: _hwc(page.asarray(squeeze=False)))
+
+    def read_window(self, box: Sequence[int]) -> np.ndarray:
+        """Read the samples of a window.
+
+        Args:
+            box: ``(x0, y0, x1, y1)`` integers in full-image pixels (x = column, y = row), x1 and y1
+                exclusive, inside the image (clip a loose box with :func:`clip_box` first).
+
+        Returns:
+            A new ``(h, w)`` (grey) or ``(h, w, 3)`` (RGB) array of :attr:`dtype`.
+
+        Raises:
+            AerofidInputError: the raster is closed; the box is not four integers, is empty, reaches outside
+                the image or would need more than about 1 GB; the file cannot be decoded.
+        """
+        if self._reader is None:
+            raise AerofidInputError(f"{self.path} is closed; open it again with open_raster()")
+        window_box = _window_box(box, self.width, self.height)
+        check_window_size(window_box, self.bands, self.dtype.itemsize, WINDOW_LIMIT_BYTES)
+        try:
+            samples = self._reader.read(window_box)
+        except Exception as exc:  # tifffile, imagecodecs and numpy.memmap raise many types
+            raise AerofidInputError(
+                f"cannot decode window {window_box} of {self.path}: {_one_line(exc)}; "
+                "the file may be corrupt or truncated"
+            ) from exc
+        bands = samples[:, :, 0] if self.bands == 1 else samples[:, :, :3]
+        window = np.array(bands, dtype=self.dtype)
+        if self._invert:
+            np.subtract(np.iinfo(self.dtype).max, window, out=window)
+        return window
+
+    def close(self) -> None:
+        """Release the file and any cached image; later reads raise :class:`AerofidInputError`."""
+        if self._reader is not None:
+            self._reader.close()
+        self._reader = None
+        if self._tif is not None:
+            self._tif.close()
+            self._tif = None
+
+    def __enter__(self) -> Raster:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "closed" if self._reader is None else "open"
+        return (
+            f"<Raster {str(self.path)!r} {self.format} {self.width}x{self.height} bands={self.bands} "
+            f"dtype={self.dtype} tiled={self.tiled} {state}>"
+        )
+
+
+def open_raster(path: str | os.PathLike[str]) -> Raster:
+    """Open a scan (TIFF/BigTIFF/GeoTIFF, JPEG or PNG) for windowed reading; see :class:`Raster`."""
+    return Raster(path)

@@ -538,7 +538,6 @@ def match_fiducials(px: np.ndarray, mm: np.ndarray, model: str = "affine", *, y_
         G = arrangement_matrix(rot, mir, y_axis)
         Cp = mm @ np.linalg.inv(G).T                        # fiducials in the scan's orientation (px-like, scaled)
         best_cost, best_assign = np.inf, None
-        seen = set()
         for i1, i2 in itertools.combinations(range(m), 2):
             dm = px[i2] - px[i1]
             for j1, j2 in itertools.permutations(range(n), 2):
@@ -557,9 +556,6 @@ def match_fiducials(px: np.ndarray, mm: np.ndarray, model: str = "affine", *, y_
                 D = np.sum((px[:, None, :] - proj[None, :, :]) ** 2, axis=2)
                 rows, cols = optimize.linear_sum_assignment(D)
                 assign = tuple(int(c) for c in cols[np.argsort(rows)])
-                if assign in seen:
-                    continue
-                seen.add(assign)
                 cost = float(D[rows, cols].sum())
                 if cost < best_cost:
                     best_cost, best_assign = cost, assign

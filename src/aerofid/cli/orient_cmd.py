@@ -1,9 +1,93 @@
-"""`aerofid orient` (placeholder until its issue lands)."""
+"""`aerofid orient`: interior orientation from measured fiducial centres.
+
+Exit status: 0 success; 1 when it ran but could not decide (ambiguous fiducial correspondence);
+2 on bad input (one line ``error: ...`` on stderr, nothing written).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import click
 
+from aerofid.errors import AerofidInputError
+
+REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
+
 
 @click.command()
-def orient() -> int:
-    """Not implemented yet."""
-    raise click.UsageError("'orient' is not implemented yet")
+@click.argument("image", required=False)
+@click.option("--camera", "camera_path", required=True, metavar="CAMERA",
+              help="camera file: JSON/YAML certificate or MicMac MeasuresCamera.xml")
+@click.option("--measurements", "-m", "meas_path", metavar="FILE",
+              help="fiducial pixel measurements: JSON, CSV (name,x,y) or MicMac MeasuresIm-*.xml")
+@click.option("--model", type=click.Choice(["affine", "similarity", "projective"]), default="affine",
+              show_default=True, help="pixel -> mm transformation")
+@click.option("--correspondence", type=click.Choice(["names", "auto"]), default=None,
+              help="trust the point names, or assign points by testing the 8 film arrangements "
+                   "(default: names when the points have names)")
+@click.option("--no-reject", is_flag=True, help="keep every fiducial (no blunder rejection)")
+@click.option("--json", "as_json", is_flag=True, help="print the result as one JSON object")
+@click.option("-o", "--output", metavar="REPORT", help="write a report: .json, .html or .txt")
+@click.option("--micmac", "micmac_dir", metavar="DIR",
+              help="write MeasuresIm-<image>.xml, MeasuresCamera.xml and <image>-AffinePlane-px2mm.xml into DIR")
+def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir) -> int:
+    """Interior orientation (pixel -> film mm) of a scan from its measured fiducials."""
+    from aerofid.camera import Camera
+    from aerofid.formats.atomic import write_text_atomic
+    from aerofid.formats.measurements import read_measurements
+    from aerofid.orientation import AmbiguousCorrespondenceError
+    from aerofid.orientation import orient as run_orient
+    from aerofid.report_orient import to_html, to_text
+
+    if meas_path is None:
+        if image:
+            raise AerofidInputError(
+                f"finding the fiducials in {image!r} automatically is not available yet: give --measurements FILE")
+        raise AerofidInputError("give --measurements FILE (fiducial pixel coordinates)")
+    if output is not None and Path(output).suffix.lower() not in REPORT_SUFFIXES:
+        raise AerofidInputError(f"report {output!r} must end in .json, .html or .txt")
+    if micmac_dir is not None and not Path(micmac_dir).is_dir():
+        raise AerofidInputError(f"MicMac folder {micmac_dir!r} does not exist")
+    cam = Camera.load(camera_path)
+    meas = read_measurements(meas_path)
+    image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
+    try:
+        res = run_orient(cam, meas, model, correspondence=correspondence, reject=not no_reject, image=image_name)
+    except AmbiguousCorrespondenceError as e:
+        if as_json:
+            click.echo(json.dumps({"status": "ambiguous", "error": str(e),
+                                   "correspondence": e.correspondence.to_dict()}))
+        click.echo(f"error: {e}", err=True)
+        return 1
+
+    if output is not None:
+        suffix = Path(output).suffix.lower()
+        if suffix == ".json":
+            content = json.dumps(res.to_dict(), indent=2) + "\n"
+        elif suffix == ".txt":
+            content = to_text(res)
+        else:
+            content = to_html(res)
+        write_text_atomic(output, content)
+    if micmac_dir is not None:
+        _write_micmac(Path(micmac_dir), cam, res)
+    if as_json:
+        click.echo(json.dumps(res.to_dict()))
+    else:
+        click.echo(to_text(res), nl=False)
+    return 0
+
+
+def _write_micmac(folder: Path, cam, res) -> None:
+    from aerofid.formats.measurements import Measurements
+    from aerofid.formats.micmac import write_affine_plane, write_measures_camera, write_measures_im
+
+    used = res.used
+    name = res.image or "image"
+    m = Measurements([[f.x_px, f.y_px] for f in used], tuple(f.name for f in used), name)
+    write_measures_im(folder / f"MeasuresIm-{name}.xml", m)
+    write_measures_camera(folder / "MeasuresCamera.xml", cam)
+    if res.model != "projective":
+        write_affine_plane(folder / f"{name}-AffinePlane-px2mm.xml", res.pixel_to_mm)

@@ -24,6 +24,9 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> None:
     except OSError as e:
         raise AerofidInputError(f"cannot write {str(path)!r}: {e.strerror}") from None
     try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()

@@ -111,19 +111,22 @@ class Camera:
     def fiducial_centre_mm(self, names: Iterable[str] | None = None) -> tuple[float, float]:
         """Fiducial centre: least-squares intersection of the lines joining opposite fiducials.
 
-        Opposite pairs are those whose midpoint lies closest to the centroid of all fiducials (within 2 %
-        of the frame size); with no such pairs the centroid is returned.
+        Opposite pairs are the largest group of long chords (over half the frame) whose midpoints agree
+        within 2 % of the frame size; with fewer than two such pairs the centroid is returned.
         """
         xy = self.xy_mm if names is None else np.array([[self.fiducial(n).x_mm, self.fiducial(n).y_mm]
                                                         for n in names])
         c = xy.mean(axis=0)
         size = float(np.max(np.ptp(xy, axis=0))) or 1.0
+        pairs = [(i, j) for i in range(len(xy)) for j in range(i + 1, len(xy))
+                 if np.hypot(*(xy[i] - xy[j])) > 0.5 * size]
+        mids = np.array([(xy[i] + xy[j]) / 2 for i, j in pairs]).reshape(-1, 2)
         lines = []
-        for i in range(len(xy)):
-            for j in range(i + 1, len(xy)):
-                mid = (xy[i] + xy[j]) / 2
-                if np.hypot(*(mid - c)) < 0.02 * size and np.hypot(*(xy[i] - xy[j])) > 0.5 * size:
-                    lines.append((xy[i], xy[j]))
+        if len(mids):
+            # the largest group of long chords sharing (nearly) the same midpoint: the opposite pairs
+            close = np.hypot(*(mids[:, None, :] - mids[None, :, :]).transpose(2, 0, 1)) < 0.02 * size
+            k = int(np.argmax(close.sum(axis=1)))
+            lines = [(xy[pairs[m][0]], xy[pairs[m][1]]) for m in np.flatnonzero(close[k])]
         if len(lines) < 2:
             return float(c[0]), float(c[1])
         # point minimising the squared distances to the lines

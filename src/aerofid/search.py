@@ -17,6 +17,7 @@ otherwise the answer is "no mark identified".
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 
@@ -93,9 +94,14 @@ class Candidate:
 
 @dataclass(frozen=True)
 class SearchResult:
+    """The best candidate (None: "no mark identified"), every candidate seen, and, when a verifier was
+    given, what it returned for the best one."""
+
     best: Candidate | None
     candidates: tuple[Candidate, ...]
     reason: str = ""
+    verified: Any = None
+    rejected: tuple[tuple[Candidate, str], ...] = ()
 
 
 def spiral_coordinates(height: int, width: int, window_size: int, overlap: float = OVERLAP) -> np.ndarray:
@@ -160,11 +166,16 @@ def _candidate(stage, got, size, mark, hp) -> Candidate | None:
 
 
 def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughParams(),
-               sp: SearchParams = SearchParams()) -> SearchResult:
+               sp: SearchParams = SearchParams(),
+               verify: Callable[[Candidate, int], Any] | None = None) -> SearchResult:
     """The whole search of seed 001 over ``image`` (the operator's box), both tiers, every window size.
 
     With ``mark="auto"`` and no ``window_size``, the search runs with the external-fiducial window (40 px)
-    and, if that finds nothing acceptable, with the panel window (12 px); the best candidate wins.
+    and, if that finds nothing acceptable, with the panel window (16 px); the best candidate wins.
+
+    ``verify(candidate, stage1_window_size)`` (beyond the seed) is called for every candidate that would be
+    accepted or retained as the best; it returns a string (the reason) to reject it, anything else to keep
+    it. A rejected candidate is recorded and the search goes on.
     """
     if sp.window_size is not None:
         sizes = [sp.window_size]
@@ -172,10 +183,27 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
         sizes = {"external": [WINDOW_EXTERNAL], "panel": [WINDOW_PANEL]}.get(mark, [WINDOW_EXTERNAL, WINDOW_PANEL])
     h, w = image.shape
     candidates: list[Candidate] = []
+    rejected: list[tuple[Candidate, str]] = []
     best: Candidate | None = None
-    seen: dict[tuple[int, int, int], Candidate | None] = {}
+    best_check: Any = None
+    seen: set[tuple[int, int, int]] = set()
+
+    def admit(c: Candidate, size1: int) -> bool:
+        """Make ``c`` the best if it beats the best so far and passes verification."""
+        nonlocal best, best_check
+        if best is not None and c.metric <= best.metric:
+            return False
+        check = verify(c, size1) if verify is not None else None
+        if isinstance(check, str):
+            rejected.append((c, check))
+            return False
+        best, best_check = c, check
+        return True
+
     for size in sizes:
-        size = int(min(size, h, w)) if min(h, w) >= 4 else size
+        size = int(min(size, h, w))
+        if size < 4:
+            continue
         accepted = False
         for x, y in spiral_coordinates(h, w, size, sp.overlap):
             got = recursive_analysis(image, x, y, size, hp, sp)
@@ -187,16 +215,15 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
             key = (int(round(c1.x)), int(round(c1.y)), size)
             if key in seen:
                 continue
+            seen.add(key)
             candidates.append(c1)
-            seen[key] = c1
             if c1.metric < sp.stage2_enter:
                 continue
             if c1.metric > sp.stage1_accept:
-                if best is None or c1.metric > best.metric:
-                    best = c1
-                accepted = True
-                if not sp.exhaustive:
-                    break
+                if admit(c1, size):
+                    accepted = True
+                    if not sp.exhaustive:
+                        break
                 continue
             size2 = max(4, size // 2)
             got2 = recursive_analysis(image, c1.x, c1.y, size2, hp, sp)
@@ -207,15 +234,18 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
                 c2 = c1
             else:
                 candidates.append(c2)
-            if c2.metric > sp.min_metric and (best is None or c2.metric > best.metric):
-                best = c2
-            if c2.metric > sp.stage2_accept:
+            if c2.metric > sp.min_metric and admit(c2, size) and c2.metric > sp.stage2_accept:
                 accepted = True
                 if not sp.exhaustive:
                     break
         if accepted and not sp.exhaustive:
             break
     if best is None or best.metric <= sp.min_metric:
-        reason = "no mark identified" if candidates else "no candidate: every window was homogeneous, too bright or lacked a pair of lines"
-        return SearchResult(None, tuple(candidates), reason)
-    return SearchResult(best, tuple(candidates))
+        if rejected:
+            reason = "no mark identified: the best candidates failed verification (" + rejected[0][1] + ")"
+        elif candidates:
+            reason = "no mark identified"
+        else:
+            reason = "no candidate: every window was homogeneous, too bright or lacked a pair of lines"
+        return SearchResult(None, tuple(candidates), reason, None, tuple(rejected))
+    return SearchResult(best, tuple(candidates), "", best_check, tuple(rejected))

@@ -317,6 +317,19 @@ class Refinement:
     theta2: float
     noise: float
     arm_length: float
+    arm_contrast: tuple[float, float, float, float]
+    """Mean grey level above background along each of the four half-arms (the two sides of each line)."""
+
+    @property
+    def arm_balance(self) -> float:
+        """Weakest half-arm over strongest: near 1 for a '+', near 0 for an L, T or a lone bar."""
+        c = np.asarray(self.arm_contrast)
+        return float(max(c.min(), 0.0) / c.max()) if c.max() > 0 else 0.0
+
+    @property
+    def arm_snr(self) -> float:
+        """Weakest half-arm's contrast over the grey-level noise."""
+        return float(min(self.arm_contrast) / self.noise)
 
 
 @dataclass(frozen=True)
@@ -326,6 +339,7 @@ class _ArmFit:
     beta: np.ndarray        # (delta, phi): offset along n and rotation of the line, r = delta + phi t
     cov: np.ndarray         # 2 x 2 covariance of beta
     arm: float              # half-length of the arm (px)
+    half_width: float       # half the stroke width (px)
 
     def line(self, beta: np.ndarray | None = None) -> tuple[float, float]:
         """(theta in degrees, rho) of the fitted line in normal form."""
@@ -364,7 +378,8 @@ def _fit_arm(px, py, wgt, bright, centre, theta, noise, band) -> _ArmFit | None:
     beta = Ninv @ (A.T @ (ws * rs))
     e = rs - A @ beta
     M = Ninv @ (A.T * e[None, :])              # d beta / d g_i, one column per pixel
-    return _ArmFit(normal=n, centre=np.asarray(centre, float), beta=beta, cov=noise ** 2 * (M @ M.T), arm=arm)
+    return _ArmFit(normal=n, centre=np.asarray(centre, float), beta=beta, cov=noise ** 2 * (M @ M.T), arm=arm,
+                   half_width=half_width)
 
 
 def _intersect(fits: list[_ArmFit], betas: list[np.ndarray] | None = None) -> np.ndarray:
@@ -422,23 +437,112 @@ def refine_subpixel(window: np.ndarray, analysis: WindowAnalysis, iterations: in
     C = np.zeros((4, 4))
     C[:2, :2], C[2:, 2:] = fits[0].cov, fits[1].cov
     Cxy = J @ C @ J.T
+    contrast = []
+    for k, th in enumerate(thetas):
+        n = np.array([np.cos(th), np.sin(th)])
+        d = np.array([-n[1], n[0]])
+        r = (px - centre[0]) * n[0] + (py - centre[1]) * n[1]
+        t = (px - centre[0]) * d[0] + (py - centre[1]) * d[1]
+        core = np.abs(r) <= fits[k].half_width + 0.5
+        gap = fits[1 - k].half_width + 1.0
+        for side in (1.0, -1.0):
+            sel = core & (side * t >= gap) & (side * t <= fits[k].arm)
+            contrast.append(float(wgt[sel].mean()) if sel.any() else 0.0)
     return Refinement(x=float(centre[0]), y=float(centre[1]), sigma_x=float(np.sqrt(Cxy[0, 0])),
                       sigma_y=float(np.sqrt(Cxy[1, 1])), theta1=float(np.rad2deg(thetas[0]) % 180),
                       theta2=float(np.rad2deg(thetas[1]) % 180), noise=noise,
-                      arm_length=float(np.mean([f.arm for f in fits])))
+                      arm_length=float(np.mean([f.arm for f in fits])), arm_contrast=tuple(contrast))
+
+
+REFINER = "model"
+
+
+def arm_half_length(analysis: WindowAnalysis) -> float:
+    """Half-length of the arms: the 98th percentile distance, along each Hough line, of the bright pixels
+    within 3 px of it, averaged over both lines."""
+    ys, xs = np.nonzero(analysis.binary)
+    out = []
+    for th in (analysis.theta1, analysis.theta2):
+        t = np.deg2rad(th)
+        r = (xs - analysis.x) * np.cos(t) + (ys - analysis.y) * np.sin(t)
+        along = -(xs - analysis.x) * np.sin(t) + (ys - analysis.y) * np.cos(t)
+        near = np.abs(r) <= 3.0
+        out.append(float(np.percentile(np.abs(along[near]), 98)) + 0.5 if near.any() else 2.0)
+    return float(np.mean(out))
+
+
+def _refine(window, analysis):
+    if REFINER == "lines":
+        return refine_subpixel(window, analysis)
+    from aerofid.marks.cross_fit import fit_cross
+    return fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
+
+
+MIN_ARM_BALANCE = 0.35
+"""Verification (beyond the seed): the weakest of the four half-arms must carry at least this fraction of
+the strongest's contrast, else the candidate is an L, a T, a bar or a corner of a roof, not a '+'."""
+MIN_ARM_SNR = 3.0
+"""Verification: the weakest half-arm's contrast must be at least this many times the grey-level noise."""
+MAX_WIDTH_RATIO = 0.35
+"""Verification: the fitted stroke width must be at most this fraction of the shorter bar's length (a '+'
+of strokes, not a blob or a square)."""
+
+
+@dataclass(frozen=True)
+class Verified:
+    """A candidate that passed verification: its sub-pixel refinement in full-window pixels."""
+
+    x: float
+    y: float
+    refinement: Refinement
+
+
+def verify_candidate(image: np.ndarray, cand, refine_size: int, params: HoughParams = HoughParams(),
+                     min_arm_balance: float = MIN_ARM_BALANCE, min_arm_snr: float = MIN_ARM_SNR,
+                     max_shift: float = MAX_REFINE_SHIFT) -> Verified | str:
+    """Refine a search candidate to sub-pixel and check that it is a '+' (four balanced, visible arms,
+    refined centre within ``max_shift`` of the Hough centre). Returns :class:`Verified` or the reason."""
+    from aerofid.search import extract_window
+
+    got = extract_window(image, cand.x, cand.y, refine_size)
+    analysis, window, origin = cand.analysis, cand.window, cand.origin
+    if got is not None:
+        a = analyse_window(got[0], params)
+        if not isinstance(a, str) and np.hypot(a.x + got[1][0] - cand.x, a.y + got[1][1] - cand.y) <= max_shift:
+            analysis, window, origin = a, got[0], got[1]
+    ref = _refine(window, analysis)
+    if ref is None:
+        return "sub-pixel fit failed"
+    x, y = ref.x + origin[0], ref.y + origin[1]
+    if np.hypot(x - cand.x, y - cand.y) > max_shift:
+        return f"sub-pixel fit moved more than {max_shift} px from the Hough centre"
+    if getattr(ref, "at_bound", ""):
+        return f"the '+' model does not fit (its {ref.at_bound} ended on a bound)"
+    if hasattr(ref, "width") and ref.width > MAX_WIDTH_RATIO * min(ref.length1, ref.length2):
+        return f"fitted shape is a blob, not a '+' (stroke {ref.width:.1f} px, bars {ref.length1:.1f}/{ref.length2:.1f} px)"
+    if ref.arm_balance < min_arm_balance:
+        return f"arms unbalanced ({ref.arm_balance:.2f} < {min_arm_balance}): not a '+'"
+    if ref.arm_snr < min_arm_snr:
+        return f"arms too faint (SNR {ref.arm_snr:.1f} < {min_arm_snr})"
+    return Verified(x=float(x), y=float(y), refinement=ref)
 
 
 def detect(window: np.ndarray, mark: str = "auto", **params) -> Detection:
     """Locate a '+' mark in ``window`` by the complete seed algorithm (spiral, two tiers, recursion,
-    similarity metric; :func:`aerofid.search.search_box`) followed by sub-pixel refinement.
+    similarity metric; :func:`aerofid.search.search_box`), each accepted candidate refined to sub-pixel and
+    verified (:func:`verify_candidate`).
 
     ``mark``: "external" (sharp-peak model), "panel" (raised-cosine model) or "auto" (the better of both).
-    Keyword parameters: those of :class:`HoughParams` and :class:`aerofid.search.SearchParams`.
+    Keyword parameters: those of :class:`HoughParams` and :class:`aerofid.search.SearchParams`, and
+    ``min_arm_balance``, ``min_arm_snr`` (verification; ``verify=False`` switches it off, as in the seed).
     """
     from aerofid.search import SearchParams, search_box  # search imports this module
 
     if mark not in MARK_MODELS:
         raise ValueError(f"mark must be one of {', '.join(MARK_MODELS)}")
+    params = dict(params)
+    do_verify = bool(params.pop("verify", True))
+    checks = {k: params.pop(k) for k in ("min_arm_balance", "min_arm_snr") if k in params}
     hough_keys = set(HoughParams.__dataclass_fields__)
     search_keys = set(SearchParams.__dataclass_fields__)
     unknown = set(params) - hough_keys - search_keys
@@ -446,30 +550,23 @@ def detect(window: np.ndarray, mark: str = "auto", **params) -> Detection:
         raise TypeError(f"unknown parameter(s) for method 'hough': {', '.join(sorted(unknown))}")
     hp = HoughParams(**{k: v for k, v in params.items() if k in hough_keys})
     sp = SearchParams(**{k: v for k, v in params.items() if k in search_keys})
-    result = search_box(window, mark, hp, sp)
+
+    def verify(cand, stage1_size):
+        return verify_candidate(window, cand, stage1_size, hp, **checks)
+
+    result = search_box(window, mark, hp, sp, verify if do_verify else None)
     if result.best is None:
         return not_found(METHOD, result.reason, candidates=result.candidates)
     best = result.best
-    diagnostics = {"candidates": result.candidates, "analysis": best.analysis, "window_origin": best.origin,
-                   "model": best.model, "model_name": best.model_name, "stage": best.stage,
-                   "metric": best.metric}
-    x, y = best.x, best.y
-    # sub-pixel refinement in the window the best candidate was found in
-    refined = refine_subpixel(best.window, best.analysis)
-    hough_sigma = params.get("rho_step", RHO_STEP) / np.sqrt(12.0)
-    sigma = float(np.hypot(hough_sigma, hough_sigma) / np.sqrt(2))
-    if refined is not None:
-        rx, ry = refined.x + best.origin[0], refined.y + best.origin[1]
-        if np.hypot(rx - x, ry - y) <= MAX_REFINE_SHIFT:
-            x, y = rx, ry
-            sigma = float(np.sqrt((refined.sigma_x ** 2 + refined.sigma_y ** 2) / 2))
-            diagnostics["refinement"] = refined
-        else:
-            diagnostics["refinement_rejected"] = refined
+    diagnostics = {"candidates": result.candidates, "analysis": best.analysis, "window": best.window,
+                   "window_origin": best.origin, "model": best.model, "model_name": best.model_name,
+                   "stage": best.stage, "metric": best.metric}
+    if isinstance(result.verified, Verified):
+        v = result.verified
+        diagnostics["refinement"] = v.refinement
+        sigma = float(np.sqrt((v.refinement.sigma_x ** 2 + v.refinement.sigma_y ** 2) / 2))
+        x, y = v.x, v.y
+    else:  # verification off: the Hough centre, quantised by the rho cells
+        x, y, sigma = best.x, best.y, hp.rho_step / np.sqrt(12.0)
     return Detection(status=FOUND, x=float(x), y=float(y), score=float(np.clip(best.metric, 0.0, 1.0)),
-                     sigma=sigma, method=METHOD, diagnostics=diagnostics)
-
-
-__all__ = ["HoughParams", "WindowAnalysis", "analyse_window", "decode", "detect", "hough_accumulate",
-           "matched_filter", "refine_subpixel", "similarity", "theta_projection", "threshold_accumulator",
-           "replace"]
+                     sigma=float(sigma), method=METHOD, diagnostics=diagnostics)

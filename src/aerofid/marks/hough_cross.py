@@ -14,19 +14,20 @@ In one window the algorithm (thesis section 4.2.8, C function ``fid``):
 5. rejects rho values far from the median of each column and averages the rest;
 6. decodes the centre with the inverse transform (eq. 2, valid for non-orthogonal pairs too).
 
-Beyond the seed (which stops at one pixel): :func:`refine_subpixel` fits each arm's line by grey-value
-weighted least squares and intersects the two lines, with a standard deviation propagated from the image
-noise. The search over a box (spiral of windows, two tiers, recursion, similarity metric) is in
+Beyond the seed (which stops at one pixel): :func:`verify_candidate` fits a blurred-cross model to the
+grey values (:mod:`aerofid.marks.cross_fit`) for a sub-pixel centre with its standard deviation, and
+checks that the candidate is a '+' (four balanced, visible arms) before it may be accepted. The search over a box (spiral of windows, two tiers, recursion, similarity metric) is in
 :mod:`aerofid.search`; :func:`detect` runs it on a whole window.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from aerofid.marks.base import FOUND, Detection, not_found
+from aerofid.marks.cross_fit import CrossFit, fit_cross
 from aerofid.threshold import optimum_threshold
 
 METHOD = "hough"
@@ -293,168 +294,10 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
     return best
 
 
-# --- sub-pixel refinement (beyond the seed) --------------------------------------------------------------
+# --- sub-pixel refinement and verification (beyond the seed) ---------------------------------------------
 
-REFINE_ITERATIONS = 30
-"""Most alternations of line fits and re-centring in :func:`refine_subpixel` (it stops when the centre
-moves by less than 1e-4 px)."""
-REFINE_BAND = 2.5
-"""Half-width of the band around each arm's line used by the fit: the arm's half stroke width plus this
-margin (px) for blur and for the error of the starting centre."""
 MAX_REFINE_SHIFT = 2.0
-"""A sub-pixel refinement that moves the centre further than this (px) from the Hough centre is not trusted."""
-
-
-@dataclass(frozen=True)
-class Refinement:
-    """The sub-pixel centre (window px), its standard deviations, the refined line angles (deg)."""
-
-    x: float
-    y: float
-    sigma_x: float
-    sigma_y: float
-    theta1: float
-    theta2: float
-    noise: float
-    arm_length: float
-    arm_contrast: tuple[float, float, float, float]
-    """Mean grey level above background along each of the four half-arms (the two sides of each line)."""
-
-    @property
-    def arm_balance(self) -> float:
-        """Weakest half-arm over strongest: near 1 for a '+', near 0 for an L, T or a lone bar."""
-        c = np.asarray(self.arm_contrast)
-        return float(max(c.min(), 0.0) / c.max()) if c.max() > 0 else 0.0
-
-    @property
-    def arm_snr(self) -> float:
-        """Weakest half-arm's contrast over the grey-level noise."""
-        return float(min(self.arm_contrast) / self.noise)
-
-
-@dataclass(frozen=True)
-class _ArmFit:
-    normal: np.ndarray      # unit normal n of the line the fit started from
-    centre: np.ndarray      # the point c the fit was made around
-    beta: np.ndarray        # (delta, phi): offset along n and rotation of the line, r = delta + phi t
-    cov: np.ndarray         # 2 x 2 covariance of beta
-    arm: float              # half-length of the arm (px)
-    half_width: float       # half the stroke width (px)
-
-    def line(self, beta: np.ndarray | None = None) -> tuple[float, float]:
-        """(theta in degrees, rho) of the fitted line in normal form."""
-        delta, phi = self.beta if beta is None else beta
-        theta = np.arctan2(self.normal[1], self.normal[0]) - np.arctan(phi)
-        n_new = np.array([np.cos(theta), np.sin(theta)])
-        return float(np.rad2deg(theta)), float(n_new @ (self.centre + delta * self.normal))
-
-
-def _fit_arm(px, py, wgt, bright, centre, theta, noise, band) -> _ArmFit | None:
-    """Weighted least squares r = delta + phi t over the pixels of one arm (weights = grey - background).
-
-    Returns None when the arm has too few pixels or the normal equations are singular."""
-    n = np.array([np.cos(theta), np.sin(theta)])
-    d = np.array([-n[1], n[0]])
-    r = (px - centre[0]) * n[0] + (py - centre[1]) * n[1]
-    t = (px - centre[0]) * d[0] + (py - centre[1]) * d[1]
-    near = bright & (np.abs(r) <= 3.0)
-    if near.sum() < 3:
-        return None
-    arm = float(np.percentile(np.abs(t[near]), 98)) + 1.0
-    half_width = max(0.5, near.sum() / (2.0 * arm) / 2.0)
-    bw = band if band is not None else half_width + REFINE_BAND
-    # the crossing zone holds the other arm: left out when the arm is long enough to fit without it
-    # (else kept: it is symmetric about the true line, so the iteration still converges on it)
-    crossing = bw if arm >= 2.5 * bw else 0.0
-    sel = (np.abs(t) <= arm) & (np.abs(r) <= bw) & (np.abs(t) >= crossing)
-    if sel.sum() < 6:
-        return None
-    ws, rs, ts = wgt[sel], r[sel], t[sel]
-    A = np.stack([np.ones_like(ts), ts], axis=1)
-    N = A.T @ (A * ws[:, None])
-    if ws.sum() <= 0 or np.linalg.cond(N) > 1e12:
-        return None
-    Ninv = np.linalg.inv(N)
-    beta = Ninv @ (A.T @ (ws * rs))
-    e = rs - A @ beta
-    M = Ninv @ (A.T * e[None, :])              # d beta / d g_i, one column per pixel
-    return _ArmFit(normal=n, centre=np.asarray(centre, float), beta=beta, cov=noise ** 2 * (M @ M.T), arm=arm,
-                   half_width=half_width)
-
-
-def _intersect(fits: list[_ArmFit], betas: list[np.ndarray] | None = None) -> np.ndarray:
-    (t1, r1), (t2, r2) = (f.line(None if betas is None else b) for f, b in zip(fits, betas or [None, None]))
-    return np.array(decode(t1, r1, t2, r2))
-
-
-def refine_subpixel(window: np.ndarray, analysis: WindowAnalysis, iterations: int = REFINE_ITERATIONS,
-                    band: float | None = None) -> Refinement | None:
-    """Grey-value weighted least-squares fit of each arm's centre line, and their intersection.
-
-    For each arm (normal n, direction d, through the current centre c) the pixels with |t| <= L along the
-    arm and |r| <= band across it vote with weight g - b (grey level minus the background b, the median
-    of the window's dark class); the offset delta and rotation phi of the line, r = delta + phi t, follow
-    by weighted least squares. The two lines are intersected and the fits repeated around the new centre
-    until it stops moving: the other arm's pixels inside the band are symmetric about the true line, so
-    the iteration converges on it. The covariance of (delta, phi) is propagated from the grey-level noise
-    (robust std of the dark class) through the weighted-mean formulas, and from the lines to their
-    intersection by a numerical Jacobian.
-    """
-    h, w = window.shape
-    yy, xx = np.mgrid[0:h, 0:w]
-    px, py = xx.ravel().astype(np.float64), yy.ravel().astype(np.float64)
-    g = window.ravel().astype(np.float64)
-    bright = analysis.binary.ravel()
-    if (~bright).sum() < 10:
-        return None
-    b = float(np.median(g[~bright]))
-    noise = float(1.4826 * np.median(np.abs(g[~bright] - b))) or 1e-6
-    wgt = g - b
-    centre = np.array([analysis.x, analysis.y])
-    thetas = [np.deg2rad(analysis.theta1), np.deg2rad(analysis.theta2)]
-    fits: list[_ArmFit] = []
-    for _ in range(iterations):
-        fits = [_fit_arm(px, py, wgt, bright, centre, th, noise, band) for th in thetas]
-        if any(f is None for f in fits):
-            return None
-        new = _intersect(fits)
-        if not np.all(np.isfinite(new)):
-            return None
-        moved = float(np.hypot(*(new - centre)))
-        centre = new
-        thetas = [np.deg2rad(f.line()[0]) for f in fits]
-        if moved < 1e-4:
-            break
-    # propagate the covariance of (delta1, phi1, delta2, phi2) to the intersection
-    beta0 = [f.beta for f in fits]
-    J = np.zeros((2, 4))
-    for i in range(4):
-        step = np.zeros(4)
-        step[i] = 1e-5
-        plus = [beta0[0] + step[:2], beta0[1] + step[2:]]
-        minus = [beta0[0] - step[:2], beta0[1] - step[2:]]
-        J[:, i] = (_intersect(fits, plus) - _intersect(fits, minus)) / 2e-5
-    C = np.zeros((4, 4))
-    C[:2, :2], C[2:, 2:] = fits[0].cov, fits[1].cov
-    Cxy = J @ C @ J.T
-    contrast = []
-    for k, th in enumerate(thetas):
-        n = np.array([np.cos(th), np.sin(th)])
-        d = np.array([-n[1], n[0]])
-        r = (px - centre[0]) * n[0] + (py - centre[1]) * n[1]
-        t = (px - centre[0]) * d[0] + (py - centre[1]) * d[1]
-        core = np.abs(r) <= fits[k].half_width + 0.5
-        gap = fits[1 - k].half_width + 1.0
-        for side in (1.0, -1.0):
-            sel = core & (side * t >= gap) & (side * t <= fits[k].arm)
-            contrast.append(float(wgt[sel].mean()) if sel.any() else 0.0)
-    return Refinement(x=float(centre[0]), y=float(centre[1]), sigma_x=float(np.sqrt(Cxy[0, 0])),
-                      sigma_y=float(np.sqrt(Cxy[1, 1])), theta1=float(np.rad2deg(thetas[0]) % 180),
-                      theta2=float(np.rad2deg(thetas[1]) % 180), noise=noise,
-                      arm_length=float(np.mean([f.arm for f in fits])), arm_contrast=tuple(contrast))
-
-
-REFINER = "model"
+"""A sub-pixel fit that moves the centre further than this (px) from the Hough centre is not trusted."""
 
 
 def arm_half_length(analysis: WindowAnalysis) -> float:
@@ -469,13 +312,6 @@ def arm_half_length(analysis: WindowAnalysis) -> float:
         near = np.abs(r) <= 3.0
         out.append(float(np.percentile(np.abs(along[near]), 98)) + 0.5 if near.any() else 2.0)
     return float(np.mean(out))
-
-
-def _refine(window, analysis):
-    if REFINER == "lines":
-        return refine_subpixel(window, analysis)
-    from aerofid.marks.cross_fit import fit_cross
-    return fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
 
 
 MIN_ARM_BALANCE = 0.35
@@ -494,7 +330,7 @@ class Verified:
 
     x: float
     y: float
-    refinement: Refinement
+    refinement: CrossFit
 
 
 def verify_candidate(image: np.ndarray, cand, refine_size: int, params: HoughParams = HoughParams(),
@@ -510,15 +346,15 @@ def verify_candidate(image: np.ndarray, cand, refine_size: int, params: HoughPar
         a = analyse_window(got[0], params)
         if not isinstance(a, str) and np.hypot(a.x + got[1][0] - cand.x, a.y + got[1][1] - cand.y) <= max_shift:
             analysis, window, origin = a, got[0], got[1]
-    ref = _refine(window, analysis)
+    ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
     if ref is None:
         return "sub-pixel fit failed"
     x, y = ref.x + origin[0], ref.y + origin[1]
     if np.hypot(x - cand.x, y - cand.y) > max_shift:
         return f"sub-pixel fit moved more than {max_shift} px from the Hough centre"
-    if getattr(ref, "at_bound", ""):
+    if ref.at_bound:
         return f"the '+' model does not fit (its {ref.at_bound} ended on a bound)"
-    if hasattr(ref, "width") and ref.width > MAX_WIDTH_RATIO * min(ref.length1, ref.length2):
+    if ref.width > MAX_WIDTH_RATIO * min(ref.length1, ref.length2):
         return f"fitted shape is a blob, not a '+' (stroke {ref.width:.1f} px, bars {ref.length1:.1f}/{ref.length2:.1f} px)"
     if ref.arm_balance < min_arm_balance:
         return f"arms unbalanced ({ref.arm_balance:.2f} < {min_arm_balance}): not a '+'"
@@ -564,9 +400,13 @@ def detect(window: np.ndarray, mark: str = "auto", **params) -> Detection:
     if isinstance(result.verified, Verified):
         v = result.verified
         diagnostics["refinement"] = v.refinement
-        sigma = float(np.sqrt((v.refinement.sigma_x ** 2 + v.refinement.sigma_y ** 2) / 2))
+        sigma = v.refinement.sigma
         x, y = v.x, v.y
     else:  # verification off: the Hough centre, quantised by the rho cells
         x, y, sigma = best.x, best.y, hp.rho_step / np.sqrt(12.0)
     return Detection(status=FOUND, x=float(x), y=float(y), score=float(np.clip(best.metric, 0.0, 1.0)),
                      sigma=float(sigma), method=METHOD, diagnostics=diagnostics)
+
+
+__all__ = ["HoughParams", "Verified", "WindowAnalysis", "analyse_window", "decode", "detect", "hough_accumulate",
+           "matched_filter", "similarity", "theta_projection", "threshold_accumulator", "verify_candidate"]

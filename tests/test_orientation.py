@@ -110,6 +110,18 @@ def test_hartzell_affine_parameters_match_published_report():
     assert res.pixel_to_mm[1, 2] == pytest.approx(123.5343, abs=1e-4)
 
 
+@pytest.mark.parametrize("frame", ["027", "028"])
+def test_real_frames_5px_blunder_on_any_fiducial_is_rejected_and_nothing_else(frame):
+    cam, clean = _hartzell(frame)
+    assert not orient(cam, clean).rejected
+    for dx, dy in [(5, 0), (0, 5), (-3.5, 3.5), (3.5, 3.5)]:
+        for name in clean:
+            pts = dict(clean)
+            pts[name] = [clean[name][0] + dx, clean[name][1] + dy]
+            res = orient(cam, pts, "affine")
+            assert [f.name for f in res.rejected] == [name], (dx, dy, name)
+
+
 def test_whu_0319_rms_matches_published_result():
     path = REAL / "text_only_io" / "whu_0319" / "0319_interior_orientation.txt"
     if not path.is_file():

@@ -38,7 +38,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from scipy import optimize, stats
@@ -461,13 +461,6 @@ def arrangement_matrix(rotation_deg: int, mirrored: bool, y_axis: str = "up") ->
     R = np.round(np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]]))
     F = np.diag([1.0, -1.0]) if mirrored else np.eye(2)
     return R @ L0 @ F
-
-
-def arrangement_of(H: np.ndarray, y_axis: str = "up") -> tuple[int, bool]:
-    """The arrangement (rotation_deg, mirrored) nearest to the linear part of a pixel -> mm fit."""
-    L = local_jacobian(H, (0.0, 0.0)) if np.allclose(_as3x3(H)[2, :2], 0) else _as3x3(H)[:2, :2]
-    best = max(ARRANGEMENTS, key=lambda a: float(np.sum(arrangement_matrix(*a, y_axis) * L)))
-    return best
 
 
 @dataclass(frozen=True)

@@ -113,6 +113,7 @@ class WindowAnalysis:
     accumulator: np.ndarray = field(repr=False)
     accumulator_thresholded: np.ndarray = field(repr=False)
     rho_min: float = 0.0
+    rho_step: float = RHO_STEP
 
 
 def theta_grid(theta_step: float) -> np.ndarray:
@@ -247,7 +248,7 @@ def analyse_window(window: np.ndarray, params: HoughParams = HoughParams()) -> W
     return WindowAnalysis(x=x, y=y, theta1=float(thetas[k1]), theta2=float(thetas[k2]), rho1=rho1, rho2=rho2,
                           threshold=threshold, background=thr.mean_dark, projection=projection,
                           thetas=thetas, binary=binary, accumulator=acc, accumulator_thresholded=acc_t,
-                          rho_min=rho_min)
+                          rho_min=rho_min, rho_step=params.rho_step)
 
 
 # --- similarity metric (seed 001, Similarity Measure; C ``correlate``) ------------------------------------

@@ -106,7 +106,8 @@ class SearchResult:
 
 def spiral_coordinates(height: int, width: int, window_size: int, overlap: float = OVERLAP) -> np.ndarray:
     """Window centres (x, y) in an outward square spiral from the box centre, ``(1 - overlap) * window``
-    apart, keeping those inside the box (C ``estcoor``: steps of .7 * blk_sz1, directions alternating)."""
+    apart, keeping those whose windows cover the box (C ``estcoor``: steps of .7 * blk_sz1, directions
+    alternating)."""
     step = max(1.0, (1.0 - overlap) * window_size)
     x, y = (width - 1) / 2.0, (height - 1) / 2.0
     dim = int(np.ceil(max(height, width) / step)) + 2
@@ -118,7 +119,10 @@ def spiral_coordinates(height: int, width: int, window_size: int, overlap: float
                 x, y = x + dx * step, y + dy * step
                 pts.append((x, y))
     p = np.array(pts)
-    inside = (p[:, 0] > -0.5) & (p[:, 0] < width - 0.5) & (p[:, 1] > -0.5) & (p[:, 1] < height - 0.5)
+    # keep every centre whose window's central square (side ``step``) reaches into the box, so the windows
+    # cover the box to its edges
+    m = step / 2.0
+    inside = (p[:, 0] > -0.5 - m) & (p[:, 0] < width - 0.5 + m) & (p[:, 1] > -0.5 - m) & (p[:, 1] < height - 0.5 + m)
     return p[inside]
 
 

@@ -1,0 +1,156 @@
+"""aerofid.locate and `aerofid locate`: files, boxes, colour, polarity, exit statuses, outputs."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import tifffile
+
+import aerofid
+from aerofid import synth
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
+
+
+@pytest.fixture(scope="module")
+def scan(tmp_path_factory):
+    """A 400 x 300 tiled 8-bit TIFF with one external cross at a known sub-pixel centre."""
+    rng = np.random.default_rng(21)
+    img = synth.film_border((300, 400), rng)
+    c = (231.37, 140.62)
+    img = synth.paint(img, synth.coverage((300, 400), c, synth.cross_shape(40, 2, 12.0), 16, extent=25), 0.85)
+    img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng)
+    path = tmp_path_factory.mktemp("scan") / "scan.tif"
+    tifffile.imwrite(path, synth.to_uint8(np.clip(img, 0, 1)), tile=(64, 64))
+    return path, c
+
+
+def run_cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "aerofid.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd)
+
+
+def test_locate_a_path_in_full_image_pixels(scan):
+    path, (cx, cy) = scan
+    r = aerofid.locate(path, (180, 90, 290, 200), mark="external")
+    assert r.found and r.method == "hough"
+    assert np.hypot(r.x - cx, r.y - cy) < 0.1
+    assert 0 < r.sigma < 0.1 and 0.5 < r.score <= 1
+    assert r.box == (180, 90, 290, 200) and not r.clipped
+
+
+def test_array_and_path_agree(scan):
+    path, _ = scan
+    a = aerofid.locate(tifffile.imread(path), (180, 90, 290, 200), mark="external")
+    b = aerofid.locate(path, (180, 90, 290, 200), mark="external")
+    assert (a.x, a.y) == pytest.approx((b.x, b.y), abs=1e-9)
+
+
+def test_box_partly_outside_is_clipped_and_said(scan):
+    path, (cx, cy) = scan
+    r = aerofid.locate(path, (180, 90, 450, 350), mark="external")
+    assert r.clipped and r.box == (180, 90, 400, 300)
+    assert r.found and np.hypot(r.x - cx, r.y - cy) < 0.1
+
+
+def test_box_without_a_mark_is_not_found(scan):
+    path, _ = scan
+    r = aerofid.locate(path, (0, 0, 120, 120))
+    assert r.status == "not_found" and np.isnan(r.x) and r.reason
+
+
+@pytest.mark.parametrize("box", [(500, 500, 600, 600), (10, 10, 10, 50), (10, 10, 5, 50)])
+def test_bad_boxes_are_input_errors(scan, box):
+    with pytest.raises(aerofid.AerofidInputError):
+        aerofid.locate(scan[0], box)
+
+
+def test_bad_options_are_input_errors(scan):
+    for kw in ({"mark": "circle"}, {"method": "magic"}, {"polarity": "grey"}, {"colour": "purple"},
+               {"window_size": 2}, {"no_such_parameter": 1}):
+        with pytest.raises(aerofid.AerofidInputError):
+            aerofid.locate(scan[0], (180, 90, 290, 200), **kw)
+
+
+def test_dark_marks_and_automatic_polarity():
+    rng = np.random.default_rng(5)
+    sc = synth.mark_scene("cross", 36, 2.0, rng=rng, polarity="dark")
+    m = sc.marks[0]
+    r = aerofid.locate(sc.image, (10, 10, 110, 110), mark="external", polarity="dark")
+    assert r.found and np.hypot(r.x - m.x, r.y - m.y) < 0.1
+    r = aerofid.locate(sc.image, (10, 10, 110, 110), mark="external", polarity="auto")
+    assert r.found and r.polarity == "dark" and np.hypot(r.x - m.x, r.y - m.y) < 0.1
+
+
+def test_red_mark_on_black_keeps_its_contrast():
+    """A red cross on a black border with a weak luminance signal: the colour policy finds it."""
+    rng = np.random.default_rng(6)
+    sc = synth.mark_scene("cross", 36, 2.0, rng=rng, contrast=0.8, noise_sigma=0.0)
+    rgb = np.zeros(sc.image.shape + (3,), np.float32)
+    rgb[..., 0] = sc.image
+    rgb[..., 1] = rgb[..., 2] = 0.06
+    rgb = np.clip(rgb + rng.normal(0, 0.03, rgb.shape), 0, 1)
+    m = sc.marks[0]
+    r = aerofid.locate((rgb * 255).round().astype(np.uint8), (10, 10, 110, 110), mark="external")
+    assert r.found and np.hypot(r.x - m.x, r.y - m.y) < 0.15
+
+
+def test_cli_json_found_and_outputs(scan, tmp_path):
+    path, (cx, cy) = scan
+    ov, pl = tmp_path / "ov.png", tmp_path / "pl.png"
+    p = run_cli("locate", path, "--box", "180,90,290,200", "--mark", "external", "--json", "--overlay", ov,
+                "--plot", pl)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    for key in ("status", "x", "y", "score", "sigma", "method"):
+        assert key in d
+    assert d["status"] == "found" and np.hypot(d["x"] - cx, d["y"] - cy) < 0.1
+    assert cv2.imread(str(ov)) is not None and cv2.imread(str(pl)) is not None
+
+
+def test_cli_not_found_is_status_1(scan):
+    p = run_cli("locate", scan[0], "--box", "0,0,120,120", "--json")
+    assert p.returncode == 1
+    assert json.loads(p.stdout)["status"] == "not_found"
+
+
+@pytest.mark.parametrize("args", [
+    ["locate", "MISSING.tif", "--box", "0,0,10,10"],
+    ["locate", "SCAN", "--box", "0,0,ten,10"],
+    ["locate", "SCAN", "--box", "0,0,10"],
+    ["locate", "SCAN", "--box", "900,900,1000,1000"],
+    ["locate", "SCAN", "--box", "0,0,50,50", "--param", "window_size"],
+    ["locate", "SCAN", "--box", "0,0,50,50", "--mark", "circle"],
+    ["locate", "NOTANIMAGE", "--box", "0,0,10,10"],
+])
+def test_cli_bad_input_is_one_line_status_2_and_writes_nothing(scan, tmp_path, args):
+    junk = tmp_path / "junk.tif"
+    junk.write_text("not an image")
+    args = [str(scan[0]) if a == "SCAN" else str(junk) if a == "NOTANIMAGE" else a for a in args]
+    out = tmp_path / "overlay.png"
+    p = run_cli(*args, "--overlay", out)
+    assert p.returncode == 2
+    assert p.stderr.startswith("error: ") and len(p.stderr.strip().splitlines()) == 1
+    assert "Traceback" not in p.stderr
+    assert not out.exists() and not any(f.name.startswith(".overlay") for f in tmp_path.iterdir())
+
+
+def test_cli_demo_runs_and_finds_every_mark(tmp_path):
+    p = run_cli("demo", "--out", tmp_path / "demo")
+    assert p.returncode == 0, p.stderr
+    rows = json.loads((tmp_path / "demo" / "results.json").read_text())
+    assert len(rows) == 10
+    assert all(r["status"] == "found" and r["error_px"] < 0.3 for r in rows)
+
+
+@pytest.mark.skipif(not (REAL / "unbc_bc_wild_rc20").is_dir(), reason="../shared/realdata is absent")
+def test_real_rc20_corner_is_read_from_the_jpeg_window():
+    """The real Wild RC20 frame opens and a box around a corner mark reads as a red-dominant window."""
+    path = REAL / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
+    r = aerofid.locate(path, (593, 130, 713, 250))
+    assert r.box == (593, 130, 713, 250)
+    assert r.window.shape == (120, 120)

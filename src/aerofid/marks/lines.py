@@ -57,12 +57,16 @@ MIN_ARM_RATIO = 0.25
 """... and its shorter side at least this fraction of its longer side (a mark cut by the window edge, or two
 lines meeting in a 'T' or 'L', has one side missing)."""
 
-ITERATIONS = 4
+ITERATIONS = 12
+TAPER = 1.0
+"""Standard deviation of the Gaussian taper across the line, in bar half-widths (0: a plain centroid)."""
+
 OFFSET_FLOOR = 0.03
 """Model error (px) added in quadrature to each line's fitted offset: the grey-weighted centroid of a thin bar
 whose edges were integrated over the pixel area (and not blurred before sampling) is aliased by up to a few
 hundredths of a pixel (measured: 0.02-0.05 px RMS per axis on axis-aligned 1-3 px bars of aerofid.synth); the
-fit's scatter cannot see it when every slice has the same sub-pixel phase."""
+fit's scatter cannot see it when every slice has the same sub-pixel phase. Divided by 1 + n tan(alpha) for a
+line of n slices tilted by alpha from the nearest pixel axis (its slices then sweep the sub-pixel phases)."""
 """Band / background / fit iterations of the sub-pixel refinement."""
 
 
@@ -111,7 +115,8 @@ def two_peaks(acc: np.ndarray, thetas: np.ndarray, min_angle_deg: float = MIN_AN
     """The strongest Hough cell and the strongest cell at least ``min_angle_deg`` away in direction.
 
     The accumulator is smoothed over 3 x 3 cells first (a bar 2 px wide spreads over neighbouring cells).
-    Returns ``((i1, j1, v1), (i2, j2, v2))`` with i = theta index, j = rho index, v = smoothed votes."""
+    Returns ``((i1, j1, v1), (i2, j2, v2), smoothed)`` with i = theta index, j = rho index, v = smoothed votes.
+    """
     a = acc.copy()
     # 3 x 3 box, theta wraps around (theta = 180 is theta = 0 with rho negated; a box smear is enough here)
     a = (a + np.roll(a, 1, 0) + np.roll(a, -1, 0)) / 3.0
@@ -120,25 +125,32 @@ def two_peaks(acc: np.ndarray, thetas: np.ndarray, min_angle_deg: float = MIN_AN
     far = _angle_diff(thetas, thetas[i1]) >= np.deg2rad(min_angle_deg)
     b = np.where(far[:, None], a, -1.0)
     i2, j2 = np.unravel_index(int(np.argmax(b)), b.shape)
-    return (int(i1), int(j1), float(a[i1, j1])), (int(i2), int(j2), float(b[i2, j2]))
+    return (int(i1), int(j1), float(a[i1, j1])), (int(i2), int(j2), float(b[i2, j2])), a
 
 
-def _bar_half_width(acc: np.ndarray, i: int, j: int, rho_step: float) -> float:
-    """Half the width (px) of the ridge across rho at theta index ``i`` where it is above half its peak."""
+def _bar_half_width(acc: np.ndarray, i: int, j: int, rho_step: float, reach: int = 10) -> float:
+    """Half the width (px) of the ridge across rho at theta index ``i``: the run of cells around ``j`` above
+    half-way between the peak and the local base (25th percentile of the cells within ``reach`` px), so the
+    plateau a ring adds under the bar does not count as bar."""
     prof = acc[i]
     peak = prof[j]
+    r = max(3, int(round(reach / rho_step)))
+    near = prof[max(0, j - r):j + r + 1]
+    base = float(np.percentile(near, 25))
+    level = 0.5 * (peak + base)
     lo = j
-    while lo > 0 and prof[lo - 1] >= 0.5 * peak:
+    while lo > 0 and prof[lo - 1] >= level:
         lo -= 1
     hi = j
-    while hi < prof.size - 1 and prof[hi + 1] >= 0.5 * peak:
+    while hi < prof.size - 1 and prof[hi + 1] >= level:
         hi += 1
     return 0.5 * (hi - lo + 1) * rho_step
 
 
 def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, centre: np.ndarray,
              other: tuple[float, float, float] | None, noise: float, band_margin: float = BAND_MARGIN,
-             exclude: np.ndarray | None = None, background_mask: np.ndarray | None = None) -> LineFit | None:
+             exclude: np.ndarray | None = None, background_mask: np.ndarray | None = None,
+             taper: float = TAPER) -> LineFit | None:
     """One refinement step of a line (seed 004's Hough line, refined to sub-pixel).
 
     Pixels within ``half_width + band_margin`` px of the line (and not in the ``other`` line's band
@@ -185,16 +197,20 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
     sel = in_band & keep
     if sel.sum() < 10:
         return None
-    wgt = g[sel] - bg[sel]
     us, vs = u[sel] - uc, v[sel]
+    # Gaussian taper across the line (a matched filter): the slice centroid converges, over the iterations, to
+    # the peak of the profile smoothed by the taper, and the noise of the pixels far from the bar is damped
+    q = np.exp(-0.5 * (vs / max(taper * half_width, 0.5)) ** 2) if taper > 0 else np.ones_like(vs)
+    wgt = (g[sel] - bg[sel]) * q
     k = np.rint(us).astype(np.int64)
     k0 = k.min()
     kk = k - k0
     nb = int(kk.max()) + 1
     W = np.bincount(kk, weights=wgt, minlength=nb)
     Wv = np.bincount(kk, weights=wgt * vs, minlength=nb)
-    Wv2 = np.bincount(kk, weights=vs * vs, minlength=nb)
-    Wv1 = np.bincount(kk, weights=vs, minlength=nb)
+    Wv2 = np.bincount(kk, weights=q * q * vs * vs, minlength=nb)
+    Wv1 = np.bincount(kk, weights=q * q * vs, minlength=nb)
+    Wq2 = np.bincount(kk, weights=q * q, minlength=nb)
     cnt = np.bincount(kk, minlength=nb)
     ub = np.arange(nb) + k0
     pos = W > 0
@@ -212,8 +228,8 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
         return None
     V = Wv[good] / W[good]
     U = ub[good].astype(np.float64)
-    # noise-only variance of each centroid: noise^2 * sum_i (v_i - V)^2 / W^2
-    var_noise = noise * noise * (Wv2[good] - 2 * V * Wv1[good] + cnt[good] * V * V) / W[good] ** 2
+    # noise-only variance of each centroid: noise^2 * sum_i q_i^2 (v_i - V)^2 / W^2
+    var_noise = noise * noise * (Wv2[good] - 2 * V * Wv1[good] + Wq2[good] * V * V) / W[good] ** 2
     # one round of outlier rejection: residuals beyond 3.5 robust sigma (and 0.1 px) of a first fit
     X = np.column_stack([np.ones_like(U), U])
     c0, *_ = np.linalg.lstsq(X, V, rcond=None)
@@ -280,7 +296,7 @@ def _noise(window: np.ndarray) -> float:
 def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THETA_STEP,
            rho_step: float = RHO_STEP, min_angle: float = MIN_ANGLE, min_peak_ratio: float = MIN_PEAK_RATIO,
            band_margin: float = BAND_MARGIN, min_arm: int = MIN_ARM, min_arm_ratio: float = MIN_ARM_RATIO,
-           iterations: int = ITERATIONS, offset_floor: float = OFFSET_FLOOR) -> Detection:
+           iterations: int = ITERATIONS, taper: float = TAPER, offset_floor: float = OFFSET_FLOOR) -> Detection:
     """Centre of a mark made of two crossing lines (Sohn et al., seed 004), in window pixels.
 
     Args:
@@ -291,7 +307,8 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         min_peak_ratio: the second peak's votes relative to the first.
         band_margin: fitting band beyond the bar's half-width (px).
         min_arm, min_arm_ratio: support each line needs on both sides of the intersection.
-        iterations: refinement iterations.
+        iterations: refinement iterations (at most; they stop when the centre moves less than 0.001 px).
+        taper: Gaussian taper across each line in bar half-widths, see :func:`fit_line`.
         offset_floor: model error (px) of each line's offset added to its fitted standard deviation.
 
     Returns:
@@ -315,7 +332,7 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         return not_found(METHOD, f"local dynamic thresholding found no mark ({n_fg} foreground pixels)", **diag)
     acc, thetas, rhos = hough_lines(binary, theta_step, rho_step)
     diag.update(accumulator=acc, thetas=thetas, rhos=rhos)
-    (i1, j1, v1), (i2, j2, v2) = two_peaks(acc, thetas, min_angle)
+    (i1, j1, v1), (i2, j2, v2), acc_s = two_peaks(acc, thetas, min_angle)
     if v2 <= 0 or v2 < min_peak_ratio * v1:
         return not_found(METHOD, f"only one dominant direction in the Hough space (second peak {v2:.0f} votes "
                                  f"vs {v1:.0f})", **diag)
@@ -327,7 +344,8 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
     diag["hough_centre"] = tuple(float(q) for q in c)
     if not (-0.5 <= c[0] <= wd - 0.5 and -0.5 <= c[1] <= h - 0.5):
         return not_found(METHOD, "the Hough lines intersect outside the window", **diag)
-    hw = [max(0.5, _bar_half_width(acc, i1, j1, rho_step)), max(0.5, _bar_half_width(acc, i2, j2, rho_step))]
+    # bar half-widths from the smoothed ridges (a diagonal bar's raw rho profile alternates between cells)
+    hw = [max(1.0, _bar_half_width(acc_s, i1, j1, rho_step)), max(1.0, _bar_half_width(acc_s, i2, j2, rho_step))]
     noise = _noise(w)
     # foreground (dilated by 1 px) is kept out of the background estimate: the ring of a Wild mark crosses
     # the strips beside the lines
@@ -340,7 +358,7 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
             o = 1 - k
             other = (cur[o][0], cur[o][1], hw[o] + band_margin)
             f = fit_line(w, cur[k][0], cur[k][1], hw[k], c, other, noise, band_margin,
-                         background_mask=fg_near)
+                         background_mask=fg_near, taper=taper)
             if f is None:
                 return not_found(METHOD, f"line {k + 1} has too little support for a least-squares fit", **diag)
             new.append(f)
@@ -371,8 +389,15 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
     # covariance of the intersection from the two offsets (rotation about the intersection does not move it)
     N = np.array([[np.cos(cur[0][0]), np.sin(cur[0][0])], [np.cos(cur[1][0]), np.sin(cur[1][0])]])
     Ni = np.linalg.inv(N)
-    cov = Ni @ np.diag([fits[0].sigma_offset ** 2 + offset_floor ** 2,
-                        fits[1].sigma_offset ** 2 + offset_floor ** 2]) @ Ni.T
+    # the aliasing floor applies in full to axis-aligned lines, whose slices all have the same sub-pixel phase;
+    # a line tilted by alpha from the pixel axes sweeps n_slices * tan(alpha) px of phase and averages it out
+    floors = []
+    for f in fits:
+        alpha = float(_angle_diff(f.theta, 0.0))
+        alpha = min(alpha, abs(np.pi / 2 - alpha))
+        floors.append(offset_floor / (1.0 + f.n_slices * np.tan(alpha)))
+    cov = Ni @ np.diag([fits[0].sigma_offset ** 2 + floors[0] ** 2,
+                        fits[1].sigma_offset ** 2 + floors[1] ** 2]) @ Ni.T
     sigma = 0.5 * (np.sqrt(cov[0, 0]) + np.sqrt(cov[1, 1]))
     # score
     s_arm = min(1.0, min(min(f.arms) / max(f.arms) for f in fits) / 0.5)

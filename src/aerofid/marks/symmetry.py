@@ -104,7 +104,10 @@ def detect(window: np.ndarray, *, polarity: str = "bright", diagonal: str | None
             noise) that may differ from its 180-degree rotation about the final centre
             (:func:`point_asymmetry`). The mirror additions of eqs. (8)-(9) hide a one-sided part (a disc
             with a bump scores R_self ~ 0.8); assumption (1) of the seed is checked directly instead.
-            Synthetic marks stay below 0.02, a disc with a bump of a quarter of its area reaches 0.18.
+            Synthetic marks on film border stay below 0.02, a disc with a bump of a quarter of its area
+            reaches 0.18. On textured (aerial) ground the texture inside the sub-image is itself asymmetric
+            (0.1-0.9) and most marks are rejected: raise this (e.g. to 1.0) there, accepting that one-sided
+            blobs may then pass.
         enlarge: ``R_e`` of eq. (15), the enlargement rate of the bilinear interpolation (not given in the
             seed; 4 gives steps of 1/4 px, refined further by the weighted mean of eq. 14).
         smooth_sigma: standard deviation, in original pixels, of the Gaussian smoothing of the enlarged image

@@ -28,6 +28,8 @@ PATCH_MARGIN = 3.0
 """The patch fitted reaches this many px beyond the arms' estimated ends."""
 MAX_PATCH = 81
 """Largest patch side fitted (px); longer arms are fitted over their inner part."""
+ANGLE_RANGE = np.deg2rad(35.0)
+"""How far (rad) a bar's fitted angle may move from the Hough estimate before the fit is not trusted."""
 
 
 @dataclass(frozen=True)
@@ -149,8 +151,8 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     length = 2.0 * arm
     p0 = np.array([x, y, np.deg2rad(theta1_deg), np.deg2rad(theta2_deg), length, length,
                    max(width, 0.8), blur, a0, b0, 0.0, 0.0])
-    lo = np.array([x - 3, y - 3, p0[2] - 0.35, p0[3] - 0.35, 2.0, 2.0, 0.3, 0.25, 0.0, -np.inf, -np.inf, -np.inf])
-    hi = np.array([x + 3, y + 3, p0[2] + 0.35, p0[3] + 0.35, 4.0 * arm + 8, 4.0 * arm + 8, 8.0, 4.0, np.inf,
+    lo = np.array([x - 3, y - 3, p0[2] - ANGLE_RANGE, p0[3] - ANGLE_RANGE, 2.0, 2.0, 0.3, 0.25, 0.0, -np.inf, -np.inf, -np.inf])
+    hi = np.array([x + 3, y + 3, p0[2] + ANGLE_RANGE, p0[3] + ANGLE_RANGE, 4.0 * arm + 8, 4.0 * arm + 8, 8.0, 4.0, np.inf,
                    np.inf, np.inf, np.inf])
     p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
 

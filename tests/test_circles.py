@@ -1,0 +1,197 @@
+"""Concentric circles detector (Seedahmed, seed 003) against exact synthetic truth."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from aerofid import synth
+from aerofid.marks import circles
+from aerofid.marks.base import Detection
+
+STYLES = ("ring_x_dot", "ring_cross", "bullseye")
+
+
+def _marks(style, n, seed):
+    """n synthetic marks: random sub-pixel centre, size 20-60 px, blur 0.5-1.0, noise 0.01-0.03."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        size = rng.uniform(20, 60)
+        s = synth.mark_scene(style, size, window=int(size * 1.6) + 8, rng=rng, blur_sigma=rng.uniform(0.5, 1.0),
+                             noise_sigma=rng.uniform(0.01, 0.03))
+        yield s, size
+
+
+def _ring_radii(size):
+    """Nominal radii of the outer ring of the synth marks: its inner and outer edge."""
+    r, w = size / 2.0, max(1.0, size / 20.0)
+    return (r - w, r)
+
+
+# --- Gauss-Helmert adjustment ---------------------------------------------------------------------------
+
+def _circle_points(x0, y0, radii, n, rng, arc=(0.0, 2 * np.pi)):
+    xs, ys, lab = [], [], []
+    for k, r in enumerate(radii):
+        a = rng.uniform(*arc, n)
+        xs.append(x0 + r * np.cos(a))
+        ys.append(y0 + r * np.sin(a))
+        lab.append(np.full(n, k))
+    return np.concatenate(xs), np.concatenate(ys), np.concatenate(lab)
+
+
+def test_gauss_helmert_exact_points_recovers_centre_and_radii():
+    rng = np.random.default_rng(0)
+    x, y, lab = _circle_points(12.345, -7.89, (5.5, 11.25), 40, rng)
+    fit = circles.fit_concentric_circles(x, y, lab, centre=(13.0, -7.0))
+    assert fit.converged
+    assert fit.x0 == pytest.approx(12.345, abs=1e-9) and fit.y0 == pytest.approx(-7.89, abs=1e-9)
+    assert fit.radii == pytest.approx((5.5, 11.25), abs=1e-9)
+    assert fit.sigma0 < 1e-9 and fit.redundancy == 80 - 4
+
+
+def test_gauss_helmert_fixed_radii_model_of_the_seed():
+    rng = np.random.default_rng(1)
+    x, y, lab = _circle_points(3.0, 4.0, (2.0, 6.0), 25, rng)
+    fit = circles.fit_concentric_circles(x, y, lab, radii=(2.0, 6.0), centre=(3.4, 3.7), fix_radii=True)
+    assert (fit.x0, fit.y0) == pytest.approx((3.0, 4.0), abs=1e-9)
+    assert fit.cov.shape == (2, 2) and fit.redundancy == 50 - 2
+
+
+@settings(max_examples=40, deadline=None)
+@given(x0=st.floats(-50, 50), y0=st.floats(-50, 50), r1=st.floats(2.0, 30.0), dr=st.floats(1.0, 30.0),
+       n=st.integers(4, 60), start=st.floats(0, 2 * np.pi), span=st.floats(np.pi / 2, 2 * np.pi),
+       seed=st.integers(0, 2 ** 16))
+def test_gauss_helmert_property_exact_points(x0, y0, r1, dr, n, start, span, seed):
+    """Exact points on any two concentric circles (even on arcs of a quarter turn) give back the model."""
+    rng = np.random.default_rng(seed)
+    x, y, lab = _circle_points(x0, y0, (r1, r1 + dr), n, rng, arc=(start, start + span))
+    fit = circles.fit_concentric_circles(x, y, lab, centre=(x0 + 0.3, y0 - 0.2), radii=(r1 + 0.2, r1 + dr - 0.1))
+    assert fit is not None
+    assert fit.x0 == pytest.approx(x0, abs=1e-6) and fit.y0 == pytest.approx(y0, abs=1e-6)
+    assert fit.radii == pytest.approx((r1, r1 + dr), abs=1e-6)
+
+
+def test_gauss_helmert_sigma_matches_monte_carlo():
+    """The a-posteriori cofactors describe the scatter of the centre under isotropic point noise."""
+    rng = np.random.default_rng(2)
+    est, sig = [], []
+    for _ in range(300):
+        x, y, lab = _circle_points(0.0, 0.0, (8.0, 15.0), 30, rng)
+        x, y = x + rng.normal(0, 0.1, x.size), y + rng.normal(0, 0.1, y.size)
+        fit = circles.fit_concentric_circles(x, y, lab)
+        est.append((fit.x0, fit.y0))
+        sig.append(fit.sigma_xy)
+        assert fit.sigma0 == pytest.approx(0.1, rel=0.35)
+    ratio = np.std(np.array(est), axis=0) / np.mean(np.array(sig), axis=0)
+    assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
+
+
+def test_gauss_helmert_degenerate_input_returns_none():
+    assert circles.fit_concentric_circles(np.array([1.0, 2.0]), np.array([1.0, 2.0]), np.array([0, 1])) is None
+
+
+# --- detector on synthetic marks ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("style", STYLES)
+@pytest.mark.parametrize("given_radii", [False, True], ids=["estimated", "given"])
+def test_detect_accuracy(style, given_radii):
+    """Measured (tests/test_circles.py, 20 marks per case): RMS 0.012-0.024 px, max <= 0.06 px."""
+    errs, scores = [], []
+    for s, size in _marks(style, 20, seed=hash((style, given_radii)) % 2 ** 16):
+        m = s.marks[0]
+        d = circles.detect(s.image, radii=_ring_radii(size) if given_radii else None)
+        assert d.found, (style, size, d.reason)
+        errs.append(np.hypot(d.x - m.x, d.y - m.y))
+        scores.append(d.score)
+    errs = np.array(errs)
+    assert np.sqrt(np.mean(errs ** 2)) <= 0.06
+    assert errs.max() <= 0.15
+    assert min(scores) >= 0.5
+
+
+def test_sigma_is_honest():
+    """Observed per-axis RMS error within a factor 3 of the mean reported sigma (measured ratio ~0.9-1.2)."""
+    err2, sig = [], []
+    for style in STYLES:
+        for s, _ in _marks(style, 15, seed=11):
+            m = s.marks[0]
+            d = circles.detect(s.image)
+            assert d.found
+            err2 += [(d.x - m.x) ** 2, (d.y - m.y) ** 2]
+            sig.append(d.sigma)
+    ratio = np.sqrt(np.mean(err2)) / np.mean(sig)
+    assert 1 / 3 <= ratio <= 3, ratio
+
+
+def test_detection_contract():
+    s, size = next(_marks("ring_x_dot", 1, seed=5))
+    d = circles.detect(s.image)
+    assert isinstance(d, Detection) and d.method == "circles" and d.found
+    assert 0 <= d.score <= 1 and d.sigma > 0
+    for key in ("edges", "accumulator", "circles", "points", "labels", "fit"):
+        assert key in d.diagnostics
+    assert len(d.diagnostics["circles"]) == 2
+    assert set(d.to_dict()) >= {"status", "x", "y", "score", "sigma", "method", "reason"}
+
+
+# --- rejections -----------------------------------------------------------------------------------------
+
+def _half_plane(angle_deg, rng, n=64):
+    """A single straight edge through the window (bright half-plane), blurred and noisy."""
+    t = np.deg2rad(angle_deg)
+    c = (n / 2 - 0.3 - 32 * np.sin(t), n / 2 + 0.2 + 32 * np.cos(t))  # a bar 64 wide, one edge through the middle
+    img = synth.paint(np.full((n, n), 0.1, np.float32), synth.coverage((n, n), c, synth.bar(400, 64, angle_deg)),
+                      0.8)
+    return synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng)
+
+
+@pytest.mark.parametrize("radii", [None, (9.0, 10.0)])
+def test_rejects_noise_homogeneous_and_straight_edges(radii):
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        noise = np.clip(0.1 + rng.normal(0, 0.03, (64, 64)), 0, 1).astype(np.float32)
+        assert circles.detect(noise, radii=radii).status == "not_found"
+    d = circles.detect(np.full((64, 64), 0.1, np.float32), radii=radii)
+    assert not d.found and "homogeneous" in d.reason
+    for ang in (0, 20, 45, 90):
+        img = _half_plane(ang, rng)
+        assert 0.2 < img.mean() < 0.7  # the edge is in the window
+        d = circles.detect(img, radii=radii)
+        assert not d.found and d.reason, ang
+
+
+@pytest.mark.parametrize("style", STYLES)
+def test_rejects_mark_cut_in_half(style):
+    rng = np.random.default_rng(4)
+    for size in (24, 40, 56):
+        s = synth.mark_scene(style, size, window=int(size * 1.6) + 8, rng=rng)
+        m = s.marks[0]
+        for cut in (-2, 0, 1, 2):
+            half = s.image[:, : int(m.x) + 1 + cut]
+            for radii in (None, _ring_radii(size)):
+                d = circles.detect(half, radii=radii)
+                assert not d.found, (style, size, cut, radii, d.x - m.x, d.y - m.y)
+
+
+@pytest.mark.parametrize("r1,r2,off", [(15, 9, 3), (15, 9, 5), (15, 12, 8), (12, 12, 6), (15, 8, 2), (15, 8, 1)])
+def test_rejects_non_concentric_circles(r1, r2, off):
+    rng = np.random.default_rng(6)
+    img = synth.film_border((64, 64), rng)
+    c1 = (31.4, 30.7)
+    c2 = (c1[0] + off, c1[1] + 0.3 * off)
+    img = synth.paint(img, synth.coverage((64, 64), c1, synth.ring(r1 - 1.5, r1)), 0.85)
+    img = synth.paint(img, synth.coverage((64, 64), c2, synth.ring(r2 - 1.5, r2)), 0.85)
+    img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng)
+    for radii in (None, (r1, r2)):
+        d = circles.detect(img, radii=radii)
+        assert not d.found, (radii, d.x, d.y)
+        assert any(w in d.reason for w in ("concentric", "competes", "circumference")), d.reason
+
+
+def test_bad_inputs_are_not_found_not_exceptions():
+    assert circles.detect(np.zeros((4, 4), np.float32)).status == "not_found"
+    img = np.full((32, 32), 0.1, np.float32)
+    img[3, 3] = np.nan
+    assert circles.detect(img).status == "not_found"
+    s, _ = next(_marks("bullseye", 1, seed=9))
+    assert circles.detect(s.image, radii=(5.0,)).status == "not_found"

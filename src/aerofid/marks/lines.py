@@ -58,6 +58,13 @@ MIN_ARM_RATIO = 0.25
 lines meeting in a 'T' or 'L', has one side missing)."""
 
 ITERATIONS = 12
+MIN_CONTRAST = 5.0
+"""Each line's median slice weight must be this many times its noise standard deviation."""
+
+MAX_SIDE_FOREGROUND = 0.4
+"""A bar has ground beside it: at most this fraction of the strips beside a line's band may be foreground (the
+ring of a Wild mark crossing them takes a little)."""
+
 TAPER = 1.0
 """Standard deviation of the Gaussian taper across the line, in bar half-widths (0: a plain centroid)."""
 
@@ -83,6 +90,8 @@ class LineFit:
     n_slices: int
     arms: tuple[int, int]       # supported slices before / after the intersection
     half_width: float           # estimated half-width of the bar (px)
+    contrast: float             # median slice weight / its noise standard deviation
+    side_foreground: float      # fraction of the strips beside the band that is foreground
 
 
 def hough_lines(binary: np.ndarray, theta_step: float = THETA_STEP, rho_step: float = RHO_STEP):
@@ -93,7 +102,7 @@ def hough_lines(binary: np.ndarray, theta_step: float = THETA_STEP, rho_step: fl
     h, w = binary.shape
     ys, xs = np.nonzero(binary)
     thetas = np.deg2rad(np.arange(0.0, 180.0, theta_step))
-    r_max = float(np.hypot(h, w))
+    r_max = float(np.ceil(np.hypot(h, w) / rho_step) * rho_step)  # rho cells centred on multiples of rho_step
     n_rho = int(np.ceil(2 * r_max / rho_step)) + 1
     rhos = -r_max + rho_step * np.arange(n_rho)
     if xs.size == 0:
@@ -114,13 +123,14 @@ def _angle_diff(a: np.ndarray | float, b: float) -> np.ndarray | float:
 def two_peaks(acc: np.ndarray, thetas: np.ndarray, min_angle_deg: float = MIN_ANGLE):
     """The strongest Hough cell and the strongest cell at least ``min_angle_deg`` away in direction.
 
-    The accumulator is smoothed over 3 x 3 cells first (a bar 2 px wide spreads over neighbouring cells).
+    The accumulator is smoothed with (1, 2, 1) / 4 over rho first (a bar 2 px wide, or a diagonal one, spreads over
+    neighbouring cells).
     Returns ``((i1, j1, v1), (i2, j2, v2), smoothed)`` with i = theta index, j = rho index, v = smoothed votes.
     """
     a = acc.copy()
-    # 3 x 3 box, theta wraps around (theta = 180 is theta = 0 with rho negated; a box smear is enough here)
-    a = (a + np.roll(a, 1, 0) + np.roll(a, -1, 0)) / 3.0
-    a[:, 1:-1] = (a[:, :-2] + a[:, 1:-1] + a[:, 2:]) / 3.0
+    # (1, 2, 1) / 4 along rho only: a diagonal bar's pixels alternate between neighbouring rho cells, and a
+    # line concentrated in one cell still beats a slightly tilted one spread over three
+    a[:, 1:-1] = 0.25 * acc[:, :-2] + 0.5 * acc[:, 1:-1] + 0.25 * acc[:, 2:]
     i1, j1 = np.unravel_index(int(np.argmax(a)), a.shape)
     far = _angle_diff(thetas, thetas[i1]) >= np.deg2rad(min_angle_deg)
     b = np.where(far[:, None], a, -1.0)
@@ -180,8 +190,11 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
     if exclude is not None:
         keep &= ~exclude.ravel()
     ring = outer & keep
+    side_fg = 0.0
     if background_mask is not None:
-        ring &= ~background_mask.ravel()
+        bm = background_mask.ravel()
+        side_fg = float(bm[ring].mean()) if ring.any() else 1.0
+        ring &= ~bm
     if ring.sum() < 6:
         return None
     uc = float(centre @ t)
@@ -231,6 +244,9 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
     # noise-only variance of each centroid: noise^2 * sum_i q_i^2 (v_i - V)^2 / W^2
     var_noise = noise * noise * (Wv2[good] - 2 * V * Wv1[good] + Wq2[good] * V * V) / W[good] ** 2
     # one round of outlier rejection: residuals beyond 3.5 robust sigma (and 0.1 px) of a first fit
+    # the bar must stand out of its sides: the slice weights against the noise of a weight
+    w_noise = noise * float(np.sqrt(np.median(Wq2[good])))
+    contrast = float(np.median(W[good])) / max(w_noise, 1e-9)
     X = np.column_stack([np.ones_like(U), U])
     c0, *_ = np.linalg.lstsq(X, V, rcond=None)
     r0 = V - X @ c0
@@ -266,7 +282,7 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
     excl = half_width + band_margin
     arms = (int(((U < -excl)).sum()), int(((U > excl)).sum()))
     return LineFit(new_theta, float(new_rho), s * float(np.sqrt(Qx[0, 0])), s * float(np.sqrt(Qx[1, 1])),
-                   s0, expected, int(U.size), arms, half_width)
+                   s0, expected, int(U.size), arms, half_width, contrast, side_fg)
 
 
 def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: np.ndarray) -> np.ndarray:
@@ -296,7 +312,8 @@ def _noise(window: np.ndarray) -> float:
 def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THETA_STEP,
            rho_step: float = RHO_STEP, min_angle: float = MIN_ANGLE, min_peak_ratio: float = MIN_PEAK_RATIO,
            band_margin: float = BAND_MARGIN, min_arm: int = MIN_ARM, min_arm_ratio: float = MIN_ARM_RATIO,
-           iterations: int = ITERATIONS, taper: float = TAPER, offset_floor: float = OFFSET_FLOOR) -> Detection:
+           iterations: int = ITERATIONS, taper: float = TAPER, offset_floor: float = OFFSET_FLOOR,
+           min_contrast: float = MIN_CONTRAST, max_side_foreground: float = MAX_SIDE_FOREGROUND) -> Detection:
     """Centre of a mark made of two crossing lines (Sohn et al., seed 004), in window pixels.
 
     Args:
@@ -309,6 +326,8 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         min_arm, min_arm_ratio: support each line needs on both sides of the intersection.
         iterations: refinement iterations (at most; they stop when the centre moves less than 0.001 px).
         taper: Gaussian taper across each line in bar half-widths, see :func:`fit_line`.
+        max_side_foreground: largest foreground fraction of the strips beside each line (a bar has ground there).
+        min_contrast: each line's slices must weigh this many noise standard deviations (a bar, not an edge).
         offset_floor: model error (px) of each line's offset added to its fitted standard deviation.
 
     Returns:
@@ -346,6 +365,10 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         return not_found(METHOD, "the Hough lines intersect outside the window", **diag)
     # bar half-widths from the smoothed ridges (a diagonal bar's raw rho profile alternates between cells)
     hw = [max(1.0, _bar_half_width(acc_s, i1, j1, rho_step)), max(1.0, _bar_half_width(acc_s, i2, j2, rho_step))]
+    max_hw = max(3.0, 0.125 * min(h, wd))
+    if max(hw) > max_hw:
+        return not_found(METHOD, f"a Hough line is {2 * max(hw):.0f} px wide: an edge or a blob, not a bar",
+                         **diag)
     noise = _noise(w)
     # foreground (dilated by 1 px) is kept out of the background estimate: the ring of a Wild mark crosses
     # the strips beside the lines
@@ -380,6 +403,13 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
     angle = float(_angle_diff(cur[0][0], cur[1][0]))
     if angle < np.deg2rad(min_angle):
         return not_found(METHOD, f"the fitted lines cross at only {np.rad2deg(angle):.0f} degrees", **diag)
+    for k, f in enumerate(fits):
+        if f.side_foreground > max_side_foreground:
+            return not_found(METHOD, f"line {k + 1} runs inside a bright area ({f.side_foreground:.0%} of its "
+                                     f"sides are foreground): an edge or a blob, not a bar", **diag)
+        if f.contrast < min_contrast:
+            return not_found(METHOD, f"line {k + 1} hardly stands out of its sides ({f.contrast:.1f} noise "
+                                     f"sigma): an edge, not a bar", **diag)
     for k, f in enumerate(fits):
         lo, hi = min(f.arms), max(f.arms)
         if lo < min_arm or lo < min_arm_ratio * hi:

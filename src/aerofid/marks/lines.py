@@ -72,8 +72,8 @@ OFFSET_FLOOR = 0.03
 """Model error (px) added in quadrature to each line's fitted offset: the grey-weighted centroid of a thin bar
 whose edges were integrated over the pixel area (and not blurred before sampling) is aliased by up to a few
 hundredths of a pixel (measured: 0.02-0.05 px RMS per axis on axis-aligned 1-3 px bars of aerofid.synth); the
-fit's scatter cannot see it when every slice has the same sub-pixel phase. Divided by 1 + n tan(alpha) for a
-line of n slices tilted by alpha from the nearest pixel axis (its slices then sweep the sub-pixel phases)."""
+fit's scatter cannot see it when every slice has the same sub-pixel phase. Applied to every line: on tilted
+lines (where the phases average out) it makes sigma somewhat pessimistic, never optimistic."""
 """Band / background / fit iterations of the sub-pixel refinement."""
 
 
@@ -419,15 +419,8 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
     # covariance of the intersection from the two offsets (rotation about the intersection does not move it)
     N = np.array([[np.cos(cur[0][0]), np.sin(cur[0][0])], [np.cos(cur[1][0]), np.sin(cur[1][0])]])
     Ni = np.linalg.inv(N)
-    # the aliasing floor applies in full to axis-aligned lines, whose slices all have the same sub-pixel phase;
-    # a line tilted by alpha from the pixel axes sweeps n_slices * tan(alpha) px of phase and averages it out
-    floors = []
-    for f in fits:
-        alpha = float(_angle_diff(f.theta, 0.0))
-        alpha = min(alpha, abs(np.pi / 2 - alpha))
-        floors.append(offset_floor / (1.0 + f.n_slices * np.tan(alpha)))
-    cov = Ni @ np.diag([fits[0].sigma_offset ** 2 + floors[0] ** 2,
-                        fits[1].sigma_offset ** 2 + floors[1] ** 2]) @ Ni.T
+    cov = Ni @ np.diag([fits[0].sigma_offset ** 2 + offset_floor ** 2,
+                        fits[1].sigma_offset ** 2 + offset_floor ** 2]) @ Ni.T
     sigma = 0.5 * (np.sqrt(cov[0, 0]) + np.sqrt(cov[1, 1]))
     # score
     s_arm = min(1.0, min(min(f.arms) / max(f.arms) for f in fits) / 0.5)

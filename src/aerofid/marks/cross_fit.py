@@ -87,6 +87,9 @@ def cross_model(p: np.ndarray, px: np.ndarray, py: np.ndarray, x0: float, y0: fl
     """Grey values of the blurred-cross model with parameters ``p`` at the points (px, py), and with
     ``jacobian=True`` also d(model)/d(p) as an (n, 12) array."""
     xc, yc, t1, t2, l1, l2, w, s, a, b0, bx, by = p
+    # lengths, width and blur enter by their magnitude, so an unconstrained solver cannot flip their sign
+    signs = np.sign([l1, l2, w, s]) + (np.array([l1, l2, w, s]) == 0)
+    l1, l2, w, s = abs(l1), abs(l2), abs(w), max(abs(s), 1e-6)
     dx, dy = px - xc, py - yc
     parts = []
     for t, length in ((t1, l1), (t2, l2)):
@@ -114,6 +117,7 @@ def cross_model(p: np.ndarray, px: np.ndarray, py: np.ndarray, x0: float, y0: fl
         J[:, 4 + k] = weight * pr * pu_a
         J[:, 6] += weight * pr_a * pu
         J[:, 7] += weight * (pr_s * pu + pr * pu_s)
+    J[:, 4:8] *= signs
     J[:, 8] = union
     J[:, 9] = 1.0
     J[:, 10] = px - x0
@@ -174,8 +178,10 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     v = sol.fun
     sigma0 = float(np.sqrt(v @ v / max(n - u, 1)))
     J = sol.jac
+    # pseudo-inverse: when the arms run out of the patch their lengths are not determined, but the
+    # centre still is
     try:
-        Q = np.linalg.inv(J.T @ J)
+        Q = np.linalg.pinv(J.T @ J, rcond=1e-12, hermitian=True)
     except np.linalg.LinAlgError:
         return None
     cov = sigma0 ** 2 * Q
@@ -196,11 +202,17 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
         for side in (1.0, -1.0):
             sel = core & (side * along >= gap) & (side * along <= length / 2.0)
             contrast.append(float((g[sel] - background[sel]).mean()) if sel.any() else 0.0)
-    names = ("centre x", "centre y", "angle 1", "angle 2", "length 1", "length 2", "stroke width", "blur")
-    span = hi[:8] - lo[:8]
-    on_bound = (sol.x[:8] - lo[:8] < 1e-3 * span) | (hi[:8] - sol.x[:8] < 1e-3 * span)
+    # the shape must stay in its plausible region; blur and a thin stroke may go to their lower limits
+    # (a sharp scan) and arms may be longer than the patch, but a stroke as wide as the upper bound is a
+    # blob and a bar shorter than 2 px is no arm
+    names = ("centre x", "centre y", "angle 1", "angle 2", "length 1", "length 2", "stroke width")
+    span = hi[:7] - lo[:7]
+    on_bound = (sol.x[:7] - lo[:7] < 1e-3 * span) | (hi[:7] - sol.x[:7] < 1e-3 * span)
+    on_bound[6] = hi[6] - sol.x[6] < 1e-3 * span[6]
+    on_bound[4:6] = sol.x[4:6] - lo[4:6] < 1e-3 * span[4:6]   # arms running out of the patch are fine
     if not np.all(np.isfinite(sol.x)):
         return None
+    sol.x[4:8] = np.abs(sol.x[4:8])
     at_bound = next((nm for nm, b in zip(names, on_bound) if b), "")
     return CrossFit(at_bound=at_bound, x=float(xc), y=float(yc), sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
                     theta1=float(np.rad2deg(t1)), theta2=float(np.rad2deg(t2)), length1=float(l1),

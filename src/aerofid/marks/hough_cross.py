@@ -299,6 +299,9 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
 
 MAX_REFINE_SHIFT = 2.0
 """A sub-pixel fit that moves the centre further than this (px) from the Hough centre is not trusted."""
+REFINE_WINDOW_FACTOR = 1.5
+"""When the arms reach the edge of the first-stage window, the sub-pixel fit looks at a window this many
+times larger, so that it sees the arms' ends."""
 
 
 def arm_half_length(analysis: WindowAnalysis) -> float:
@@ -341,12 +344,19 @@ def verify_candidate(image: np.ndarray, cand, refine_size: int, params: HoughPar
     refined centre within ``max_shift`` of the Hough centre). Returns :class:`Verified` or the reason."""
     from aerofid.search import extract_window
 
-    got = extract_window(image, cand.x, cand.y, refine_size)
     analysis, window, origin = cand.analysis, cand.window, cand.origin
-    if got is not None:
+    size = refine_size
+    for _ in range(2):  # the first-stage window, enlarged once if the arms reach its edge
+        got = extract_window(image, cand.x, cand.y, size)
+        if got is None:
+            break
         a = analyse_window(got[0], params)
-        if not isinstance(a, str) and np.hypot(a.x + got[1][0] - cand.x, a.y + got[1][1] - cand.y) <= max_shift:
-            analysis, window, origin = a, got[0], got[1]
+        if isinstance(a, str) or np.hypot(a.x + got[1][0] - cand.x, a.y + got[1][1] - cand.y) > max_shift:
+            break
+        analysis, window, origin = a, got[0], got[1]
+        if arm_half_length(a) + 2.0 < min(window.shape) / 2.0:
+            break
+        size = int(round(REFINE_WINDOW_FACTOR * refine_size))
     ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
     if ref is None:
         return "sub-pixel fit failed"

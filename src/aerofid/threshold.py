@@ -23,6 +23,27 @@ MIN_CONTRAST = 0.02
 all black or all white' (seed 001, Optimum Thresholding) and are rejected. About 5 grey levels of 8 bits."""
 
 
+MAD_TO_SIGMA = 1.4826
+"""Median absolute deviation -> standard deviation of a Gaussian."""
+
+
+def robust_std(values: np.ndarray) -> float:
+    """MAD_TO_SIGMA x the median absolute deviation of ``values`` (0 for no values)."""
+    v = np.asarray(values, np.float64).ravel()
+    if v.size == 0:
+        return 0.0
+    return float(MAD_TO_SIGMA * np.median(np.abs(v - np.median(v))))
+
+
+def noise_sigma(window: np.ndarray) -> float:
+    """Robust estimate of the window's white-noise standard deviation: the robust std of the horizontal
+    and vertical first differences divided by sqrt(2) (edges are a minority of differences, so the MAD
+    ignores them)."""
+    w = np.asarray(window, np.float64)
+    d = np.concatenate([np.diff(w, axis=0).ravel(), np.diff(w, axis=1).ravel()])
+    return robust_std(d) / np.sqrt(2.0)
+
+
 @dataclass(frozen=True)
 class Threshold:
     """An optimum threshold and the two classes it separates (grey levels on the window's scale)."""
@@ -120,8 +141,7 @@ def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float 
         raise ValueError("window must be a non-empty 2-D array")
     h, wd = w.shape
     region = max(2, int(region))
-    d = np.concatenate([np.diff(w, axis=0).ravel(), np.diff(w, axis=1).ravel()]).astype(np.float64)
-    noise = float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0)) if d.size else 0.0
+    noise = noise_sigma(w)
     min_sep = max(min_contrast, noise_k * noise)
     ny, nx = -(-h // region), -(-wd // region)
     t = np.full((ny, nx), np.nan)

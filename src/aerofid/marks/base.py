@@ -62,6 +62,20 @@ def not_found(method: str, reason: str, **diagnostics: Any) -> Detection:
     return Detection(status=NOT_FOUND, method=method, reason=reason, diagnostics=diagnostics)
 
 
+def unusable_window(window: np.ndarray, method: str, min_side: int = 8,
+                    min_range: float = 0.02) -> Detection | None:
+    """An explicit not-found answer for a window no detector can use (not 2-D, smaller than
+    ``min_side``, NaN or infinite values, grey range below ``min_range``), else None."""
+    w = np.asarray(window)
+    if w.ndim != 2 or min(w.shape) < min_side:
+        return not_found(method, f"window must be a 2-D array of at least {min_side} x {min_side} px")
+    if not np.isfinite(w).all():
+        return not_found(method, "window holds NaN or infinite grey levels")
+    if float(w.max() - w.min()) < min_range:
+        return not_found(method, f"homogeneous window (grey range below {min_range})")
+    return None
+
+
 def _num(v: float) -> float | None:
     v = float(v)
     return None if not np.isfinite(v) else v

@@ -34,7 +34,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from aerofid.marks.base import FOUND, Detection, not_found
+from aerofid.marks.base import FOUND, Detection, not_found, unusable_window
+from aerofid.threshold import noise_sigma
 
 METHOD = "circles"
 
@@ -105,16 +106,6 @@ class EdgePoints:
     row: np.ndarray
     edge_map: np.ndarray  # bool image of the Canny edges
     noise: float         # estimated grey-level noise of the window
-
-
-def noise_sigma(window: np.ndarray) -> float:
-    """Robust estimate of the window's white-noise standard deviation: MAD of the horizontal and vertical
-    first differences divided by sqrt(2) (edges are a minority of differences, so the MAD ignores them)."""
-    w = np.asarray(window, np.float64)
-    d = np.concatenate([np.diff(w, axis=0).ravel(), np.diff(w, axis=1).ravel()])
-    if d.size == 0:
-        return 0.0
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
 
 
 def edges(window: np.ndarray, canny_sigma: float = CANNY_SIGMA, canny_high: float = CANNY_HIGH,
@@ -478,13 +469,10 @@ def detect(window: np.ndarray, radii: tuple[float, float] | None = None, *, n_ci
         [(x0, y0, R)], ``points``, ``labels``, ``fit``.
     """
     w = np.asarray(window, np.float32)
-    if w.ndim != 2 or min(w.shape) < 8:
-        return not_found(METHOD, "window must be a 2-D array of at least 8 x 8 px")
-    if not np.isfinite(w).all():
-        return not_found(METHOD, "window holds NaN or infinite grey levels")
+    bad = unusable_window(w, METHOD)
+    if bad is not None:
+        return bad
     h, wd = w.shape
-    if float(w.max() - w.min()) < 0.02:
-        return not_found(METHOD, "homogeneous window (grey range below 0.02)")
     ep = edges(w, canny_sigma, canny_high, canny_low_ratio)
     diag: dict = {"edges": ep.edge_map, "noise": ep.noise}
     if ep.x.size < 12:

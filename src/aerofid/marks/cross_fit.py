@@ -24,6 +24,8 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import ndtr
 
+from aerofid.threshold import robust_std
+
 PATCH_MARGIN = 3.0
 """The patch fitted reaches this many px beyond the arms' estimated ends."""
 MAX_PATCH = 81
@@ -191,7 +193,7 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     background = b0 + bx * (px - x) + by * (py - y)
     # noise: residual spread of the pixels the model calls background (far from both bars)
     far = cross_model(np.r_[sol.x[:8], 1.0, 0.0, 0.0, 0.0], px, py, x, y) < 0.05
-    noise = float(1.4826 * np.median(np.abs(v[far] - np.median(v[far])))) if far.sum() >= 8 else sigma0
+    noise = robust_std(v[far]) if far.sum() >= 8 else sigma0
     contrast = []
     for k, (t, length) in enumerate(((t1, l1), (t2, l2))):
         c, sn = np.cos(t), np.sin(t)

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from aerofid.marks.base import FOUND, Detection, not_found
-from aerofid.threshold import local_dynamic_threshold
+from aerofid.marks.base import FOUND, Detection, not_found, unusable_window
+from aerofid.threshold import local_dynamic_threshold, noise_sigma, robust_std
 
 METHOD = "lines"
 
@@ -250,7 +250,7 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
     X = np.column_stack([np.ones_like(U), U])
     c0, *_ = np.linalg.lstsq(X, V, rcond=None)
     r0 = V - X @ c0
-    mad = 1.4826 * float(np.median(np.abs(r0 - np.median(r0))))
+    mad = robust_std(r0)
     inl = np.abs(r0) <= max(3.5 * mad, 0.1)
     if inl.sum() < 4:
         return None
@@ -304,11 +304,6 @@ def intersection(t1: float, r1: float, t2: float, r2: float) -> np.ndarray | Non
     return np.linalg.solve(A, np.array([r1, r2]))
 
 
-def _noise(window: np.ndarray) -> float:
-    d = np.concatenate([np.diff(window, axis=0).ravel(), np.diff(window, axis=1).ravel()]).astype(np.float64)
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0)) if d.size else 0.0
-
-
 def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THETA_STEP,
            rho_step: float = RHO_STEP, min_angle: float = MIN_ANGLE, min_peak_ratio: float = MIN_PEAK_RATIO,
            band_margin: float = BAND_MARGIN, min_arm: int = MIN_ARM, min_arm_ratio: float = MIN_ARM_RATIO,
@@ -337,13 +332,10 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         (with ``thetas``, ``rhos``), ``hough_lines`` [(theta, rho)], ``lines`` [LineFit], ``hough_centre``.
     """
     w = np.asarray(window, np.float32)
-    if w.ndim != 2 or min(w.shape) < 8:
-        return not_found(METHOD, "window must be a 2-D array of at least 8 x 8 px")
-    if not np.isfinite(w).all():
-        return not_found(METHOD, "window holds NaN or infinite grey levels")
+    bad = unusable_window(w, METHOD)
+    if bad is not None:
+        return bad
     h, wd = w.shape
-    if float(w.max() - w.min()) < 0.02:
-        return not_found(METHOD, "homogeneous window (grey range below 0.02)")
     binary, surface = local_dynamic_threshold(w, region, return_thresholds=True)
     diag: dict = {"binary": binary, "thresholds": surface}
     n_fg = int(binary.sum())
@@ -369,7 +361,7 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
     if max(hw) > max_hw:
         return not_found(METHOD, f"a Hough line is {2 * max(hw):.0f} px wide: an edge or a blob, not a bar",
                          **diag)
-    noise = _noise(w)
+    noise = noise_sigma(w)
     # foreground (dilated by 1 px) is kept out of the background estimate: the ring of a Wild mark crosses
     # the strips beside the lines
     fg_near = cv2.dilate(binary.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0

@@ -9,8 +9,8 @@ Public API:
 from aerofid.camera import Camera
 from aerofid.errors import AerofidInputError
 from aerofid.locate import Location, locate
-from aerofid.orientation import InteriorOrientation, orient
+from aerofid.orientation import AmbiguousCorrespondenceError, InteriorOrientation, orient
 
 __version__ = "0.1.0"
 
-__all__ = ["AerofidInputError", "Camera", "InteriorOrientation", "Location", "locate", "orient", "__version__"]
+__all__ = ["AerofidInputError", "AmbiguousCorrespondenceError", "Camera", "InteriorOrientation", "Location", "locate", "orient", "__version__"]

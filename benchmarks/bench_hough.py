@@ -34,7 +34,8 @@ from aerofid.marks import hough_cross as hc  # noqa: E402
 from aerofid.search import SearchParams, search_box  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
-SEED_MODE = {"verify": False, "stage2_fallback": False}
+SEED_MODE = {"method": "hough", "verify": False, "stage2_fallback": False}
+OURS = {"method": "hough"}
 
 
 def stats(errors: list[float], n: int, sigmas: list[float]) -> dict:
@@ -56,7 +57,7 @@ HEADER = ("| case | marks | found | RMS error (px) | max error (px) | accepted >
 def bench_crosses(n: int, rng) -> list[str]:
     out = []
     for label, noise, grain in (("moderate: noise 0.02, grain 0.01", 0.02, 0.01), ("heavy: noise 0.05, grain 0.02", 0.05, 0.02)):
-        for mode, kw in (("aerofid", {}), ("seed (1 px)", SEED_MODE)):
+        for mode, kw in (("aerofid", OURS), ("seed (1 px)", SEED_MODE)):
             err, sig = [], []
             for _ in range(n):
                 sc = synth.mark_scene("cross", size=rng.uniform(30, 44), width=2.0, window=120,
@@ -90,7 +91,7 @@ def bench_panels(n: int, rng) -> tuple[list[str], str]:
     out = []
     source = "real aerial texture (random crops of the Wild RC20 frame, luminance)" if REAL.exists() \
         else "synthetic aerial ground (../shared/realdata absent)"
-    for mode, kw in (("aerofid", {}), ("seed (1 px)", SEED_MODE)):
+    for mode, kw in (("aerofid", OURS), ("seed (1 px)", SEED_MODE)):
         err, sig = [], []
         rng_m = np.random.default_rng(rng.integers(1 << 31))
         for _ in range(n):
@@ -128,7 +129,7 @@ def bench_table_5_2(scenes) -> list[str]:
     box = (175, 175, 225, 225)
     for w, (s1, s2) in seed.items():
         cells = []
-        for kw in (SEED_MODE, {}):
+        for kw in (SEED_MODE, OURS):
             for sc in scenes:
                 cells.append(fmt(locate(sc.image, box, mark="panel", window_size=w, **kw)))
         lines.append(f"| {w} | {s1} | {s2} | " + " | ".join(cells) + " |")
@@ -145,7 +146,7 @@ def bench_table_5_3(scene) -> list[str]:
     box = (175, 175, 225, 225)
     for (dr, dt), s in seed.items():
         cells = [fmt(locate(scene.image, box, mark="panel", window_size=24, rho_step=dr, theta_step=dt, **kw))
-                 for kw in (SEED_MODE, {})]
+                 for kw in (SEED_MODE, OURS)]
         lines.append(f"| {dr} | {dt} | {s} | " + " | ".join(cells) + " |")
     return lines
 
@@ -158,7 +159,7 @@ def bench_table_5_4(scene) -> list[str]:
     box = (175, 175, 225, 225)
     for pct, s in seed.items():
         cells = [fmt(locate(scene.image, box, mark="panel", window_size=24, hough_threshold=pct / 100.0, **kw))
-                 for kw in (SEED_MODE, {})]
+                 for kw in (SEED_MODE, OURS)]
         lines.append(f"| {pct} | {s} | " + " | ".join(cells) + " |")
     return lines
 
@@ -171,7 +172,7 @@ def bench_noise(rng, repeats: int) -> list[str]:
              "| median error (px) | max error (px) | median score |", "|---|---|---|---|---|---|---|---|"]
     for frac in (0.10, 0.20, 0.25, 0.30, 0.40, 0.50, 0.60):
         res = {}
-        for mode, kw in (("seed", SEED_MODE), ("ours", {})):
+        for mode, kw in (("seed", SEED_MODE), ("ours", OURS)):
             errs, scores = [], []
             for _ in range(repeats):
                 img = synth.film_border((90, 90), rng, level=0.05, gradient=0.0)
@@ -217,7 +218,7 @@ def bench_table_5_1(scene) -> list[str]:
             s2 = f"{c2.x:.1f} | {c2.y:.1f} | {c2.metric:.2f}" if c2 is not None else " | | "
             lines.append(f"| {c1.x:.1f} | {c1.y:.1f} | {c1.metric:.2f} | {s2} |")
         lines.append("\n</details>\n")
-        best = locate(scene.image, (0, 0, 404, 404), mark="panel", window_size=w)
+        best = locate(scene.image, (0, 0, 404, 404), mark="panel", window_size=w, **OURS)
         lines.append(f"\naerofid's answer for the whole image (window {w}): "
                      + (f"({best.x:.2f}, {best.y:.2f}), score {best.score:.2f}" if best.found else f"not found ({best.reason})"))
     return lines
@@ -238,12 +239,12 @@ def bench_speed(rng, repeats: int) -> list[str]:
     box = (10, 10, 210, 210)
     panel = thesis_scene(1, rng)
     rows = [
-        ("200 x 200 box, external cross (aerofid)", lambda: locate(sc.image, box, mark="external")),
+        ("200 x 200 box, external cross (aerofid)", lambda: locate(sc.image, box, mark="external", **OURS)),
         ("200 x 200 box, external cross (seed algorithm)", lambda: locate(sc.image, box, mark="external", **SEED_MODE)),
-        ("50 x 50 box, 8 px panel (aerofid)", lambda: locate(panel.image, (175, 175, 225, 225), mark="panel")),
-        ("whole 404 x 404 image, panel, window 16 (aerofid)", lambda: locate(panel.image, (0, 0, 404, 404), mark="panel")),
+        ("50 x 50 box, 8 px panel (aerofid)", lambda: locate(panel.image, (175, 175, 225, 225), mark="panel", **OURS)),
+        ("whole 404 x 404 image, panel, window 16 (aerofid)", lambda: locate(panel.image, (0, 0, 404, 404), mark="panel", **OURS)),
         ("whole 404 x 404 image, panel, window 16, every candidate (table 5.1)",
-         lambda: locate(panel.image, (0, 0, 404, 404), mark="panel", exhaustive=True)),
+         lambda: locate(panel.image, (0, 0, 404, 404), mark="panel", exhaustive=True, **OURS)),
     ]
     lines = ["| case | median time (ms) |", "|---|---|"]
     for name, fn in rows:

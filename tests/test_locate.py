@@ -36,7 +36,7 @@ def run_cli(*args, cwd=None):
 
 def test_locate_a_path_in_full_image_pixels(scan):
     path, (cx, cy) = scan
-    r = aerofid.locate(path, (180, 90, 290, 200), mark="external")
+    r = aerofid.locate(path, (180, 90, 290, 200), mark="external", method="hough")
     assert r.found and r.method == "hough"
     assert np.hypot(r.x - cx, r.y - cy) < 0.1
     assert 0 < r.sigma < 0.1 and 0.5 < r.score <= 1

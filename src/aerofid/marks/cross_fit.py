@@ -32,6 +32,15 @@ MAX_PATCH = 81
 """Largest patch side fitted (px); longer arms are fitted over their inner part."""
 ANGLE_RANGE = np.deg2rad(35.0)
 """How far (rad) a bar's fitted angle may move from the Hough estimate before the fit is not trusted."""
+MODEL_TOLERANCE = 0.03
+"""The model's own imperfection (union of blurred bars, Gaussian blur) as a fraction of the amplitude: the
+misfit is measured against the larger of the noise and this, so that a nearly noise-free scan is not
+held to a perfection no model reaches."""
+ROBUST_PASSES = 2
+"""Reweighted refits after the first least-squares fit (Huber weights)."""
+HUBER_K = 3.0
+"""Residuals beyond this many robust standard deviations are down-weighted (Huber)."""
+
 
 
 @dataclass(frozen=True)
@@ -55,6 +64,10 @@ class CrossFit:
     """Mean data minus fitted background along each of the four half-arms."""
     at_bound: str = ""
     """Name of a shape parameter that ended on its bound (the model did not find a '+'), or empty."""
+    misfit: float = 0.0
+    """Robust spread of the residuals on the mark (model coverage > 0.5) over the noise of its
+    surroundings (at least ``MODEL_TOLERANCE`` x the amplitude): about 1 when the model explains the
+    mark, larger for a feature that only resembles it."""
 
     @property
     def arm_balance(self) -> float:
@@ -80,7 +93,8 @@ def _profile(u: np.ndarray, extent: float, s: float) -> tuple[np.ndarray, np.nda
     """A box of width ``extent`` blurred by a Gaussian of std ``s`` at ``u``, and its derivatives by u,
     extent and s: P = Phi(alpha) - Phi(beta), alpha = (u + extent/2)/s, beta = (u - extent/2)/s."""
     al, be = (u + extent / 2.0) / s, (u - extent / 2.0) / s
-    pa, pb = np.exp(-0.5 * al * al) / SQRT_2PI, np.exp(-0.5 * be * be) / SQRT_2PI
+    with np.errstate(over="ignore", under="ignore"):  # far from the edges the Gaussian is 0
+        pa, pb = np.exp(-0.5 * al * al) / SQRT_2PI, np.exp(-0.5 * be * be) / SQRT_2PI
     return ndtr(al) - ndtr(be), (pa - pb) / s, (pa + pb) / (2.0 * s), -(al * pa - be * pb) / s
 
 
@@ -91,7 +105,7 @@ def cross_model(p: np.ndarray, px: np.ndarray, py: np.ndarray, x0: float, y0: fl
     xc, yc, t1, t2, l1, l2, w, s, a, b0, bx, by = p
     # lengths, width and blur enter by their magnitude, so an unconstrained solver cannot flip their sign
     signs = np.sign([l1, l2, w, s]) + (np.array([l1, l2, w, s]) == 0)
-    l1, l2, w, s = abs(l1), abs(l2), abs(w), max(abs(s), 1e-6)
+    l1, l2, w, s = abs(l1), abs(l2), abs(w), max(abs(s), 0.05)
     dx, dy = px - xc, py - yc
     parts = []
     for t, length in ((t1, l1), (t2, l2)):
@@ -162,23 +176,42 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
                    np.inf, np.inf, np.inf])
     p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
 
+    weights = np.ones_like(g)
+
     def residuals(p):
-        return cross_model(p, px, py, x, y) - g
+        return weights * (cross_model(p, px, py, x, y) - g)
 
     def jac(p):
-        return cross_model(p, px, py, x, y, jacobian=True)[1]
+        return weights[:, None] * cross_model(p, px, py, x, y, jacobian=True)[1]
 
-    try:
-        # Levenberg-Marquardt (MINPACK) without bounds is several times faster than the bounded
-        # trust-region solver; a solution that leaves the plausible region is reported via ``at_bound``
-        sol = least_squares(residuals, p0, jac=jac, method="lm", x_scale="jac", max_nfev=200)
-    except (ValueError, np.linalg.LinAlgError):
-        return None
-    if not sol.success and sol.status <= 0:
-        return None
+    # Levenberg-Marquardt (MINPACK) without bounds is several times faster than the bounded trust-region
+    # solver; a solution that leaves the plausible region is reported via ``at_bound``. Then iteratively
+    # reweighted: pixels hit by dust, scratches or impulse noise (|v| > HUBER_K robust sigmas) get Huber
+    # weights, so that they neither pull the centre nor inflate the misfit.
+    sol = None
+    for _ in range(1 + ROBUST_PASSES):
+        try:
+            with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
+                sol = least_squares(residuals, p0 if sol is None else sol.x, jac=jac, method="lm",
+                                    x_scale="jac", max_nfev=200)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        if not np.all(np.isfinite(sol.x)):
+            return None
+        if not sol.success and sol.status <= 0:
+            return None
+        v_raw = cross_model(sol.x, px, py, x, y) - g
+        scale = max(robust_std(v_raw), 1e-6)
+        a = np.abs(v_raw) / (HUBER_K * scale)
+        new_weights = np.sqrt(np.where(a > 1.0, 1.0 / np.maximum(a, 1e-12), 1.0))
+        if np.allclose(new_weights, weights):
+            break
+        weights = new_weights
+    sol.fun = cross_model(sol.x, px, py, x, y) - g
+    sol.jac = jac(sol.x)
     n, u = g.size, p0.size
     v = sol.fun
-    sigma0 = float(np.sqrt(v @ v / max(n - u, 1)))
+    sigma0 = float(np.sqrt((weights * v) @ (weights * v) / max(n - u, 1)))
     J = sol.jac
     # pseudo-inverse: when the arms run out of the patch their lengths are not determined, but the
     # centre still is
@@ -192,8 +225,11 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     xc, yc, t1, t2, l1, l2, wd, s, a, b0, bx, by = sol.x
     background = b0 + bx * (px - x) + by * (py - y)
     # noise: residual spread of the pixels the model calls background (far from both bars)
-    far = cross_model(np.r_[sol.x[:8], 1.0, 0.0, 0.0, 0.0], px, py, x, y) < 0.05
+    shape = cross_model(np.r_[sol.x[:8], 1.0, 0.0, 0.0, 0.0], px, py, x, y)
+    far, on = shape < 0.05, shape > 0.5
     noise = robust_std(v[far]) if far.sum() >= 8 else sigma0
+    tolerance = max(noise, MODEL_TOLERANCE * abs(float(sol.x[8])), 1e-9)
+    misfit = robust_std(v[on]) / tolerance if on.sum() >= 8 else float("inf")
     contrast = []
     for k, (t, length) in enumerate(((t1, l1), (t2, l2))):
         c, sn = np.cos(t), np.sin(t)
@@ -216,7 +252,7 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
         return None
     sol.x[4:8] = np.abs(sol.x[4:8])
     at_bound = next((nm for nm, b in zip(names, on_bound) if b), "")
-    return CrossFit(at_bound=at_bound, x=float(xc), y=float(yc), sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
+    return CrossFit(at_bound=at_bound, misfit=float(misfit), x=float(xc), y=float(yc), sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
                     theta1=float(np.rad2deg(t1)), theta2=float(np.rad2deg(t2)), length1=float(l1),
                     length2=float(l2), width=float(wd), blur=float(s), amplitude=float(a), sigma0=sigma0,
                     noise=noise, arm_contrast=tuple(contrast))

@@ -77,8 +77,10 @@ class CrossFit:
 
     @property
     def arm_snr(self) -> float:
-        """Weakest half-arm's contrast over the grey-level noise."""
-        return float(min(self.arm_contrast) / max(self.noise, 1e-9))
+        """The weaker of the fitted amplitude and the weakest half-arm's contrast, over the larger of the
+        background noise and the fit's RMS residual (so sparse impulse noise, which the robust background
+        estimate ignores, still counts)."""
+        return float(min(min(self.arm_contrast), self.amplitude) / max(self.noise, self.sigma0, 1e-9))
 
     @property
     def sigma(self) -> float:

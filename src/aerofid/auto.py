@@ -70,11 +70,14 @@ MAX_ASYMMETRY = 0.2
 """Largest share of the mark disc's structure that may change under a 180-degree rotation."""
 LONE_FACTOR = 0.8
 """A lone (uncorroborated) answer's evidence is scaled by this."""
-MIN_SCORE = 0.5
-"""Detector score below which a lone answer is not accepted."""
+MIN_SCORE = {"hough": 0.2, "circles": 0.5, "symmetry": 0.5}
+"""Detector score below which a lone answer is not accepted (``hough``: its own minimum metric, seed 001)."""
+SECOND_RATIO = 0.5
+"""Uniqueness: a second answer of a method counts when its score reaches this fraction of the mark's own
+score by that method (any score when the method did not answer for the mark)."""
 MIN_CORE_SNR = 8.0
 """A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma off the ground."""
-ISOLATE_FACTOR = 2.5
+ISOLATE_FACTOR = 2.0
 """Step 4 isolates a blob within this many times its radius (plus 2 px)."""
 MIN_BLOB_SNR = 10.0
 """Step 4: a compact blob's peak must stand this many noise sigma above the ground."""
@@ -197,13 +200,15 @@ def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: f
     return float(max(0.0, (dd * dd).mean() - 2.0 * n * n) / (2.0 * sig))
 
 
-def blank_disc(img: np.ndarray, x: float, y: float, radius: float) -> np.ndarray:
-    """A copy of ``img`` with the disc of ``radius`` around (x, y) replaced by the ground level around it."""
+def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float = 0.0) -> np.ndarray:
+    """A copy of ``img`` with the disc of ``radius`` around (x, y) replaced by the ground level around it plus
+    white noise of std ``noise`` (a fixed seed: deterministic), so that the blank looks like plain ground."""
     h, w = img.shape
     yy, xx = np.mgrid[0:h, 0:w]
-    d = np.hypot(xx - x, yy - y)
+    d = np.hypot(xx - x, yy - y) <= radius
     out = img.copy()
-    out[d <= radius] = ground_level(img, x, y, radius, radius + 5)
+    fill = np.random.default_rng(12345).normal(0.0, noise, int(d.sum())) if noise > 0 else 0.0
+    out[d] = (ground_level(img, x, y, radius, radius + 5) + fill).astype(np.float32)
     return out
 
 
@@ -340,8 +345,12 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
                                              "apart", **diag)
     if len(group) == 1:
         lone = group[0]
-        if lone.score < MIN_SCORE:
+        if lone.score < MIN_SCORE.get(lone.method, 0.5):
             return not_found(METHOD, f"lone {lone.method} answer with a low score ({lone.score:.2f})", **diag)
+        if lone.method == "hough" and mark != "panel":
+            return not_found(METHOD, f"a lone hough '+' at ({lone.x:.1f}, {lone.y:.1f}) that neither lines nor "
+                                     "symmetry confirm on a crop around it: not corroborated (say mark='panel' "
+                                     "for a cloth panel on textured ground)", **diag)
         if lone.method == "symmetry":
             c = core_contrast(img, lone.x, lone.y, extent, noise)
             diag["core_snr"] = c
@@ -351,25 +360,30 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
         rule = f"lone {lone.method}"
     else:
         rule = "corroborated by " + ", ".join(d.method for d in group)
-    return _finish(img, group, extent, noise, run, rule, diag)
+    return _finish(img, group, extent, noise, run, have, rule, diag, mark == "panel")
 
 
-def _finish(img, group, extent, noise, run, rule, diag) -> Detection:
+def _finish(img, group, extent, noise, run, have, rule, diag, panel=False) -> Detection:
     best = min(group, key=lambda d: d.sigma if np.isfinite(d.sigma) else 1e9)
     chk = verify_centre(img, best.x, best.y, extent, noise)
     diag.update(check=chk, rule=rule, extent=extent)
     if not chk.ok:
         return not_found(METHOD, chk.reason, **diag)
     # uniqueness: blank the mark, look again
-    blanked = blank_disc(img, best.x, best.y, extent + EDGE_MARGIN)
+    blanked = blank_disc(img, best.x, best.y, extent + EDGE_MARGIN, noise)
     again = []
-    rest = _structure_left(blanked, img, best.x, best.y, extent, noise)
-    diag["structure_left"] = rest
-    for m in sorted({d.method for d in group} | {"symmetry"}) if rest else ():
-        if m in ("lines", "centroid"):
+    rest, blobs = structure_left(blanked, img, best.x, best.y, extent, noise)
+    diag.update(structure_left=rest, mark_like=blobs)
+    if blobs and not panel:
+        x0, y0, x1, y1, area = blobs[0]
+        return not_found(METHOD, f"a second mark-like feature ({area} px in ({x0}, {y0})-({x1}, {y1})) besides the "
+                                 f"mark at ({best.x:.1f}, {best.y:.1f}): ambiguous, draw a tighter box", **diag)
+    own = {d.method: d.score for d in group}
+    for m in sorted(set(own) | {"symmetry", "circles"}) if rest else ():
+        if m in ("lines", "centroid") or m not in have:
             continue
         d = run(m, blanked)
-        if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent:
+        if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent and d.score >= SECOND_RATIO * own.get(m, 0.0):
             again.append(d)
     diag["second_marks"] = again
     if again:
@@ -386,67 +400,81 @@ def _finish(img, group, extent, noise, run, rule, diag) -> Detection:
                      diagnostics=dict(diag, members=group))
 
 
-def _structure_left(blanked, img, x, y, extent, noise) -> int:
-    """Pixels of ``blanked`` (the window with the mark blanked out) whose grey level, smoothed by 1 px, stands
-    out of the ground by more than max(6 x its noise, a quarter of the mark's amplitude): none means the box
-    holds nothing but the mark and flat ground, and the uniqueness re-runs can be skipped."""
-    g = float(np.median(blanked))
-    sm = cv2.GaussianBlur(blanked, (0, 0), 1.0)
+def _significance(img, x, y, extent, noise):
+    """(smoothed image, ground level, threshold): a pixel of the image smoothed by 1 px is significant when it
+    differs from the window's median by more than max(6 x its noise, a quarter of the mark's amplitude)."""
+    g = float(np.median(img))
+    sm = cv2.GaussianBlur(img, (0, 0), 1.0)
     k = int(np.ceil(extent))
     amp = float(np.abs(cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0) - g).max())
-    thr = max(6.0 * noise * 0.28, 0.25 * amp)
-    return int((np.abs(sm - g) > thr).sum())
+    return sm, g, max(6.0 * noise * 0.28, 0.25 * amp)
+
+
+def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, extent: float,
+                   noise: float) -> tuple[int, list[tuple[int, int, int, int, int]]]:
+    """What remains of the window once the mark is blanked out (:func:`blank_disc`): the number of significant
+    pixels (:func:`_significance`) and the *mark-like* connected components among them, (x0, y0, x1, y1,
+    area): at least a quarter of the mark's own significant area (and 6 px) and compact (bounding box at
+    most 2.5 mark diameters across). None left means the box holds nothing but the mark and plain ground."""
+    sm0, g, thr = _significance(img, x, y, extent, noise)
+    h, w = img.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    own = int(((np.abs(sm0 - g) > thr) & (np.hypot(xx - x, yy - y) <= extent + EDGE_MARGIN)).sum())
+    sm = cv2.GaussianBlur(blanked, (0, 0), 1.0)
+    sig = (np.abs(sm - g) > thr).astype(np.uint8)
+    n, lab, stats, _ = cv2.connectedComponentsWithStats(sig, connectivity=8)
+    marks = []
+    for i in range(1, n):
+        x0, y0, bw, bh, area = (int(v) for v in stats[i])
+        if area >= max(6, 0.25 * own) and np.hypot(bw, bh) <= 2.5 * 2 * (extent + EDGE_MARGIN):
+            marks.append((x0, y0, x0 + bw, y0 + bh, area))
+    return int(sig.sum()), marks
 
 
 def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
     """Step 4 of the module docstring."""
     if "symmetry" not in have:
         return not_found(METHOD, _reasons(answers), **diag)
-    g = float(np.median(img))
-    best = None
-    for s in (1.0, 1.5, 2.5, 4.0):
-        dog = cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)
-        dog *= s  # comparable across scales
-        yy, xx = np.unravel_index(int(np.argmax(dog)), dog.shape)
-        if best is None or dog[yy, xx] > best[0]:
-            best = (float(dog[yy, xx]), int(xx), int(yy), s)
-    _, bx, by, s = best
     h, w = img.shape
-    peak = float(cv2.GaussianBlur(img, (0, 0), 0.7)[by, bx]) - g
-    if peak < MIN_BLOB_SNR * noise:
-        return not_found(METHOD, _reasons(answers), **diag)
-    # blob radius: half-maximum of the radial profile
-    k = int(min(20, bx, by, w - 1 - bx, h - 1 - by))
-    if k < 4:
-        return not_found(METHOD, _reasons(answers) + "; a compact blob at the box edge", **diag)
-    p = _patch(img, bx, by, k)
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    rr = np.hypot(xx, yy)
-    prof = np.array([p[(rr >= r - 0.5) & (rr < r + 0.5)].mean() for r in range(k + 1)])
-    base = float(np.median(p[rr > k - 2]))
-    half = np.flatnonzero(prof - base < 0.5 * (prof[0] - base))
-    if not half.size:
-        return not_found(METHOD, _reasons(answers), **diag)
-    r_blob = float(half[0])
+    peaks = []
+    for s in (1.0, 1.5, 2.0, 2.5):
+        dog = (cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)) * s
+        dil = cv2.dilate(dog, np.ones((5, 5), np.uint8))
+        ys, xs = np.nonzero((dog >= dil) & (dog > 0))
+        peaks += [(float(dog[y, x]), int(x), int(y)) for y, x in zip(ys, xs)]
+    peaks.sort(key=lambda t: (-t[0], t[2], t[1]))
+    seen: list[tuple[int, int]] = []
+    blob = None
+    why = "no compact blob with flat surroundings"
+    for _, bx, by in peaks:
+        if any(abs(bx - sx) <= 3 and abs(by - sy) <= 3 for sx, sy in seen):
+            continue
+        seen.append((bx, by))
+        if len(seen) > 12:
+            break
+        got = _flat_blob(img, bx, by, noise)
+        if isinstance(got, str):
+            why = got
+            continue
+        blob = (bx, by, got)
+        break
+    if blob is None:
+        return not_found(METHOD, _reasons(answers) + f"; {why}", **diag)
+    bx, by, r_blob = blob
     iso = ISOLATE_FACTOR * r_blob + 2.0
-    if iso + 2 > k:
-        return not_found(METHOD, _reasons(answers), **diag)
-    # the surroundings must be flat: the annulus r_blob + 2 .. iso holds only noise
-    ann = (rr >= r_blob + 2.0) & (rr <= iso)
-    if ann.sum() < 8 or float(p[ann].std()) > 2.0 * noise:
-        return not_found(METHOD, _reasons(answers) + "; the compact blob's surroundings are not flat", **diag)
     cx, cy = float(bx), float(by)
     det = None
     for _ in range(2):
-        half_w = max(9, int(np.ceil(iso + 6)))
+        half_w = max(16, int(np.ceil(iso + 8)))
         sub, x0, y0 = _crop(img, cx, cy, half_w)
         sy, sx = np.mgrid[0:sub.shape[0], 0:sub.shape[1]]
         gl = ground_level(sub, cx - x0, cy - y0, iso, iso + 3)
-        iso_img = np.where(np.hypot(sx - (cx - x0), sy - (cy - y0)) <= iso, sub, gl).astype(np.float32)
+        fill = gl + np.random.default_rng(12345).normal(0.0, noise, sub.shape)
+        iso_img = np.where(np.hypot(sx - (cx - x0), sy - (cy - y0)) <= iso, sub, fill).astype(np.float32)
         det = run("symmetry", iso_img)
         if not det.found:
             answers["symmetry@isolated"] = det
-            return not_found(METHOD, _reasons(answers), **diag)
+            return not_found(METHOD, _reasons(answers) + f"; isolated compact blob: {det.reason}", **diag)
         det = _shift(det, x0, y0)
         cx, cy = det.x, det.y
     answers["symmetry@isolated"] = det
@@ -465,7 +493,34 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
                                  f"({centroid.x:.2f}, {centroid.y:.2f}) disagree", **diag)
     group = [det, centroid]
     diag["groups"] = [group]
-    return _finish(img, group, r_blob + 2.0, noise, run, "isolated compact dot: symmetry + centroid", diag)
+    return _finish(img, group, r_blob + 2.0, noise, run, have, "isolated compact dot: symmetry + centroid", diag)
+
+
+def _flat_blob(img, bx, by, noise) -> float | str:
+    """Radius (px, half maximum of the radial profile) of a compact bright blob at pixel (bx, by) whose
+    surroundings out to ``ISOLATE_FACTOR`` x that radius + 2 px are flat (std <= 2 noise), or why not."""
+    h, w = img.shape
+    k = int(min(20, bx, by, w - 1 - bx, h - 1 - by))
+    if k < 5:
+        return "a compact blob at the box edge"
+    p = _patch(img, bx, by, k)
+    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+    rr = np.hypot(xx, yy)
+    prof = np.array([p[(rr >= r - 0.5) & (rr < r + 0.5)].mean() for r in range(k + 1)])
+    base = float(np.median(p[rr > k - 2]))
+    if prof[0] - base < MIN_BLOB_SNR * noise:
+        return "the brightest compact blob is too faint"
+    half = np.flatnonzero(prof - base < 0.5 * (prof[0] - base))
+    if not half.size:
+        return "a blob larger than 20 px"
+    r_blob = max(1.0, float(half[0]))
+    iso = ISOLATE_FACTOR * r_blob + 2.0
+    ann = (rr >= r_blob + 2.0) & (rr <= iso)
+    if iso + 2 > k or ann.sum() < 8:
+        return "a compact blob too close to the box edge"
+    if float(p[ann].std()) > 2.0 * noise:
+        return "the compact blob's surroundings are not flat"
+    return r_blob
 
 
 def _reasons(answers: dict[str, Detection]) -> str:

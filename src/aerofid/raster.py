@@ -21,6 +21,7 @@ exclusive. Every bad input raises :class:`aerofid.errors.AerofidInputError` with
 
 from __future__ import annotations
 
+import functools
 import math
 import operator
 import os
@@ -32,6 +33,7 @@ import numpy as np
 import tifffile
 
 from aerofid.errors import AerofidInputError
+from aerofid.threshold import MAD_TO_SIGMA
 
 __all__ = [
     "COLOUR_POLICIES",
@@ -63,8 +65,8 @@ MIX_WEIGHTS = {
     "green": (0.0, 1.0, 0.0),
     "blue": (0.0, 0.0, 1.0),
 }
-#: Scale of the median absolute deviation to the standard deviation of Gaussian noise.
-MAD_TO_SIGMA = 1.4826
+#: How many decoded JPEG/PNG files stay in memory between calls.
+DECODED_CACHE = 2
 #: Noise floor (grey levels in [0, 1]) for float windows, which have no quantisation step.
 FLOAT_NOISE_FLOOR = 1e-6
 
@@ -375,6 +377,14 @@ def _decode_with_cv2(path: Path) -> np.ndarray:
     return image
 
 
+@functools.lru_cache(maxsize=DECODED_CACHE)
+def _decoded(path: str, mtime_ns: int, size: int) -> np.ndarray:
+    """:func:`_decode_with_cv2`, cached by path, modification time and size; the array is read-only."""
+    image = _decode_with_cv2(Path(path))
+    image.setflags(write=False)
+    return image
+
+
 class _ArrayReader:
     """Windows of a (rows, columns, samples) array that is made on first need and then kept: a whole
     decoded image, or a memory map of the file."""
@@ -474,8 +484,10 @@ class Raster:
             self._open_cv2()
 
     def _open_cv2(self) -> None:
-        """Decode a JPEG or PNG whole; it stays in memory for all window reads."""
-        image = _decode_with_cv2(self.path)
+        """Decode a JPEG or PNG whole; it stays in memory for all window reads, and the last few decoded
+        files are kept (:func:`_decoded`) so that locating several marks in one JPEG decodes it once."""
+        st = self.path.stat()
+        image = _decoded(str(self.path.resolve()), st.st_mtime_ns, st.st_size)
         self.height, self.width, samples = image.shape
         self.bands = _bands_for_samples(samples, self.path)
         self.dtype = _check_dtype(image.dtype, self.path)

@@ -197,6 +197,9 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
         nonlocal best, best_check
         if best is not None and c.metric <= best.metric:
             return False
+        near = next((r for r in rejected if abs(r[0].x - c.x) + abs(r[0].y - c.y) < sp.convergence), None)
+        if near is not None:  # the same feature, already refused: do not fit it again
+            return False
         check = verify(c, size1) if verify is not None else None
         if isinstance(check, str):
             rejected.append((c, check))

@@ -36,6 +36,8 @@ MODEL_TOLERANCE = 0.03
 """The model's own imperfection (union of blurred bars, Gaussian blur) as a fraction of the amplitude: the
 misfit is measured against the larger of the noise and this, so that a nearly noise-free scan is not
 held to a perfection no model reaches."""
+MAX_EVALUATIONS = 100
+"""Most model evaluations per least-squares pass (a '+' converges in 10-30; what needs more is no '+')."""
 ROBUST_PASSES = 2
 """Reweighted refits after the first least-squares fit (Huber weights)."""
 HUBER_K = 3.0
@@ -195,7 +197,7 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
         try:
             with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
                 sol = least_squares(residuals, p0 if sol is None else sol.x, jac=jac, method="lm",
-                                    x_scale="jac", max_nfev=200)
+                                    x_scale="jac", max_nfev=MAX_EVALUATIONS)
         except (ValueError, np.linalg.LinAlgError):
             return None
         if not np.all(np.isfinite(sol.x)):

@@ -79,6 +79,9 @@ MIN_CORE_SNR = 8.0
 """A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma off the ground."""
 ISOLATE_FACTOR = 2.0
 """Step 4 isolates a blob within this many times its radius (plus 2 px)."""
+MIN_PLAIN = 0.5
+"""Step 4 runs only on plain ground (film border): at least this fraction of the box within 4 noise sigma
+of its median grey level (aerial ground, an image-area edge in the box: no isolated-dot search)."""
 MIN_BLOB_SNR = 10.0
 """Step 4: a compact blob's peak must stand this many noise sigma above the ground."""
 
@@ -360,6 +363,7 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
         rule = f"lone {lone.method}"
     else:
         rule = "corroborated by " + ", ".join(d.method for d in group)
+        extent = _extent(img, group, noise)
     return _finish(img, group, extent, noise, run, have, rule, diag, mark == "panel")
 
 
@@ -415,7 +419,7 @@ def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, ext
     """What remains of the window once the mark is blanked out (:func:`blank_disc`): the number of significant
     pixels (:func:`_significance`) and the *mark-like* connected components among them, (x0, y0, x1, y1,
     area): at least a quarter of the mark's own significant area (and 6 px) and compact (bounding box at
-    most 2.5 mark diameters across). None left means the box holds nothing but the mark and plain ground."""
+    most 1.5 mark diameters across; an image-area edge or a frame running through the box is not mark-like). None left means the box holds nothing but the mark and plain ground."""
     sm0, g, thr = _significance(img, x, y, extent, noise)
     h, w = img.shape
     yy, xx = np.mgrid[0:h, 0:w]
@@ -426,7 +430,7 @@ def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, ext
     marks = []
     for i in range(1, n):
         x0, y0, bw, bh, area = (int(v) for v in stats[i])
-        if area >= max(6, 0.25 * own) and np.hypot(bw, bh) <= 2.5 * 2 * (extent + EDGE_MARGIN):
+        if area >= max(6, 0.25 * own) and max(bw, bh) <= 1.5 * 2 * (extent + EDGE_MARGIN):
             marks.append((x0, y0, x0 + bw, y0 + bh, area))
     return int(sig.sum()), marks
 
@@ -435,7 +439,12 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
     """Step 4 of the module docstring."""
     if "symmetry" not in have:
         return not_found(METHOD, _reasons(answers), **diag)
-    h, w = img.shape
+    plain = float((np.abs(img - np.median(img)) <= 4.0 * noise).mean())
+    diag["plain_ground"] = plain
+    if plain < MIN_PLAIN:
+        return not_found(METHOD, _reasons(answers) + f"; the ground is not plain (only {plain:.0%} of the box is "
+                                 "within 4 noise sigma of its median): no isolated dot is looked for", **diag)
+    ground = float(np.median(img[np.abs(img - np.median(img)) <= 4.0 * noise]))
     peaks = []
     for s in (1.0, 1.5, 2.0, 2.5):
         dog = (cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)) * s
@@ -452,7 +461,7 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
         seen.append((bx, by))
         if len(seen) > 12:
             break
-        got = _flat_blob(img, bx, by, noise)
+        got = _flat_blob(img, bx, by, noise, ground)
         if isinstance(got, str):
             why = got
             continue
@@ -493,12 +502,13 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
                                  f"({centroid.x:.2f}, {centroid.y:.2f}) disagree", **diag)
     group = [det, centroid]
     diag["groups"] = [group]
-    return _finish(img, group, r_blob + 2.0, noise, run, have, "isolated compact dot: symmetry + centroid", diag)
+    return _finish(img, group, r_blob + 1.0, noise, run, have, "isolated compact dot: symmetry + centroid", diag)
 
 
-def _flat_blob(img, bx, by, noise) -> float | str:
+def _flat_blob(img, bx, by, noise, ground) -> float | str:
     """Radius (px, half maximum of the radial profile) of a compact bright blob at pixel (bx, by) whose
-    surroundings out to ``ISOLATE_FACTOR`` x that radius + 2 px are flat (std <= 2 noise), or why not."""
+    surroundings out to ``ISOLATE_FACTOR`` x that radius + 2 px are flat (std <= 2 noise) and at the plain
+    ground's level ``ground`` (within 4 noise), or why not."""
     h, w = img.shape
     k = int(min(20, bx, by, w - 1 - bx, h - 1 - by))
     if k < 5:
@@ -520,6 +530,8 @@ def _flat_blob(img, bx, by, noise) -> float | str:
         return "a compact blob too close to the box edge"
     if float(p[ann].std()) > 2.0 * noise:
         return "the compact blob's surroundings are not flat"
+    if abs(float(np.median(p[ann])) - ground) > 4.0 * noise:
+        return "the compact blob does not lie on the plain ground"
     return r_blob
 
 

@@ -26,8 +26,9 @@ MARKS = ("auto", "external", "panel")
 POLARITIES = ("bright", "dark", "auto")
 """The mark is brighter than its ground (most fiducials), darker (negatives, some panels), or either."""
 
-AUTO_METHODS = ("hough",)
-"""What ``method="auto"`` runs, in order; the most reliable answer wins."""
+AUTO_METHODS = ("circles", "symmetry", "hough", "lines")
+"""The detectors ``method="auto"`` may use; which of them run, how they are cross-checked and which answer
+is trusted is the rule of :mod:`aerofid.auto`."""
 
 
 @dataclass(frozen=True)
@@ -101,7 +102,31 @@ def read_box(image: str | os.PathLike | np.ndarray, box) -> tuple[np.ndarray, tu
     return a[y0:y1, x0:x1], clipped, was, None
 
 
+def _check_auto_params(params: dict) -> None:
+    """``method="auto"`` passes the user's parameters to ``hough``: check them before anything runs."""
+    from aerofid.marks.hough_cross import HoughParams
+    from aerofid.search import SearchParams
+
+    extra = {"verify", "min_arm_balance", "min_arm_snr"}
+    hk, sk = set(HoughParams.__dataclass_fields__), set(SearchParams.__dataclass_fields__)
+    unknown = set(params) - hk - sk - extra
+    if unknown:
+        raise AerofidInputError(f"unknown parameter(s) for method 'auto' (which passes them to 'hough'): "
+                                f"{', '.join(sorted(unknown))}")
+    try:
+        HoughParams(**{k: v for k, v in params.items() if k in hk})
+        SearchParams(**{k: v for k, v in params.items() if k in sk})
+    except (TypeError, ValueError) as e:
+        raise AerofidInputError(f"bad parameter for method 'auto': {e}") from None
+
+
 def _run(method: str, grey: np.ndarray, mark: str, params: dict) -> Detection:
+    if method == "auto":
+        from aerofid.auto import detect_auto, make_runner
+
+        have = available_methods()
+        return detect_auto(grey, mark, run=make_runner(mark, params),
+                           methods=[m for m in AUTO_METHODS if m in have])
     fn = detector(method)
     kwargs = dict(params)
     if method == "hough":
@@ -121,8 +146,10 @@ def locate(image: str | os.PathLike | np.ndarray, box, mark: str = "auto", metho
         box: (x0, y0, x1, y1) in full-image pixels, x1 and y1 exclusive; a box partly outside the image is
             clipped (``Location.clipped``), one wholly outside is an error.
         mark: "external" (film fiducial), "panel" (cloth ground panel) or "auto".
-        method: "hough" (Hunt, Ryan & Gifford) or "auto" (every applicable method; the most reliable
-            answer wins). Further methods arrive through the same signature.
+        method: "hough" (Hunt, Ryan & Gifford), "symmetry" (Cho & Kim), "circles" (Seedahmed), "lines"
+            (Sohn et al.) runs that one detector; "auto" runs the detectors that apply, cross-checks them and
+            answers only with a corroborated, verified centre (:mod:`aerofid.auto`; ``score`` is then
+            comparable across methods and ``method`` names the detector whose centre is returned).
         polarity: "bright" marks on darker ground (the seed's case), "dark" marks on brighter ground, or
             "auto" (both are tried; the more confident answer wins).
         colour: how RGB becomes grey: "auto" (the channel mix with the most mark contrast), "luminance",
@@ -149,7 +176,9 @@ def locate(image: str | os.PathLike | np.ndarray, box, mark: str = "auto", metho
         raise AerofidInputError(f"method {method!r} is not available in this installation; use one of {', '.join(have)}")
     window, clipped, was_clipped, path = read_box(image, _box_tuple(box))
     requested = tuple(float(v) for v in _box_tuple(box))
-    methods = [m for m in AUTO_METHODS if m in have] if method == "auto" else [method]
+    if method == "auto":
+        _check_auto_params(params)
+    methods = [method]
     polarities = ("bright", "dark") if polarity == "auto" else (polarity,)
     best: tuple[Detection, str, np.ndarray] | None = None
     for pol in polarities:

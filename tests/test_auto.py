@@ -1,0 +1,167 @@
+"""method="auto" (aerofid.auto): the right detector's accuracy per style, explicit not_found for every
+rejection case, and never a found centre far from the truth. Every assertion is against synthetic truth."""
+
+import numpy as np
+import pytest
+
+import aerofid
+from aerofid import synth
+from aerofid.auto import detect_auto
+from aerofid.marks import detector
+
+STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
+APPLY = {"cross": ("hough", "lines"), "ring_x_dot": ("circles", "symmetry"), "ring_cross": ("circles", "symmetry"),
+         "dot": ("symmetry",), "bullseye": ("circles", "symmetry"), "notch_dot": ()}
+"""The single methods that find (nearly) every mark of a style (benchmarks/bench_marks.py)."""
+RADIUS = {"notch_dot": 0.075}  # mark radius / size (0.5 for the others)
+
+
+def _finish(img, rng, noise=0.02):
+    return np.clip(synth.add_gaussian_noise(synth.blur(img, 0.7), noise, rng), 0, 1).astype(np.float32)
+
+
+def _scene(style, rng, size=None):
+    size = size if size is not None else rng.uniform(24, 40)
+    return synth.mark_scene(style, size=size, window=120, rng=rng, noise_sigma=0.02,
+                            angle_deg=0.0 if style == "notch_dot" else rng.uniform(0, 90),
+                            blur_sigma=rng.uniform(0.5, 1.0), contrast=rng.uniform(0.6, 0.85))
+
+
+def two_marks(rng, style, n=120):
+    img = synth.film_border((n, n), rng)
+    size = rng.uniform(20, 30)
+    a = rng.uniform(0, np.pi)
+    sep = rng.uniform(1.1, 1.6) * size
+    c = np.array([n / 2, n / 2]) + rng.uniform(-3, 3, 2)
+    for s in (-1, 1):
+        p = c + s * 0.5 * sep * np.array([np.cos(a), np.sin(a)])
+        img = synth.paint_shape(img, tuple(p), synth.mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8,
+                                extent=size)
+    return _finish(img, rng)
+
+
+def half_mark(rng, style, n=120):
+    """The centre 0..0.6 of the mark's radius inside the box edge: part of the mark is cut off."""
+    size = rng.uniform(20, 40)
+    d = rng.uniform(0.0, 0.6) * RADIUS.get(style, 0.5) * size
+    big = synth.mark_scene(style, size=size, window=n + 80, centre=(40 + d, n / 2 + 40 + rng.uniform(-3, 3)),
+                           rng=rng, angle_deg=0.0 if style == "notch_dot" else rng.uniform(0, 90))
+    w = np.ascontiguousarray(big.image[40:40 + n, 40:40 + n])
+    return [w, w[:, ::-1], w.T, w.T[::-1]][int(rng.integers(4))].copy()
+
+
+def border_edge(rng, style, n=120):
+    """A mark straddling the edge between the dark film border and the bright image area."""
+    size = rng.uniform(20, 40)
+    c = (n / 2 + rng.uniform(-3, 3), n / 2 + rng.uniform(-3, 3))
+    img = synth.film_border((n, n), rng)
+    ground = synth.aerial_ground((n, n), rng)
+    off = rng.uniform(-0.5, 0.5) * RADIUS.get(style, 0.5) * size
+    a = rng.uniform(0, 2 * np.pi)
+    yy, xx = np.mgrid[0:n, 0:n]
+    img = np.where((xx - c[0]) * np.cos(a) + (yy - c[1]) * np.sin(a) > off, ground, img).astype(np.float32)
+    img = synth.paint_shape(img, c, synth.mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8, extent=size)
+    return _finish(img, rng, 0.015)
+
+
+@pytest.mark.parametrize("style", STYLES)
+def test_auto_finds_each_style_at_its_best_methods_accuracy(style):
+    rng = np.random.default_rng(100 + STYLES.index(style))
+    err_auto, err_best = [], {m: [] for m in APPLY[style]}
+    for _ in range(4):
+        sc = _scene(style, rng)
+        m = sc.marks[0]
+        d = detect_auto(sc.image)
+        assert d.found, d.reason
+        err_auto.append(np.hypot(d.x - m.x, d.y - m.y))
+        for meth in err_best:
+            r = detector(meth)(sc.image)
+            err_best[meth].append(np.hypot(r.x - m.x, r.y - m.y) if r.found else np.inf)
+    rms_auto = float(np.sqrt(np.mean(np.square(err_auto))))
+    assert rms_auto <= 0.1
+    # no single method that finds every mark does markedly better
+    finite = [float(np.sqrt(np.mean(np.square(e)))) for e in err_best.values() if np.all(np.isfinite(e))]
+    if finite:
+        assert rms_auto <= 1.5 * min(finite) + 0.02
+
+
+def test_auto_finds_panels_on_aerial_ground_with_mark_panel():
+    rng = np.random.default_rng(7)
+    for _ in range(4):
+        sc = synth.panel_scene(rng, shape_hw=(160, 160), size=rng.uniform(8, 11), contrast=0.3)
+        m = sc.marks[0]
+        r = aerofid.locate(sc.image, m.box, mark="panel")
+        if r.found:
+            assert np.hypot(r.x - m.x, r.y - m.y) < 0.2
+        else:
+            assert r.reason
+
+
+def test_clutter_only_is_not_found():
+    rng = np.random.default_rng(11)
+    for _ in range(4):
+        img = synth.aerial_ground((120, 120), rng)
+        assert not detect_auto(img).found
+
+
+@pytest.mark.parametrize("style", ["cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot"])
+def test_two_marks_in_the_box_are_not_found(style):
+    rng = np.random.default_rng(200 + STYLES.index(style))
+    for _ in range(3):
+        d = detect_auto(two_marks(rng, style))
+        assert not d.found, (d.x, d.y, d.diagnostics.get("rule"))
+
+
+@pytest.mark.parametrize("style", ["cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot"])
+def test_half_a_mark_at_the_box_edge_is_not_found(style):
+    rng = np.random.default_rng(300 + STYLES.index(style))
+    for _ in range(3):
+        d = detect_auto(half_mark(rng, style))
+        assert not d.found, (d.x, d.y, d.diagnostics.get("rule"))
+
+
+@pytest.mark.parametrize("style", ["cross", "ring_x_dot", "ring_cross", "dot", "bullseye"])
+def test_a_mark_on_the_film_borders_edge_is_not_found(style):
+    rng = np.random.default_rng(400 + STYLES.index(style))
+    for _ in range(3):
+        d = detect_auto(border_edge(rng, style))
+        assert not d.found, (d.x, d.y, d.diagnostics.get("rule"))
+
+
+def test_auto_never_returns_a_found_centre_far_from_the_truth():
+    """A few dozen random cases, marks and rejection cases mixed: found means within 1.5 px of a truth."""
+    rng = np.random.default_rng(2024)
+    n_found = 0
+    for i in range(36):
+        style = STYLES[i % len(STYLES)]
+        kind = i // len(STYLES) % 3
+        if kind == 0:
+            sc = _scene(style, rng, size=rng.uniform(20, 44))
+            img, truth = sc.image, [(sc.marks[0].x, sc.marks[0].y)]
+        elif kind == 1:
+            img, truth = two_marks(rng, style), []
+        else:
+            img, truth = half_mark(rng, style), []
+        d = detect_auto(img)
+        if d.found:
+            n_found += 1
+            assert truth and min(np.hypot(d.x - x, d.y - y) for x, y in truth) <= 1.5
+    assert n_found >= 10
+
+
+def test_locate_auto_reports_the_detector_and_a_comparable_score():
+    rng = np.random.default_rng(9)
+    sc = _scene("ring_x_dot", rng, size=36)
+    m = sc.marks[0]
+    r = aerofid.locate(sc.image, (0, 0, 120, 120))
+    assert r.found and r.method in ("circles", "symmetry", "lines", "hough")
+    assert np.hypot(r.x - m.x, r.y - m.y) < 0.1 and 0.5 < r.score <= 1
+    one = aerofid.locate(sc.image, (0, 0, 120, 120), method="circles")
+    assert one.method == "circles" and one.found
+
+
+def test_auto_is_deterministic():
+    rng = np.random.default_rng(13)
+    sc = _scene("notch_dot", rng, size=34)
+    a, b = detect_auto(sc.image), detect_auto(sc.image)
+    assert (a.status, a.x, a.y, a.score) == (b.status, b.x, b.y, b.score)

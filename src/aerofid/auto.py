@@ -5,8 +5,10 @@ A confident wrong centre is the worst outcome for a user (Cho & Kim, seed 002, r
 cannot corroborate. The rule, applied deterministically to one grey window (mark brighter than its ground):
 
 1. **Candidates.** ``circles`` (Seedahmed) and ``symmetry`` (Cho & Kim) run on the whole window (both are
-   cheap). If they do not already agree, ``hough`` (Hunt, Ryan & Gifford) runs as well. With
-   ``mark="panel"`` only ``hough`` and ``symmetry`` run (a cloth panel is a '+'). ``lines`` (Sohn et al.) is
+   cheap). If neither found a mark, ``hough`` (Hunt, Ryan & Gifford) runs on the whole window too, provided
+   the ground is plain (film border: at least ``MIN_PLAIN`` of the box within 4 noise sigma of its median;
+   on textured ground a lone ``hough`` answer could not be accepted anyway, see below, and the search is
+   slow there). With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+'). ``lines`` (Sohn et al.) is
    never run on the whole window (it returns confident wrong centres on dots and bull's-eyes); it is a
    corroborator only (step 2). Each detector must first pass its own self-diagnosis (status found).
 2. **Cross-check.** Found answers within ``max(0.5 px, 3 sqrt(s1^2 + s2^2))`` (capped at ``MAX_AGREE`` px) of
@@ -291,10 +293,11 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
     first = ("hough", "symmetry") if mark == "panel" else ("circles", "symmetry")
     for m in first:
         go(m)
-    if not any(d.found for d in answers.values()):
+    plain = float((np.abs(img - np.median(img)) <= 4.0 * noise).mean())
+    if not any(d.found for d in answers.values()) and (mark == "panel" or plain >= MIN_PLAIN):
         go("hough")
     found = [d for d in answers.values() if d.found]
-    diag: dict = {"answers": answers, "noise": noise}
+    diag: dict = {"answers": answers, "noise": noise, "plain_ground": plain}
 
     # group the found answers
     groups: list[list[Detection]] = []
@@ -440,7 +443,6 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
     if "symmetry" not in have:
         return not_found(METHOD, _reasons(answers), **diag)
     plain = float((np.abs(img - np.median(img)) <= 4.0 * noise).mean())
-    diag["plain_ground"] = plain
     if plain < MIN_PLAIN:
         return not_found(METHOD, _reasons(answers) + f"; the ground is not plain (only {plain:.0%} of the box is "
                                  "within 4 noise sigma of its median): no isolated dot is looked for", **diag)

@@ -5,15 +5,17 @@ A confident wrong centre is the worst outcome for a user (Cho & Kim, seed 002, r
 cannot corroborate. The rule, applied deterministically to one grey window (mark brighter than its ground):
 
 1. **Candidates.** ``circles`` (Seedahmed) and ``symmetry`` (Cho & Kim) run on the whole window (both are
-   cheap). If neither found a mark, ``hough`` (Hunt, Ryan & Gifford) runs on the whole window too, provided
-   the ground is plain (film border: at least ``MIN_PLAIN`` of the box within 4 noise sigma of its median;
-   on textured ground a lone ``hough`` answer could not be accepted anyway, see below, and the search is
-   slow there). With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+'). ``lines`` (Sohn et al.) is
+   cheap). If neither found a mark, ``hough`` (Hunt, Ryan & Gifford) runs on the whole window too, when
+   the user named the kind of mark (``mark="external"`` or ``"panel"``) or the ground is plain (film
+   border: at least ``MIN_PLAIN`` of the box within 4 noise sigma of its median; with ``mark="auto"`` on
+   textured ground a lone ``hough`` answer could not be accepted anyway, see below, and its search is slow
+   there). With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+'). ``lines`` (Sohn et al.) is
    never run on the whole window (it returns confident wrong centres on dots and bull's-eyes); it is a
    corroborator only (step 2). Each detector must first pass its own self-diagnosis (status found).
 2. **Cross-check.** Found answers within ``max(0.5 px, 3 sqrt(s1^2 + s2^2))`` (capped at ``MAX_AGREE`` px) of
    each other form a group. A group with a single member is re-examined on a crop of the window centred on
-   it (half-size = the mark's extent + ``CROP_MARGIN``): a '+' from ``hough`` by ``lines``, any answer by
+   it (half-size = the mark's extent + ``CROP_MARGIN``): a '+' from ``hough`` by ``lines`` (not for cloth
+   panels, whose thin low-contrast strips on textured ground ``lines`` does not resolve), any answer by
    ``symmetry`` and, for rings, ``circles``. Two or more independent methods agreeing is strong evidence
    (*corroborated*). A lone answer is kept only when its method applies to what the window shows: a
    ``hough`` answer (its verification has already checked four balanced arms of a '+'), a ``circles`` answer
@@ -294,7 +296,7 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
     for m in first:
         go(m)
     plain = float((np.abs(img - np.median(img)) <= 4.0 * noise).mean())
-    if not any(d.found for d in answers.values()) and (mark == "panel" or plain >= MIN_PLAIN):
+    if not any(d.found for d in answers.values()) and (mark != "auto" or plain >= MIN_PLAIN):
         go("hough")
     found = [d for d in answers.values() if d.found]
     diag: dict = {"answers": answers, "noise": noise, "plain_ground": plain}
@@ -333,8 +335,8 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
         # cross-check on a crop centred on the lone answer
         lone = group[0]
         crop, x0, y0 = _crop(img, lone.x, lone.y, int(np.ceil(extent + CROP_MARGIN)))
-        extra = {"hough": ["lines", "symmetry"], "circles": ["symmetry", "hough"],
-                 "symmetry": ["circles", "hough"]}.get(lone.method, ["symmetry"])
+        extra = {"hough": ["symmetry"] if mark == "panel" else ["lines", "symmetry"],
+                 "circles": ["symmetry", "hough"], "symmetry": ["circles", "hough"]}.get(lone.method, ["symmetry"])
         for m in extra:
             if m not in have or min(crop.shape) < 17:
                 continue
@@ -422,7 +424,8 @@ def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, ext
     """What remains of the window once the mark is blanked out (:func:`blank_disc`): the number of significant
     pixels (:func:`_significance`) and the *mark-like* connected components among them, (x0, y0, x1, y1,
     area): at least a quarter of the mark's own significant area (and 6 px) and compact (bounding box at
-    most 1.5 mark diameters across; an image-area edge or a frame running through the box is not mark-like). None left means the box holds nothing but the mark and plain ground."""
+    most 1.5 mark diameters across, not touching the box edge: an image-area edge or corner, or a frame
+    running through the box, is not mark-like). None left means the box holds nothing but the mark and plain ground."""
     sm0, g, thr = _significance(img, x, y, extent, noise)
     h, w = img.shape
     yy, xx = np.mgrid[0:h, 0:w]
@@ -433,7 +436,8 @@ def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, ext
     marks = []
     for i in range(1, n):
         x0, y0, bw, bh, area = (int(v) for v in stats[i])
-        if area >= max(6, 0.25 * own) and max(bw, bh) <= 1.5 * 2 * (extent + EDGE_MARGIN):
+        inside = x0 > 0 and y0 > 0 and x0 + bw < w and y0 + bh < h
+        if inside and area >= max(6, 0.25 * own) and max(bw, bh) <= 1.5 * 2 * (extent + EDGE_MARGIN):
             marks.append((x0, y0, x0 + bw, y0 + bh, area))
     return int(sig.sum()), marks
 

@@ -17,8 +17,9 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    it (half-size = the mark's extent + ``CROP_MARGIN``): a '+' from ``hough`` by ``lines`` (not for cloth
    panels, whose thin low-contrast strips on textured ground ``lines`` does not resolve), any answer by
    ``symmetry`` and, for rings, ``circles``. Two or more independent methods agreeing is strong evidence
-   (*corroborated*). A lone answer is kept only when its method applies to what the window shows: a
-   ``hough`` answer (its verification has already checked four balanced arms of a '+'), a ``circles`` answer
+   (*corroborated*). A lone answer is kept only when its method applies to what the window shows (and it
+   passes step 3): a ``hough`` answer (its verification has already checked four balanced arms of a '+';
+   ``lines`` does not survive JPEG blocks, so its silence is no evidence), a ``circles`` answer
    (two concentric circles, each covered on 60 % of its circumference), or a ``symmetry`` answer whose
    centre holds a compact core that stands out of the ground (a dot: :func:`core_contrast`). Two found
    answers that disagree while both lie on the same mark (closer than its extent) mean that at least one is
@@ -45,7 +46,7 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
 **Score** (comparable across methods, in [0, 1]): with s_m the detectors' own scores, the group's evidence
 is ``1 - prod(1 - s_m)`` over its members (independent methods), times ``LONE_FACTOR`` for a lone answer,
 times the verification quality ``1 - asymmetry / (2 MAX_ASYMMETRY)``. The centre is that of the member with
-the smallest reported sigma (its ``method`` is reported), the ``sigma`` that member's.
+the first in ``PRIORITY`` (its ``method`` is reported), the ``sigma`` that member's.
 """
 
 from __future__ import annotations
@@ -89,7 +90,10 @@ of its median grey level (aerial ground, an image-area edge in the box: no isola
 MIN_BLOB_SNR = 10.0
 """Step 4: a compact blob's peak must stand this many noise sigma above the ground."""
 
-HOUGH_KEYS: frozenset[str] = frozenset()
+PRIORITY = ("hough", "circles", "symmetry", "lines", "centroid")
+"""Whose centre a corroborated group returns: the first of its members in this order (measured in
+docs/benchmarks_marks.md: the cross fit of ``hough`` is the most accurate on '+' marks, ``circles`` on rings;
+``symmetry`` reports sigmas that are too small on crosses, 0.2-0.3 px errors with sigma ~0.01 px)."""
 
 
 def _hough_keys() -> frozenset[str]:
@@ -355,10 +359,6 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
         lone = group[0]
         if lone.score < MIN_SCORE.get(lone.method, 0.5):
             return not_found(METHOD, f"lone {lone.method} answer with a low score ({lone.score:.2f})", **diag)
-        if lone.method == "hough" and mark != "panel":
-            return not_found(METHOD, f"a lone hough '+' at ({lone.x:.1f}, {lone.y:.1f}) that neither lines nor "
-                                     "symmetry confirm on a crop around it: not corroborated (say mark='panel' "
-                                     "for a cloth panel on textured ground)", **diag)
         if lone.method == "symmetry":
             c = core_contrast(img, lone.x, lone.y, extent, noise)
             diag["core_snr"] = c
@@ -372,8 +372,8 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
     return _finish(img, group, extent, noise, run, have, rule, diag, mark == "panel")
 
 
-def _finish(img, group, extent, noise, run, have, rule, diag, panel=False) -> Detection:
-    best = min(group, key=lambda d: d.sigma if np.isfinite(d.sigma) else 1e9)
+def _finish(img, group, extent, noise, run, have, rule, diag, panel=False, dot=False) -> Detection:
+    best = min(group, key=lambda d: PRIORITY.index(d.method) if d.method in PRIORITY else len(PRIORITY))
     chk = verify_centre(img, best.x, best.y, extent, noise)
     diag.update(check=chk, rule=rule, extent=extent)
     if not chk.ok:
@@ -381,7 +381,7 @@ def _finish(img, group, extent, noise, run, have, rule, diag, panel=False) -> De
     # uniqueness: blank the mark, look again
     blanked = blank_disc(img, best.x, best.y, extent + EDGE_MARGIN, noise)
     again = []
-    rest, blobs = structure_left(blanked, img, best.x, best.y, extent, noise)
+    rest, blobs = structure_left(blanked, img, best.x, best.y, extent, noise, any_size=dot)
     diag.update(structure_left=rest, mark_like=blobs)
     if blobs and not panel:
         x0, y0, x1, y1, area = blobs[0]
@@ -420,12 +420,13 @@ def _significance(img, x, y, extent, noise):
 
 
 def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, extent: float,
-                   noise: float) -> tuple[int, list[tuple[int, int, int, int, int]]]:
+                   noise: float, any_size: bool = False) -> tuple[int, list[tuple[int, int, int, int, int]]]:
     """What remains of the window once the mark is blanked out (:func:`blank_disc`): the number of significant
     pixels (:func:`_significance`) and the *mark-like* connected components among them, (x0, y0, x1, y1,
     area): at least a quarter of the mark's own significant area (and 6 px) and compact (bounding box at
     most 1.5 mark diameters across, not touching the box edge: an image-area edge or corner, or a frame
-    running through the box, is not mark-like). None left means the box holds nothing but the mark and plain ground."""
+    running through the box, is not mark-like); with ``any_size`` (an isolated dot) any component up to half
+    the box across counts: the 'dot' may be a piece of a larger mark, e.g. an arm's tip cut off by a speck). None left means the box holds nothing but the mark and plain ground."""
     sm0, g, thr = _significance(img, x, y, extent, noise)
     h, w = img.shape
     yy, xx = np.mgrid[0:h, 0:w]
@@ -437,7 +438,10 @@ def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, ext
     for i in range(1, n):
         x0, y0, bw, bh, area = (int(v) for v in stats[i])
         inside = x0 > 0 and y0 > 0 and x0 + bw < w and y0 + bh < h
-        if inside and area >= max(6, 0.25 * own) and max(bw, bh) <= 1.5 * 2 * (extent + EDGE_MARGIN):
+        compact = max(bw, bh) <= 1.5 * 2 * (extent + EDGE_MARGIN)
+        if any_size:
+            compact = max(bw, bh) <= 0.5 * max(h, w)
+        if inside and area >= max(6, 0.25 * own) and compact:
             marks.append((x0, y0, x0 + bw, y0 + bh, area))
     return int(sig.sum()), marks
 
@@ -508,7 +512,8 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
                                  f"({centroid.x:.2f}, {centroid.y:.2f}) disagree", **diag)
     group = [det, centroid]
     diag["groups"] = [group]
-    return _finish(img, group, r_blob + 1.0, noise, run, have, "isolated compact dot: symmetry + centroid", diag)
+    return _finish(img, group, r_blob + 1.0, noise, run, have, "isolated compact dot: symmetry + centroid", diag,
+                   dot=True)
 
 
 def _flat_blob(img, bx, by, noise, ground) -> float | str:

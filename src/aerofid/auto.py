@@ -87,6 +87,9 @@ ISOLATE_FACTOR = 2.0
 MIN_PLAIN = 0.5
 """Step 4 runs only on plain ground (film border): at least this fraction of the box within 4 noise sigma
 of its median grey level (aerial ground, an image-area edge in the box: no isolated-dot search)."""
+PLAIN_FLOOR = 0.02
+"""... or within this many grey levels (of 1) of it: JPEG blocks make plain film exceed 4 noise sigma (the
+noise estimate sees the smoothed blocks), while aerial ground stays below 25 % of the box within 0.02."""
 MIN_BLOB_SNR = 10.0
 """Step 4: a compact blob's peak must stand this many noise sigma above the ground."""
 
@@ -299,7 +302,7 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
     first = ("hough", "symmetry") if mark == "panel" else ("circles", "symmetry")
     for m in first:
         go(m)
-    plain = float((np.abs(img - np.median(img)) <= 4.0 * noise).mean())
+    plain = float((np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)).mean())
     if not any(d.found for d in answers.values()) and (mark != "auto" or plain >= MIN_PLAIN):
         go("hough")
     found = [d for d in answers.values() if d.found]
@@ -450,11 +453,11 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
     """Step 4 of the module docstring."""
     if "symmetry" not in have:
         return not_found(METHOD, _reasons(answers), **diag)
-    plain = float((np.abs(img - np.median(img)) <= 4.0 * noise).mean())
+    plain = float((np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)).mean())
     if plain < MIN_PLAIN:
         return not_found(METHOD, _reasons(answers) + f"; the ground is not plain (only {plain:.0%} of the box is "
                                  "within 4 noise sigma of its median): no isolated dot is looked for", **diag)
-    ground = float(np.median(img[np.abs(img - np.median(img)) <= 4.0 * noise]))
+    ground = float(np.median(img[np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)]))
     peaks = []
     for s in (1.0, 1.5, 2.0, 2.5):
         dog = (cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)) * s

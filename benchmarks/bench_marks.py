@@ -37,7 +37,7 @@ STYLES = ("cross", "panel", "ring_x_dot", "ring_cross", "dot", "bullseye", "notc
 LABEL = {"cross": "cross", "panel": "cloth panel (aerial ground)", "ring_x_dot": "ring+X+dot (Wild corner)",
          "ring_cross": "ring+'+' (Wild midside)", "dot": "dot", "bullseye": "bull's-eye",
          "notch_dot": "Zeiss dot in a notch"}
-RADIUS = {"notch_dot": 0.075}
+RADIUS = synth.MARK_RADIUS
 
 
 def run_method(method: str, img: np.ndarray, mark: str):
@@ -108,45 +108,6 @@ def scene(style: str, cond: str, rng):
     return img, m.x, m.y, "auto"
 
 
-def _finish(img, rng, noise=0.02):
-    return np.clip(synth.add_gaussian_noise(synth.blur(img, 0.7), noise, rng), 0, 1).astype(np.float32)
-
-
-def two_marks(rng, style, n=120):
-    img = synth.film_border((n, n), rng)
-    size = rng.uniform(20, 30)
-    a = rng.uniform(0, np.pi)
-    sep = rng.uniform(1.1, 1.6) * size
-    c = np.array([n / 2, n / 2]) + rng.uniform(-3, 3, 2)
-    for s in (-1, 1):
-        p = c + s * 0.5 * sep * np.array([np.cos(a), np.sin(a)])
-        img = synth.paint_shape(img, tuple(p), synth.mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8,
-                                extent=size)
-    return _finish(img, rng)
-
-
-def half_mark(rng, style, n=120):
-    size = rng.uniform(20, 40)
-    d = rng.uniform(0.0, 0.6) * RADIUS.get(style, 0.5) * size
-    big = synth.mark_scene(style, size=size, window=n + 80, centre=(40 + d, n / 2 + 40 + rng.uniform(-3, 3)),
-                           rng=rng, angle_deg=0.0 if style == "notch_dot" else rng.uniform(0, 90))
-    w = np.ascontiguousarray(big.image[40:40 + n, 40:40 + n])
-    return [w, w[:, ::-1], w.T, w.T[::-1]][int(rng.integers(4))].copy()
-
-
-def border_edge(rng, style, n=120):
-    size = rng.uniform(20, 40)
-    c = (n / 2 + rng.uniform(-3, 3), n / 2 + rng.uniform(-3, 3))
-    img = synth.film_border((n, n), rng)
-    ground = synth.aerial_ground((n, n), rng)
-    off = rng.uniform(-0.5, 0.5) * RADIUS.get(style, 0.5) * size
-    a = rng.uniform(0, 2 * np.pi)
-    yy, xx = np.mgrid[0:n, 0:n]
-    img = np.where((xx - c[0]) * np.cos(a) + (yy - c[1]) * np.sin(a) > off, ground, img).astype(np.float32)
-    img = synth.paint_shape(img, c, synth.mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8, extent=size)
-    return _finish(img, rng, 0.015)
-
-
 def stats(errs, times, n):
     e = np.asarray(errs, float)
     f = np.isfinite(e)
@@ -204,11 +165,11 @@ def bench_rejections(n, rng):
             if style is None:
                 img = synth.aerial_ground((120, 120), rng)
             elif case == "two marks":
-                img = two_marks(rng, style)
+                img = synth.two_marks(rng, style)
             elif case == "half mark":
-                img = half_mark(rng, style)
+                img = synth.half_mark(rng, style)
             else:
-                img = border_edge(rng, style)
+                img = synth.border_edge(rng, style)
             for m in METHODS:
                 d, _ = run_method(m, img, "auto")
                 found[m] += int(d.found)

@@ -13,11 +13,6 @@ STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
 APPLY = {"cross": ("hough", "lines"), "ring_x_dot": ("circles", "symmetry"), "ring_cross": ("circles", "symmetry"),
          "dot": ("symmetry",), "bullseye": ("circles", "symmetry"), "notch_dot": ()}
 """The single methods that find (nearly) every mark of a style (benchmarks/bench_marks.py)."""
-RADIUS = {"notch_dot": 0.075}  # mark radius / size (0.5 for the others)
-
-
-def _finish(img, rng, noise=0.02):
-    return np.clip(synth.add_gaussian_noise(synth.blur(img, 0.7), noise, rng), 0, 1).astype(np.float32)
 
 
 def _scene(style, rng, size=None):
@@ -25,43 +20,6 @@ def _scene(style, rng, size=None):
     return synth.mark_scene(style, size=size, window=120, rng=rng, noise_sigma=0.02,
                             angle_deg=0.0 if style == "notch_dot" else rng.uniform(0, 90),
                             blur_sigma=rng.uniform(0.5, 1.0), contrast=rng.uniform(0.6, 0.85))
-
-
-def two_marks(rng, style, n=120):
-    img = synth.film_border((n, n), rng)
-    size = rng.uniform(20, 30)
-    a = rng.uniform(0, np.pi)
-    sep = rng.uniform(1.1, 1.6) * size
-    c = np.array([n / 2, n / 2]) + rng.uniform(-3, 3, 2)
-    for s in (-1, 1):
-        p = c + s * 0.5 * sep * np.array([np.cos(a), np.sin(a)])
-        img = synth.paint_shape(img, tuple(p), synth.mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8,
-                                extent=size)
-    return _finish(img, rng)
-
-
-def half_mark(rng, style, n=120):
-    """The centre 0..0.6 of the mark's radius inside the box edge: part of the mark is cut off."""
-    size = rng.uniform(20, 40)
-    d = rng.uniform(0.0, 0.6) * RADIUS.get(style, 0.5) * size
-    big = synth.mark_scene(style, size=size, window=n + 80, centre=(40 + d, n / 2 + 40 + rng.uniform(-3, 3)),
-                           rng=rng, angle_deg=0.0 if style == "notch_dot" else rng.uniform(0, 90))
-    w = np.ascontiguousarray(big.image[40:40 + n, 40:40 + n])
-    return [w, w[:, ::-1], w.T, w.T[::-1]][int(rng.integers(4))].copy()
-
-
-def border_edge(rng, style, n=120):
-    """A mark straddling the edge between the dark film border and the bright image area."""
-    size = rng.uniform(20, 40)
-    c = (n / 2 + rng.uniform(-3, 3), n / 2 + rng.uniform(-3, 3))
-    img = synth.film_border((n, n), rng)
-    ground = synth.aerial_ground((n, n), rng)
-    off = rng.uniform(-0.5, 0.5) * RADIUS.get(style, 0.5) * size
-    a = rng.uniform(0, 2 * np.pi)
-    yy, xx = np.mgrid[0:n, 0:n]
-    img = np.where((xx - c[0]) * np.cos(a) + (yy - c[1]) * np.sin(a) > off, ground, img).astype(np.float32)
-    img = synth.paint_shape(img, c, synth.mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8, extent=size)
-    return _finish(img, rng, 0.015)
 
 
 @pytest.mark.parametrize("style", STYLES)
@@ -108,7 +66,7 @@ def test_clutter_only_is_not_found():
 def test_two_marks_in_the_box_are_not_found(style):
     rng = np.random.default_rng(200 + STYLES.index(style))
     for _ in range(3):
-        d = detect_auto(two_marks(rng, style))
+        d = detect_auto(synth.two_marks(rng, style))
         assert not d.found, (d.x, d.y, d.diagnostics.get("rule"))
 
 
@@ -116,7 +74,7 @@ def test_two_marks_in_the_box_are_not_found(style):
 def test_half_a_mark_at_the_box_edge_is_not_found(style):
     rng = np.random.default_rng(300 + STYLES.index(style))
     for _ in range(3):
-        d = detect_auto(half_mark(rng, style))
+        d = detect_auto(synth.half_mark(rng, style))
         assert not d.found, (d.x, d.y, d.diagnostics.get("rule"))
 
 
@@ -124,7 +82,7 @@ def test_half_a_mark_at_the_box_edge_is_not_found(style):
 def test_a_mark_on_the_film_borders_edge_is_not_found(style):
     rng = np.random.default_rng(400 + STYLES.index(style))
     for _ in range(3):
-        d = detect_auto(border_edge(rng, style))
+        d = detect_auto(synth.border_edge(rng, style))
         assert not d.found, (d.x, d.y, d.diagnostics.get("rule"))
 
 
@@ -139,9 +97,9 @@ def test_auto_never_returns_a_found_centre_far_from_the_truth():
             sc = _scene(style, rng, size=rng.uniform(20, 44))
             img, truth = sc.image, [(sc.marks[0].x, sc.marks[0].y)]
         elif kind == 1:
-            img, truth = two_marks(rng, style), []
+            img, truth = synth.two_marks(rng, style), []
         else:
-            img, truth = half_mark(rng, style), []
+            img, truth = synth.half_mark(rng, style), []
         d = detect_auto(img)
         if d.found:
             n_found += 1

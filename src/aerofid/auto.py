@@ -38,9 +38,9 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
      ``symmetry``, run again on the rest of the window; a second mark found there makes the box ambiguous.
 
 4. **Compact dots with no method** (the Zeiss dot in a notch, whose frame edge spoils the whole-window
-   methods): when nothing was found, the single strongest compact blob (difference of Gaussians) whose
-   surroundings are flat is isolated (everything beyond ``ISOLATE_FACTOR`` x its radius replaced by the
-   ground level) and ``symmetry`` runs on it; its answer must agree with an intensity-weighted centroid of
+   methods): when nothing was found, the single strongest compact blob (difference of Gaussians, not an
+   edge point) whose surroundings are flat (a moat of at least ``MIN_MOAT`` px) is isolated (everything
+   beyond its moat, at most ``ISOLATE_FACTOR`` x its radius + 2 px, replaced by the ground level) and ``symmetry`` runs on it; its answer must agree with an intensity-weighted centroid of
    the blob and pass step 3.
 
 **Score** (comparable across methods, in [0, 1]): with s_m the detectors' own scores, the group's evidence
@@ -80,6 +80,8 @@ MIN_SCORE = {"hough": 0.2, "circles": 0.5, "symmetry": 0.5}
 SECOND_RATIO = 0.5
 """Uniqueness: a second answer of a method counts when its score reaches this fraction of the mark's own
 score by that method (any score when the method did not answer for the mark)."""
+SECOND_SIZE = 2.0
+"""... and when its extent is within this factor of the mark's (:func:`_similar_size`)."""
 MIN_CORE_SNR = 8.0
 """A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma off the ground."""
 ISOLATE_FACTOR = 2.0
@@ -90,8 +92,13 @@ of its median grey level (aerial ground, an image-area edge in the box: no isola
 PLAIN_FLOOR = 0.02
 """... or within this many grey levels (of 1) of it: JPEG blocks make plain film exceed 4 noise sigma (the
 noise estimate sees the smoothed blocks), while aerial ground stays below 25 % of the box within 0.02."""
+EDGE_RATIO = (10.0 + 1.0) ** 2 / 10.0
+"""Step 4: a blob's DoG Hessian must have trace^2 / det below this (Lowe 2004, principal-curvature ratio 10):
+points on the frame's straight edges are not blobs."""
 MIN_BLOB_SNR = 10.0
 """Step 4: a compact blob's peak must stand this many noise sigma above the ground."""
+MIN_MOAT = 2.5
+"""Step 4: flat ground must surround the blob from its radius out to at least this many px beyond it."""
 
 PRIORITY = ("hough", "circles", "symmetry", "lines", "centroid")
 """Whose centre a corroborated group returns: the first of its members in this order (measured in
@@ -395,7 +402,8 @@ def _finish(img, group, extent, noise, run, have, rule, diag, panel=False, dot=F
         if m in ("lines", "centroid") or m not in have:
             continue
         d = run(m, blanked)
-        if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent and d.score >= SECOND_RATIO * own.get(m, 0.0):
+        if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent and d.score >= SECOND_RATIO * own.get(m, 0.0) \
+                and _similar_size(detection_extent(d), extent):
             again.append(d)
     diag["second_marks"] = again
     if again:
@@ -410,6 +418,13 @@ def _finish(img, group, extent, noise, run, have, rule, diag, panel=False, dot=F
     score = float(np.clip(evidence * quality, 0.0, 1.0))
     return Detection(status=FOUND, x=best.x, y=best.y, score=score, sigma=best.sigma, method=best.method,
                      diagnostics=dict(diag, members=group))
+
+
+def _similar_size(other: float | None, extent: float) -> bool:
+    """Uniqueness: a second answer is another *mark* only when its size (from its detector's model) is within
+    ``SECOND_SIZE`` times the mark's; a crossing of two field boundaries whose '+' arms run out of the box, or
+    a broad blurred cross in aerial texture around a small cloth panel, is not."""
+    return other is None or 1.0 / SECOND_SIZE <= other / max(extent, 1e-6) <= SECOND_SIZE
 
 
 def _significance(img, x, y, extent, noise):
@@ -462,7 +477,14 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
     for s in (1.0, 1.5, 2.0, 2.5):
         dog = (cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)) * s
         dil = cv2.dilate(dog, np.ones((5, 5), np.uint8))
-        ys, xs = np.nonzero((dog >= dil) & (dog > 0))
+        # Lowe's edge-response test on the DoG's Hessian: a blob curves both ways (det > 0, trace^2 / det
+        # small), a point on a straight edge or frame line only across it
+        dxx = cv2.Sobel(dog, cv2.CV_32F, 2, 0, ksize=3)
+        dyy = cv2.Sobel(dog, cv2.CV_32F, 0, 2, ksize=3)
+        dxy = cv2.Sobel(dog, cv2.CV_32F, 1, 1, ksize=3)
+        det, tr = dxx * dyy - dxy * dxy, dxx + dyy
+        blobby = (det > 0) & (tr < 0) & (tr * tr < EDGE_RATIO * det)
+        ys, xs = np.nonzero((dog >= dil) & (dog > 0) & blobby)
         peaks += [(float(dog[y, x]), int(x), int(y)) for y, x in zip(ys, xs)]
     peaks.sort(key=lambda t: (-t[0], t[2], t[1]))
     seen: list[tuple[int, int]] = []
@@ -482,12 +504,11 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
         break
     if blob is None:
         return not_found(METHOD, _reasons(answers) + f"; {why}", **diag)
-    bx, by, r_blob = blob
-    iso = ISOLATE_FACTOR * r_blob + 2.0
+    bx, by, (r_blob, iso) = blob
     cx, cy = float(bx), float(by)
     det = None
     for _ in range(2):
-        half_w = max(16, int(np.ceil(iso + 8)))
+        half_w = max(24, int(np.ceil(iso + 12)))
         sub, x0, y0 = _crop(img, cx, cy, half_w)
         sy, sx = np.mgrid[0:sub.shape[0], 0:sub.shape[1]]
         gl = ground_level(sub, cx - x0, cy - y0, iso, iso + 3)
@@ -519,10 +540,13 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
                    dot=True)
 
 
-def _flat_blob(img, bx, by, noise, ground) -> float | str:
-    """Radius (px, half maximum of the radial profile) of a compact bright blob at pixel (bx, by) whose
-    surroundings out to ``ISOLATE_FACTOR`` x that radius + 2 px are flat (std <= 2 noise) and at the plain
-    ground's level ``ground`` (within 4 noise), or why not."""
+def _flat_blob(img, bx, by, noise, ground) -> tuple[float, float] | str:
+    """(radius, moat) of a compact bright blob at pixel (bx, by), or why it is not one. The radius is the
+    half maximum of its radial profile above the plain ground level ``ground``; the moat is the radius out to
+    which its surroundings are flat: every 1-px ring from radius + 1.5 px on, up to ``ISOLATE_FACTOR`` x the
+    radius + 2 px, has at least 95 % of its pixels within 4 noise of the ground. A moat narrower than
+    ``MIN_MOAT`` px means the blob is part of a larger structure (a small Zeiss notch is allowed to come
+    closer than ``ISOLATE_FACTOR`` radii)."""
     h, w = img.shape
     k = int(min(20, bx, by, w - 1 - bx, h - 1 - by))
     if k < 5:
@@ -531,22 +555,25 @@ def _flat_blob(img, bx, by, noise, ground) -> float | str:
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
     rr = np.hypot(xx, yy)
     prof = np.array([p[(rr >= r - 0.5) & (rr < r + 0.5)].mean() for r in range(k + 1)])
-    base = float(np.median(p[rr > k - 2]))
-    if prof[0] - base < MIN_BLOB_SNR * noise:
+    if prof[0] - ground < MIN_BLOB_SNR * noise:
         return "the brightest compact blob is too faint"
-    half = np.flatnonzero(prof - base < 0.5 * (prof[0] - base))
+    half = np.flatnonzero(prof - ground < 0.5 * (prof[0] - ground))
     if not half.size:
         return "a blob larger than 20 px"
     r_blob = max(1.0, float(half[0]))
-    iso = ISOLATE_FACTOR * r_blob + 2.0
-    ann = (rr >= r_blob + 2.0) & (rr <= iso)
-    if iso + 2 > k or ann.sum() < 8:
+    reach = ISOLATE_FACTOR * r_blob + 2.0
+    if reach + 2 > k:
         return "a compact blob too close to the box edge"
-    if float(p[ann].std()) > 2.0 * noise:
+    flat = np.abs(p - ground) <= 4.0 * noise
+    moat = r_blob + 1.5
+    while moat + 1.0 <= reach:
+        ring = (rr > moat) & (rr <= moat + 1.0)
+        if flat[ring].mean() < 0.95:
+            break
+        moat += 1.0
+    if moat < r_blob + MIN_MOAT:
         return "the compact blob's surroundings are not flat"
-    if abs(float(np.median(p[ann])) - ground) > 4.0 * noise:
-        return "the compact blob does not lie on the plain ground"
-    return r_blob
+    return r_blob, moat
 
 
 def _reasons(answers: dict[str, Detection]) -> str:

@@ -192,12 +192,18 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     # solver; a solution that leaves the plausible region is reported via ``at_bound``. Then iteratively
     # reweighted: pixels hit by dust, scratches or impulse noise (|v| > HUBER_K robust sigmas) get Huber
     # weights, so that they neither pull the centre nor inflate the misfit.
+    # When LM wanders off into an implausible shape (a hair-thin, very bright stroke on textured ground)
+    # and runs out of evaluations, the bounded trust-region solver is tried once from the same start.
     sol = None
     for _ in range(1 + ROBUST_PASSES):
+        start = p0 if sol is None else np.clip(sol.x, lo + 1e-9, hi - 1e-9)
         try:
             with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
-                sol = least_squares(residuals, p0 if sol is None else sol.x, jac=jac, method="lm",
-                                    x_scale="jac", max_nfev=MAX_EVALUATIONS)
+                sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
+                                    max_nfev=MAX_EVALUATIONS)
+                if not (np.all(np.isfinite(sol.x)) and (sol.success or sol.status > 0)):
+                    sol = least_squares(residuals, start, jac=jac, method="trf", bounds=(lo, hi),
+                                        x_scale="jac", max_nfev=MAX_EVALUATIONS)
         except (ValueError, np.linalg.LinAlgError):
             return None
         if not np.all(np.isfinite(sol.x)):
@@ -226,11 +232,14 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     cov = sigma0 ** 2 * Q
     if not (np.isfinite(cov[0, 0]) and np.isfinite(cov[1, 1]) and cov[0, 0] >= 0 and cov[1, 1] >= 0):
         return None
+    sol.x[4:8] = np.abs(sol.x[4:8])  # the model uses their magnitudes (cross_model)
     xc, yc, t1, t2, l1, l2, wd, s, a, b0, bx, by = sol.x
     background = b0 + bx * (px - x) + by * (py - y)
     # noise: residual spread of the pixels the model calls background (far from both bars)
     shape = cross_model(np.r_[sol.x[:8], 1.0, 0.0, 0.0, 0.0], px, py, x, y)
-    far, on = shape < 0.05, shape > 0.5
+    # a thin, blurred stroke never reaches full coverage: "on the bars" is relative to the model's peak
+    peak = float(shape.max())
+    far, on = shape < 0.05 * peak, shape > 0.5 * peak
     noise = robust_std(v[far]) if far.sum() >= 8 else sigma0
     tolerance = max(noise, MODEL_TOLERANCE * abs(float(sol.x[8])), 1e-9)
     misfit = robust_std(v[on]) / tolerance if on.sum() >= 8 else float("inf")
@@ -254,7 +263,6 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     on_bound[4:6] = sol.x[4:6] - lo[4:6] < 1e-3 * span[4:6]   # arms running out of the patch are fine
     if not np.all(np.isfinite(sol.x)):
         return None
-    sol.x[4:8] = np.abs(sol.x[4:8])
     at_bound = next((nm for nm, b in zip(names, on_bound) if b), "")
     return CrossFit(at_bound=at_bound, misfit=float(misfit), x=float(xc), y=float(yc), sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
                     theta1=float(np.rad2deg(t1)), theta2=float(np.rad2deg(t2)), length1=float(l1),

@@ -253,6 +253,9 @@ def _detect(img, diag, *, diagonal, edge_step, radius, min_radius, log_inner, lo
     xs, ys, sp = _subpixel(img, x, y, r, d, log_inner, log_gap, log_outer, enlarge, smooth_sigma,
                            max_total_shift, interval_shrink, max_iter)
     diag["subpixel"] = sp
+    if "reason" in sp:
+        raise _Failure(f"sub-pixel stage: {sp['reason']} (the mark is too close to the window edge); "
+                       "enlarge the box")
     total = float(np.hypot(xs - x, ys - y))
     if not np.isfinite(total) or total > max_total_shift:
         raise _Failure(f"sub-pixel stage moved the centre by {total:.2f} px (> {max_total_shift} px) "

@@ -9,7 +9,12 @@ red-dominance image smoothed by 8 px); each mark is searched in a 120 x 120 box 
 
 Mirror consistency: the box's RGB crop is located as it is, mirrored left-right, mirrored up-down and
 transposed; mapped back, the four centres should agree to 0.1 px. The table gives the largest distance
-between any two of them (or which orientations were not found). The script skips cleanly (exit 0, no
+between any two of them (or which orientations were not found).
+
+An independent check: the four corner marks found by ``auto`` are fitted (similarity and affine) to their
+calibrated coordinates (../shared/realdata/unbc_bc_wild_rc20/MeasuresCamera.xml; P1 lower right, P2 lower
+left, P3 upper left, P4 upper right), and the midside marks are mapped to film millimetres by the affine: the
+camera file gives the midside spans (SzCaptMm 220.033 x 220.005 mm). The script skips cleanly (exit 0, no
 report written) when ../shared/realdata is absent; the data never enters the repository.
 """
 
@@ -28,6 +33,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import aerofid  # noqa: E402
+from aerofid.camera import Camera  # noqa: E402
+from aerofid.orientation import adjust, apply_transform  # noqa: E402
 from aerofid.raster import open_raster  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
@@ -37,6 +44,43 @@ MARKS = {  # approximate centres (x, y), full-image pixels
 }
 METHODS = ("hough", "symmetry", "circles", "lines", "auto")
 HALF = 60
+CALIBRATED = {"P1": "corner BR", "P2": "corner BL", "P3": "corner TL", "P4": "corner TR"}
+SPANS_MM = (220.033, 220.005)  # MicMac-LocalChantierDescripteur.xml, SzCaptMm (midside spans x, y)
+PIXEL_UM = 25400.0 / 600.0
+
+
+def orientation_check(auto_px: dict) -> list[str]:
+    """The corner marks against their calibrated coordinates; the midsides mapped to mm (module docstring)."""
+    cam = Camera.load(REAL.parent / "MeasuresCamera.xml")
+    names = [f.name for f in cam.fiducials if CALIBRATED.get(f.name) in auto_px]
+    out = ["\n## Interior orientation check (auto's centres against the calibration)\n"]
+    if len(names) < 4:
+        return out + [f"only {len(names)} of the 4 calibrated corners found: no check\n"]
+    px = np.array([auto_px[CALIBRATED[n]] for n in names])
+    mm = np.array([[f.x_mm, f.y_mm] for f in cam.fiducials if f.name in names])
+    out += ["Residuals (calibrated minus transformed, um; 1 px = 42.3 um) of the four corners:\n",
+            "| model | " + " | ".join(f"{n} ({CALIBRATED[n]}) x, y" for n in names) + " | RMS (um) | RMS (px) |",
+            "|---|" + "---|" * (len(names) + 2)]
+    fits = {}
+    for model in ("similarity", "affine"):
+        fit = fits[model] = adjust(px, mm, model)
+        v = -1000.0 * fit.v.reshape(-1, 2)
+        rms = float(np.sqrt(np.mean(v ** 2)))
+        out.append(f"| {model} | " + " | ".join(f"{a:+.1f}, {b:+.1f}" for a, b in v) + f" | {rms:.1f} | "
+                   f"{rms / PIXEL_UM:.2f} |")
+    mids = {k: auto_px[k] for k in ("midside T", "midside B", "midside L", "midside R") if k in auto_px}
+    if len(mids) == 4:
+        H = fits["affine"].H
+        mm_mid = {k: apply_transform(H, np.array([v]))[0] for k, v in mids.items()}
+        span_x = float(np.hypot(*(mm_mid["midside R"] - mm_mid["midside L"])))
+        span_y = float(np.hypot(*(mm_mid["midside T"] - mm_mid["midside B"])))
+        out += ["\nThe midside marks mapped to film mm by the corners' affine transformation:\n",
+                "| mark | x (mm) | y (mm) |", "|---|---|---|"]
+        out += [f"| {k} | {p[0]:+.3f} | {p[1]:+.3f} |" for k, p in mm_mid.items()]
+        out.append(f"\nSpans between opposite midsides: x {span_x:.3f} mm, y {span_y:.3f} mm; the camera file: "
+                   f"{SPANS_MM[0]:.3f} x {SPANS_MM[1]:.3f} mm (differences {1000 * (span_x - SPANS_MM[0]):+.0f} "
+                   f"and {1000 * (span_y - SPANS_MM[1]):+.0f} um).\n")
+    return out
 
 
 def orientations(crop: np.ndarray):
@@ -64,6 +108,7 @@ def main() -> int:
     pos = ["| mark | box | " + " | ".join(METHODS) + " |", "|---|---|" + "---|" * len(METHODS)]
     mir = ["| mark | " + " | ".join(METHODS) + " |", "|---|" + "---|" * len(METHODS)]
     times = {m: [] for m in METHODS}
+    auto_px: dict = {}
     for name, (box, crop) in crops.items():
         prow, mrow = [], []
         for m in METHODS:
@@ -74,6 +119,8 @@ def main() -> int:
                 loc = aerofid.locate(img, (0, 0, img.shape[1], img.shape[0]), mark="external", method=m)
                 times[m].append(time.perf_counter() - t)
                 if oname == "as is":
+                    if loc.found and m == "auto":
+                        auto_px[name] = (loc.x + box[0], loc.y + box[1])
                     if loc.found:
                         prow.append(f"{loc.x + box[0]:.2f}, {loc.y + box[1]:.2f} (s {loc.sigma:.3f}, q {loc.score:.2f}"
                                     + (f", {loc.method}" if m == "auto" else "") + ")")
@@ -108,6 +155,7 @@ def main() -> int:
              "\n## Mirror consistency\n",
              "Largest distance (px) between the centres found in the crop, its left-right and up-down mirrors and "
              "its transpose, mapped back. Target: <= 0.1 px.\n", *mir,
+             *orientation_check(auto_px),
              "\n## Time\n", "| | " + " | ".join(METHODS) + " |", "|---|" + "---|" * len(METHODS), trow]
     with open(args.out, "w") as f:
         f.write("\n".join(parts) + "\n")

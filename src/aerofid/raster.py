@@ -234,8 +234,19 @@ def channel_mix(rgb: np.ndarray, mix: str) -> np.ndarray:
     return rgb @ np.asarray(MIX_WEIGHTS[mix], dtype=np.float32)
 
 
+MIX_CENTRE_MIN = 32
+"""Windows at least this many px across judge the channel mixes on their central half (below: the whole)."""
+
+
 def _best_mix(rgb: np.ndarray, polarity: str, noise_floor: float) -> str:
-    """Name of the mix in :data:`MIX_WEIGHTS` whose grey window gives the mark the most contrast."""
+    """Name of the mix in :data:`MIX_WEIGHTS` whose grey window gives the mark the most contrast, judged on
+    the window's central half (each side a quarter in) when it is at least :data:`MIX_CENTRE_MIN` px across:
+    the user boxes the mark, and the box's margins may hold the bright aerial image area beside a notch,
+    which is brightest in whichever channel its colour favours (a red RC20 midside mark next to cyan water
+    picked blue on the whole box)."""
+    h, w = rgb.shape[:2]
+    if min(h, w) >= MIX_CENTRE_MIN:
+        rgb = rgb[h // 4:h - h // 4, w // 4:w - w // 4]
     scores = [
         mark_contrast(channel_mix(rgb, mix), polarity, noise_floor=noise_floor) for mix in MIX_WEIGHTS
     ]

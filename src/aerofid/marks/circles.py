@@ -72,6 +72,10 @@ CONCENTRIC_TOL = 0.5
 """Largest distance (px, plus three standard deviations) between the centres of the circles fitted one by
 one for them to count as concentric."""
 
+ENCLOSE_MARGIN = 3.0
+"""A competing circle that encloses the mark's circles with this many px to spare and is a step up from dark
+to bright is the film border's rounded notch around the mark (Wild RC20 midsides and corners), not a
+competitor (:func:`_notch_rim`)."""
 COMPETITOR_RATIO = 0.5
 """Another centre peak (radius-free vote) of at least this fraction of the chosen one, away from it, makes the
 window ambiguous (e.g. two non-concentric circles)."""
@@ -83,9 +87,22 @@ EDGE_CORRELATION = 2.0
 (about 2 px along the edge), so the adjustment's cofactors, which assume independent points, are scaled by
 sqrt(EDGE_CORRELATION). Measured: with it the RMS error on synthetic marks is 0.7-1.4 times the sigma."""
 
-MAX_RMS_RATIO = 3.0
+MAX_RMS_RATIO = 5.0
 """Largest ratio of the adjustment's sigma0 (edge residual RMS) to the RMS the noise explains; measured on good
 synthetic marks (noise 0.01-0.05, contrast 0.3-0.8): at most 1.9."""
+
+SAME_POLARITY_GAP = 3.0
+"""Free radii: two circles whose edges have the same polarity must be at least this many px apart."""
+
+SINGLE_PASSES = 3
+"""Concentricity: each circle is fitted on its own this many times, re-selecting its edge points about its own
+adjusted centre each time ...
+"""
+SINGLE_BAND = 3.0
+"""... within this many px of it (less when another circle is nearer than twice this)."""
+
+RAYLEIGH_MEDIAN = float(np.sqrt(2.0 * np.log(2.0)))
+"""Median of the magnitude of a 2-D gradient of white noise, in units of its per-axis sigma."""
 
 RADIUS_TOL = 1.5
 """Given radii are searched over +/- this many px (0.5 px steps) in the Hough space and the radius histogram."""
@@ -131,7 +148,13 @@ def edges(window: np.ndarray, canny_sigma: float = CANNY_SIGMA, canny_high: floa
     mag = np.hypot(gx, gy)
     # gradient noise: Sobel/8 of white noise smoothed by a Gaussian of sigma s has std about
     # noise * sqrt(12/64) / (2 sqrt(pi) s) ** 0.5 ... use the empirical factor of a pure-noise field instead
-    g_noise = noise * _gradient_noise_gain(canny_sigma)
+    # ... but no less than the gradient noise measured directly: the median magnitude of a 2-D Gaussian
+    # gradient is sqrt(2 ln 2) = 1.1774 sigma. JPEG blocks and correlated film grain hide from the grey-level
+    # noise estimate (a real RC20 scan: 1 grey level) while their gradients made half the window Canny edges.
+    # The edge-position noise of the adjustment (_expected_edge_rms) uses the same effective noise.
+    gain = _gradient_noise_gain(canny_sigma)
+    g_noise = max(noise * gain, float(np.median(mag)) / RAYLEIGH_MEDIAN)
+    noise = g_noise / gain
     empty = np.zeros(0)
     if not np.isfinite(mag).all() or mag.max() <= 0:
         return EdgePoints(empty, empty, empty, empty, empty, empty.astype(int), empty.astype(int),
@@ -248,8 +271,10 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
     """Radii of circles centred near (cx, cy): peaks of the histogram (0.5 px bins, smoothed) of the
     distances of the edge points whose gradient is radial, each scored by its angular coverage.
 
-    Without ``near``, returns up to ``n_circles`` (radius, coverage) at least 1.5 px apart: the circles covered
-    on ``min_coverage`` of their circumference first, each group by edge-point count (largest circles first). With ``near`` (the given radii), returns
+    Without ``near``, returns up to ``n_circles`` (radius, coverage) at least 1.5 px apart (``SAME_POLARITY_GAP``
+    px when both are edges of the same polarity, i.e. both dark inside or both bright inside: a blurred edge
+    seen from a centre a pixel off splits into two histogram peaks), the circles covered on ``min_coverage``
+    of their circumference first, each group by edge-point count (largest circles first). With ``near`` (the given radii), returns
     for each the best peak within max(2, 0.15 R) px of it.
     """
     d, cos = _radial(ep, cx, cy)
@@ -264,11 +289,19 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
     is_peak = (hs > 0) & (hs >= np.roll(hs, 1)) & (hs >= np.roll(hs, -1))
     peaks = np.nonzero(is_peak)[0]
 
+    # polarity of each edge point: +1 when its gradient points away from the centre (dark inside)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        outward = np.sign((ep.x - cx) * ep.nx + (ep.y - cy) * ep.ny)
+
     def refine(i: int) -> tuple[float, float]:
         sel = ok & (np.abs(d - centres[i]) <= 1.0)
         r = float(np.median(d[sel])) if sel.any() else float(centres[i])
         sel = ok & (np.abs(d - r) <= 1.0)
         return r, _coverage(ep.x[sel], ep.y[sel], cx, cy)
+
+    def polarity(r: float) -> float:
+        sel = ok & (np.abs(d - r) <= 1.0)
+        return float(np.sign(outward[sel].sum())) if sel.any() else 0.0
 
     if near is not None:
         # each given radius takes its own histogram peak (within max(2, 0.15 R)), the set of peaks with the
@@ -297,10 +330,13 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
             scored.append((cov >= min_coverage, float(hs[i]), r, cov))
     scored.sort(key=lambda t: (not t[0], -t[1]))
     out: list[tuple[float, float]] = []
+    signs: list[float] = []
     for _, _, r, cov in scored:
-        if any(abs(r - q) < 1.5 for q, _ in out):
+        sign = polarity(r)
+        if any(abs(r - q) < (SAME_POLARITY_GAP if sign == t else 1.5) for (q, _), t in zip(out, signs)):
             continue
         out.append((r, cov))
+        signs.append(sign)
         if len(out) >= n_circles:
             break
     return out
@@ -544,12 +580,25 @@ def detect(window: np.ndarray, radii: tuple[float, float] | None = None, *, n_ci
         return not_found(METHOD, f"circle of radius {use_radii[j]:.1f} px has edges on only {cover[j]:.0%} of "
                                  f"its circumference (cut by the window edge, or not a circle)", **diag)
     # concentricity: each circle fitted on its own
+    # (each circle's edge points are taken in a band of up to SINGLE_BAND px about it, short of the other
+    # circles, and selected again about its own adjusted centre, SINGLE_PASSES times: a thin ring offset by a
+    # pixel or two, whose edges the narrow de-Houghing about the common centre only half selects, moves to
+    # its own centre)
     singles = []
     for j in range(len(use_radii)):
+        gap = min((abs(use_radii[j] - r) for k, r in enumerate(use_radii) if k != j), default=2 * SINGLE_BAND)
+        band = max(min(dehough_tol, 1.0), min(SINGLE_BAND, 0.5 * gap - 0.25))
         m = lab == j
-        fj = fit_concentric_circles(ep.x[m], ep.y[m], np.zeros(int(m.sum()), int), (use_radii[j],), (cx, cy))
-        if fj is None:
-            return not_found(METHOD, f"circle {j} could not be adjusted on its own", **diag)
+        fj = None
+        for _ in range(SINGLE_PASSES):
+            fj = fit_concentric_circles(ep.x[m], ep.y[m], np.zeros(int(m.sum()), int),
+                                        (use_radii[j] if fj is None else fj.radii[0],),
+                                        (cx, cy) if fj is None else (fj.x0, fj.y0))
+            if fj is None or not np.isfinite([fj.x0, fj.y0]).all():
+                return not_found(METHOD, f"circle {j} could not be adjusted on its own", **diag)
+            m = de_hough(ep, fj.x0, fj.y0, [fj.radii[0]], band, radial_cos) == 0
+            if m.sum() < 5:
+                return not_found(METHOD, f"circle {j} could not be adjusted on its own", **diag)
         singles.append(fj)
     sep = max(np.hypot(a.x0 - b.x0, a.y0 - b.y0) for i, a in enumerate(singles) for b in singles[i + 1:])
     s_sep = max(np.sqrt(a.cov[0, 0] + a.cov[1, 1] + b.cov[0, 0] + b.cov[1, 1])
@@ -578,7 +627,7 @@ def detect(window: np.ndarray, radii: tuple[float, float] | None = None, *, n_ci
                                          f"away: circles not concentric", **diag)
     # competing circular structure elsewhere in the window: a strong centre peak away from ours around which
     # edge points that are not on our circles form a well-supported circle (e.g. two non-concentric rings)
-    comp = _competitor(ep, votes, cx, cy, use_radii, lab, min_radius, r_max, competitor_ratio, min_coverage,
+    comp = _competitor(w, ep, votes, cx, cy, use_radii, lab, min_radius, r_max, competitor_ratio, min_coverage,
                        radial_cos)
     diag["competitor"] = comp
     if comp is not None:
@@ -604,12 +653,13 @@ def detect(window: np.ndarray, radii: tuple[float, float] | None = None, *, n_ci
                      diagnostics=diag)
 
 
-def _competitor(ep: EdgePoints, votes: np.ndarray, cx: float, cy: float, radii: list[float], lab: np.ndarray,
-                r_min: float, r_max: float, ratio: float, min_coverage: float, radial_cos: float,
+def _competitor(window: np.ndarray, ep: EdgePoints, votes: np.ndarray, cx: float, cy: float, radii: list[float],
+                lab: np.ndarray, r_min: float, r_max: float, ratio: float, min_coverage: float, radial_cos: float,
                 max_peaks: int = 4):
     """The strongest competing circle (x, y, radius, coverage) or None: local maxima of the centre votes at least
     ``ratio`` of ours and more than max(3, R_min / 4) px from (cx, cy), around which the edge points *not* on
-    our circles hold a circle covered on ``min_coverage`` of its circumference."""
+    our circles hold a circle covered on ``min_coverage`` of its circumference, unless that circle is the
+    rim of a dark notch around the mark (:func:`_notch_rim`)."""
     h, w = votes.shape
     main = float(votes[int(round(np.clip(cy, 0, h - 1))), int(round(np.clip(cx, 0, w - 1)))])
     if main <= 0:
@@ -631,8 +681,27 @@ def _competitor(ep: EdgePoints, votes: np.ndarray, cx: float, cy: float, radii: 
         oy, ox = float(pk[0][i]), float(pk[1][i])
         found = estimate_radii(rest, ox, oy, r_min, r_max, 1, radial_cos=radial_cos)
         if found and found[0][1] >= min_coverage:
+            if _notch_rim(window, ep.noise, cx, cy, radii, ox, oy, found[0][0]):
+                continue
             return ox, oy, found[0][0], found[0][1]
     return None
+
+
+def _notch_rim(window: np.ndarray, noise: float, cx: float, cy: float, radii: list[float], ox: float, oy: float,
+               r: float) -> bool:
+    """Whether the circle (ox, oy, r) is the rim of a dark notch holding the mark (the film border's rounded
+    notch around Wild RC20 marks): it encloses the mark's circles with ``ENCLOSE_MARGIN`` px to spare and is a
+    step up, not a ring: 2-6 px outside it the grey level stays at least max(6 noise, 0.05) above the level
+    2-6 px inside it (a bright ring's edge falls back to the dark ground within its width)."""
+    if np.hypot(ox - cx, oy - cy) + max(radii) + ENCLOSE_MARGIN > r:
+        return False
+    h, w = window.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    d = np.hypot(xx - ox, yy - oy)
+    inside, outside = window[(d >= r - 6) & (d <= r - 2)], window[(d >= r + 2) & (d <= r + 6)]
+    if inside.size < 20 or outside.size < 20:
+        return False
+    return float(np.median(outside) - np.median(inside)) >= max(6.0 * noise, 0.05)
 
 
 def _expected_edge_rms(ep: EdgePoints, lab: np.ndarray, canny_sigma: float) -> float:

@@ -195,3 +195,57 @@ def test_bad_inputs_are_not_found_not_exceptions():
     assert circles.detect(img).status == "not_found"
     s, _ = next(_marks("bullseye", 1, seed=9))
     assert circles.detect(s.image, radii=(5.0,)).status == "not_found"
+
+
+# --- real-scan situations (the Wild RC20 frame's notches, JPEG) -----------------------------------------
+
+def _in_notch(rng, rim, offset, n=120, ring_rim=False):
+    """A Wild ring+'+' mark (radius 20) at the window's centre inside a dark rounded notch of radius ``rim``
+    whose centre is ``offset`` px away, bright image area outside; with ``ring_rim`` the notch is instead a
+    thin bright ring (another mark's circle, not a step to the image area)."""
+    c = (n / 2 + 0.37, n / 2 - 0.21)
+    o = (c[0] + offset, c[1] + 0.5 * offset)
+    if ring_rim:
+        img = synth.paint(np.full((n, n), 0.06, np.float32), synth.coverage((n, n), o, synth.ring(rim - 1.5, rim)),
+                          0.85)
+    else:
+        img = synth.paint(np.full((n, n), 0.7, np.float32), synth.coverage((n, n), o, synth.disc(rim)), 0.06)
+    img = synth.paint(img, synth.coverage((n, n), c, synth.mark_shape("ring_cross", 40.0, 10.0, width=3.0)), 0.8)
+    return synth.add_gaussian_noise(synth.blur(img, 0.8), 0.02, rng), c
+
+
+def test_the_rounded_notch_around_a_mark_is_not_a_competing_circle():
+    rng = np.random.default_rng(21)
+    for rim, offset in ((38.0, 3.0), (44.0, 6.0)):
+        img, (x, y) = _in_notch(rng, rim, offset)
+        d = circles.detect(img)
+        assert d.found, d.reason
+        assert np.hypot(d.x - x, d.y - y) < 0.1
+
+
+def test_an_enclosing_bright_ring_off_centre_still_competes():
+    rng = np.random.default_rng(22)
+    img, _ = _in_notch(rng, 38.0, 4.0, ring_rim=True)
+    d = circles.detect(img)
+    assert not d.found and any(w in d.reason for w in ("concentric", "competes")), d.reason
+
+
+def test_colour_jpeg_blocks_do_not_drown_the_circles_in_edges():
+    """A red ring mark on a dark film border, saved as a colour JPEG (quality 90, chroma subsampled) and read
+    back in its red channel, as on the real RC20 scan: the grey-level noise estimate sees about one grey level
+    while the chroma blocks' gradients would make much of the window Canny edges (before the gradient-noise
+    floor of :func:`circles.edges`, 0 of 6 found here)."""
+    import cv2
+
+    rng = np.random.default_rng(23)
+    for _ in range(6):
+        s = synth.mark_scene("ring_cross", size=44, window=120, rng=rng, noise_sigma=0.004, blur_sigma=1.0,
+                             contrast=0.5, angle_deg=rng.uniform(0, 90))
+        g = synth.to_uint8(s.image)
+        bgr = np.dstack([np.full_like(g, 30), np.full_like(g, 34), g])
+        ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, 90])
+        img = cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., 2].astype(np.float32) / 255
+        d = circles.detect(img)
+        m = s.marks[0]
+        assert d.found, d.reason
+        assert np.hypot(d.x - m.x, d.y - m.y) < 0.1

@@ -631,3 +631,16 @@ def test_real_wild_rc20_red_corner_marks_keep_their_contrast_with_auto(rc20, cen
     luminance = mark_contrast(to_grey(window, "luminance"), "bright", noise_floor=floor)
     assert choose_channel_mix(window) == "red"
     assert auto > 1.5 * luminance
+
+
+def test_auto_judges_the_channels_on_the_middle_of_the_box():
+    """A red mark in the middle, a bright cyan image area in a corner of the box (a Wild RC20 midside notch
+    beside water): the cyan area is brightest in green and blue, the mark only in red."""
+    rng = np.random.default_rng(3)
+    window = np.clip(rng.normal(25, 2, (120, 120, 3)), 0, 255)
+    y, x = np.mgrid[:120, :120]
+    ring = np.abs(np.hypot(x - 60, y - 60) - 20) < 3
+    window[ring, 0] = 160
+    window[(x - 120) ** 2 + (y - 120) ** 2 < 45 ** 2] = (60, 150, 165)
+    window = window.round().astype(np.uint8)
+    assert choose_channel_mix(window) == "red"

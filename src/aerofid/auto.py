@@ -124,19 +124,21 @@ class Check:
     extent: float
 
 
-Runner = Callable[[str, np.ndarray], Detection]
+Runner = Callable[..., Detection]
+"""``run(method, window, **overrides) -> Detection``; ``overrides`` are that method's keyword parameters."""
 
 
 def make_runner(mark: str = "auto", params: dict | None = None) -> Runner:
-    """A function ``run(method, window) -> Detection`` that passes ``mark`` to ``hough`` and the user's
-    parameters to ``hough`` (the only method whose parameters ``locate`` exposes today)."""
+    """A function ``run(method, window, **overrides) -> Detection`` that passes ``mark`` and the user's
+    parameters to ``hough`` (the only method whose parameters ``locate`` exposes today), and ``overrides``
+    (auto's own settings for one call) to the method."""
     params = dict(params or {})
 
-    def run(method: str, window: np.ndarray) -> Detection:
+    def run(method: str, window: np.ndarray, **overrides) -> Detection:
         fn = detector(method)
         if method == "hough":
-            return fn(window, mark=mark, **params)
-        return fn(window)
+            return fn(window, mark=mark, **{**params, **overrides})
+        return fn(window, **overrides)
 
     return run
 
@@ -401,7 +403,9 @@ def _finish(img, group, extent, noise, run, have, rule, diag, panel=False, dot=F
     for m in sorted(set(own) | {"symmetry", "circles"}) if rest else ():
         if m in ("lines", "centroid") or m not in have:
             continue
-        d = run(m, blanked)
+        # hough need not verify (fit) candidates too weak to count as a second mark
+        floor = {"min_metric": max(MIN_SCORE["hough"], SECOND_RATIO * own.get(m, 0.0))} if m == "hough" else {}
+        d = run(m, blanked, **floor)
         if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent and d.score >= SECOND_RATIO * own.get(m, 0.0) \
                 and _similar_size(detection_extent(d), extent):
             again.append(d)

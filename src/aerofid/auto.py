@@ -223,15 +223,19 @@ def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: f
     return float(max(0.0, (dd * dd).mean() - 2.0 * n * n) / (2.0 * sig))
 
 
-def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float = 0.0) -> np.ndarray:
-    """A copy of ``img`` with the disc of ``radius`` around (x, y) replaced by the ground level around it plus
-    white noise of std ``noise`` (a fixed seed: deterministic), so that the blank looks like plain ground."""
+def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float = 0.0,
+               level: float | None = None) -> np.ndarray:
+    """A copy of ``img`` with the disc of ``radius`` around (x, y) replaced by ``level`` (default: the ground
+    level around it, :func:`ground_level`) plus white noise of std ``noise`` (a fixed seed: deterministic), so
+    that the blank looks like plain ground."""
     h, w = img.shape
     yy, xx = np.mgrid[0:h, 0:w]
     d = np.hypot(xx - x, yy - y) <= radius
     out = img.copy()
     fill = np.random.default_rng(12345).normal(0.0, noise, int(d.sum())) if noise > 0 else 0.0
-    out[d] = (ground_level(img, x, y, radius, radius + 5) + fill).astype(np.float32)
+    if level is None:
+        level = ground_level(img, x, y, radius, radius + 5)
+    out[d] = (level + fill).astype(np.float32)
     return out
 
 
@@ -384,16 +388,18 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
     return _finish(img, group, extent, noise, run, have, rule, diag, mark == "panel")
 
 
-def _finish(img, group, extent, noise, run, have, rule, diag, panel=False, dot=False) -> Detection:
+def _finish(img, group, extent, noise, run, have, rule, diag, panel=False, dot=None) -> Detection:
+    """Steps 3 and the score; ``dot`` is the plain ground level around an isolated dot (step 4), which also
+    fills its blank: the annulus just outside a dot in a small notch holds the notch's walls."""
     best = min(group, key=lambda d: PRIORITY.index(d.method) if d.method in PRIORITY else len(PRIORITY))
     chk = verify_centre(img, best.x, best.y, extent, noise)
     diag.update(check=chk, rule=rule, extent=extent)
     if not chk.ok:
         return not_found(METHOD, chk.reason, **diag)
     # uniqueness: blank the mark, look again
-    blanked = blank_disc(img, best.x, best.y, extent + EDGE_MARGIN, noise)
+    blanked = blank_disc(img, best.x, best.y, extent + EDGE_MARGIN, noise, level=dot)
     again = []
-    rest, blobs = structure_left(blanked, img, best.x, best.y, extent, noise, any_size=dot)
+    rest, blobs = structure_left(blanked, img, best.x, best.y, extent, noise, any_size=dot is not None)
     diag.update(structure_left=rest, mark_like=blobs)
     if blobs and not panel:
         x0, y0, x1, y1, area = blobs[0]
@@ -541,7 +547,7 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
     group = [det, centroid]
     diag["groups"] = [group]
     return _finish(img, group, r_blob + 1.0, noise, run, have, "isolated compact dot: symmetry + centroid", diag,
-                   dot=True)
+                   dot=ground)
 
 
 def _flat_blob(img, bx, by, noise, ground) -> tuple[float, float] | str:

@@ -22,8 +22,11 @@ The pipeline of seed 003, section 5 ("Algorithm"), on one window:
    the parameters scaled by the a-posteriori ``sigma0^2`` gives the centre's standard deviation.
 
 The result is rejected (``not_found`` with a reason) when fewer than two circles are supported on enough of
-their circumference, when the circles are not concentric, or when another circular structure competes with
-the chosen centre.
+their circumference, when the circles are not concentric (each circle adjusted on its own, its edge points
+re-selected about its own centre), when another circular structure competes with the chosen centre (the
+rounded notch of the film border that encloses a Wild mark does not compete: :func:`_notch_rim`), or when the
+edge points scatter about the circles more than the noise explains (the noise measured on the gradients
+too: JPEG blocks hide from the grey-level estimate).
 """
 
 from __future__ import annotations

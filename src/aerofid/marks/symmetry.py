@@ -22,6 +22,11 @@ It runs in four stages (seed Fig. 3):
    high-pass profile, eq. (14), mapped back by eq. (15). A total shift that is too large, or a neighbourhood
    whose grey levels hardly vary (too faint), is a failure.
 
+Beyond the seed, the centre of eq. (15) is refined by least squares on point symmetry itself
+(:func:`point_symmetry_centre`, ``point_refine=True``): eq. (14) is biased on marks whose filter response is
+uneven (rotated thin crosses: 0.1-0.3 px), the refinement is not; the two centres' disagreement enters
+``sigma``.
+
 Every step works on absolute differences of a linear filter, so the method is blind to polarity: a bright
 mark on dark ground and a dark mark on bright ground give the same centre.
 

@@ -5,18 +5,9 @@ import pytest
 
 from aerofid import synth
 from aerofid.marks import lines
-from aerofid.marks.base import Detection
 from aerofid.threshold import local_dynamic_threshold
-
-
-def _marks(style, n, seed, rotate=False):
-    """n synthetic marks: random sub-pixel centre, size 20-60 px, blur 0.5-1.0, noise 0.01-0.03."""
-    rng = np.random.default_rng(seed)
-    for _ in range(n):
-        size = rng.uniform(20, 60)
-        s = synth.mark_scene(style, size, window=int(size * 1.6) + 8, rng=rng, blur_sigma=rng.uniform(0.5, 1.0),
-                             noise_sigma=rng.uniform(0.01, 0.03), angle_deg=rng.uniform(0, 90) if rotate else 0.0)
-        yield s, size
+from detector_checks import assert_contract, assert_rejects_noise_flat_and_edges, sigma_ratio
+from detector_checks import synthetic_marks as _marks
 
 
 # --- local dynamic thresholding -------------------------------------------------------------------------
@@ -79,50 +70,21 @@ def test_detect_accuracy(style, rotate):
 
 def test_sigma_is_honest():
     """Observed per-axis RMS error within a factor 3 of the mean reported sigma (measured ~0.7-1.5)."""
-    err2, sig = [], []
-    for style in ("cross", "ring_cross", "ring_x_dot"):
-        for s, _ in _marks(style, 12, seed=21):
-            m = s.marks[0]
-            d = lines.detect(s.image)
-            assert d.found
-            err2 += [(d.x - m.x) ** 2, (d.y - m.y) ** 2]
-            sig.append(d.sigma)
-    ratio = np.sqrt(np.mean(err2)) / np.mean(sig)
+    ratio = sigma_ratio(lines.detect, ("cross", "ring_cross", "ring_x_dot"), 12, seed=21)
     assert 1 / 3 <= ratio <= 3, ratio
 
 
 def test_detection_contract():
     s, _ = next(_marks("cross", 1, seed=5))
     d = lines.detect(s.image)
-    assert isinstance(d, Detection) and d.method == "lines" and d.found
-    assert 0 <= d.score <= 1 and d.sigma > 0
-    for key in ("binary", "thresholds", "accumulator", "hough_lines", "lines", "fitted_lines"):
-        assert key in d.diagnostics
+    assert_contract(d, "lines", ("binary", "thresholds", "accumulator", "hough_lines", "lines", "fitted_lines"))
     assert len(d.diagnostics["fitted_lines"]) == 2
 
 
 # --- rejections -----------------------------------------------------------------------------------------
 
-def _half_plane(angle_deg, rng, n=64):
-    t = np.deg2rad(angle_deg)
-    c = (n / 2 - 0.3 - 32 * np.sin(t), n / 2 + 0.2 + 32 * np.cos(t))  # a bar 64 wide, one edge through the middle
-    img = synth.paint(np.full((n, n), 0.1, np.float32), synth.coverage((n, n), c, synth.bar(400, 64, angle_deg)),
-                      0.8)
-    return synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng)
-
-
 def test_rejects_noise_homogeneous_and_a_straight_edge():
-    rng = np.random.default_rng(3)
-    for _ in range(3):
-        noise = np.clip(0.1 + rng.normal(0, 0.03, (64, 64)), 0, 1).astype(np.float32)
-        assert lines.detect(noise).status == "not_found"
-    d = lines.detect(np.full((64, 64), 0.1, np.float32))
-    assert not d.found and "homogeneous" in d.reason
-    for ang in (0, 20, 45, 90):
-        img = _half_plane(ang, rng)
-        assert 0.2 < img.mean() < 0.7
-        d = lines.detect(img)
-        assert not d.found and d.reason, ang
+    assert_rejects_noise_flat_and_edges(lines.detect)
 
 
 @pytest.mark.parametrize("angle", [0.0, 30.0])

@@ -100,10 +100,12 @@ MIN_BLOB_SNR = 10.0
 MIN_MOAT = 2.5
 """Step 4: flat ground must surround the blob from its radius out to at least this many px beyond it."""
 
-PRIORITY = ("hough", "circles", "symmetry", "lines", "centroid")
-"""Whose centre a corroborated group returns: the first of its members in this order (measured in
-docs/benchmarks_marks.md: the cross fit of ``hough`` is the most accurate on '+' marks, ``circles`` on rings;
-``symmetry`` reports sigmas that are too small on crosses, 0.2-0.3 px errors with sigma ~0.01 px)."""
+PRIORITY = ("hough", "symmetry", "circles", "lines", "centroid")
+"""Whose centre a corroborated group returns: the first of its members in this order (docs/benchmarks_marks.md:
+the cross fit of ``hough`` is the most accurate on '+' marks, ``symmetry`` with its point-symmetry refinement on
+rings, dots and bull's-eyes: RMS 0.012 px against 0.019 px for ``circles`` on 20 Wild corner marks, 0.014
+against 0.047 px with a speck on the ring; ``circles`` is better only under heavy noise, 0.024 against 0.032 px.
+Picking the member with the smallest sigma, or the sigma-weighted mean, did worse: 0.019 and 0.014 px)."""
 
 
 def _hough_keys() -> frozenset[str]:

@@ -344,6 +344,10 @@ MAX_CENTRE_SIGMA = 0.15
 """Verification: the fit's standard deviation of the centre (per axis) must not exceed this (px). Measured
 (129 true '+' in every benchmark condition: at most 0.12 px; '+'-like crossings in aerial texture: median
 0.14 px; the two answers 0.5 px or more off the truth: 0.16 and 0.31 px)."""
+MIN_ARM_PROTRUSION = 0.5
+"""Verification: the shorter fitted half-arm must reach this far (px) beyond the blurred crossing, i.e. beyond
+half the stroke width plus twice the blur (a compact bright blob in JPEG blocks fitted as a '+' of 4 px bars:
+-0.7 px; 7 px cloth panels at blur 0.6: 1.7 px and more)."""
 MIN_RESOLVED_WIDTH = 0.5
 """Verification: a stroke fitted narrower than this (px) under a blur more than 0.5 px wider is not resolved:
 width and amplitude trade off (a hair-thin, very bright stroke), the fit has found a blurred line."""
@@ -394,6 +398,10 @@ def verify_candidate(image: np.ndarray, cand, refine_size: int, params: HoughPar
     if ref.width < MIN_RESOLVED_WIDTH and ref.blur > ref.width + 0.5:
         return (f"the stroke is not resolved (width {ref.width:.2f} px under a blur of {ref.blur:.2f} px): a "
                 "blurred line in texture, not a '+'")
+    protrusion = min(ref.length1, ref.length2) / 2.0 - (ref.width / 2.0 + 2.0 * ref.blur)
+    if protrusion < MIN_ARM_PROTRUSION:
+        return (f"the arms do not stick out of the blurred crossing ({protrusion:.1f} px beyond it): a blob, "
+                "not a '+'")
     if ref.sigma > MAX_CENTRE_SIGMA:
         return (f"the centre is too uncertain (sigma {ref.sigma:.2f} px > {MAX_CENTRE_SIGMA} px): a faint or "
                 "blurred '+', or texture")

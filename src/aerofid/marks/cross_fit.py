@@ -196,13 +196,15 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     # and runs out of evaluations, the bounded trust-region solver is tried once from the same start.
     sol = None
     for _ in range(1 + ROBUST_PASSES):
-        start = p0 if sol is None else np.clip(sol.x, lo + 1e-9, hi - 1e-9)
+        start = p0 if sol is None else sol.x
         try:
             with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
                 sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
                                     max_nfev=MAX_EVALUATIONS)
                 if not (np.all(np.isfinite(sol.x)) and (sol.success or sol.status > 0)):
-                    sol = least_squares(residuals, start, jac=jac, method="trf", bounds=(lo, hi),
+                    inside = np.clip(np.where(np.arange(start.size) // 4 == 1, np.abs(start), start),
+                                     lo + 1e-9, hi - 1e-9)
+                    sol = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi),
                                         x_scale="jac", max_nfev=MAX_EVALUATIONS)
         except (ValueError, np.linalg.LinAlgError):
             return None

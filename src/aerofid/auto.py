@@ -82,6 +82,8 @@ SECOND_RATIO = 0.5
 score by that method (any score when the method did not answer for the mark)."""
 SECOND_SIZE = 2.0
 """... and when its extent is within this factor of the mark's (:func:`_similar_size`)."""
+EXTENT_PERCENTILE = 75.0
+"""The mark's extent from the radial profile (:func:`profile_extent`) uses this percentile over each circle."""
 MIN_CORE_SNR = 8.0
 """A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma off the ground."""
 ISOLATE_FACTOR = 2.0
@@ -162,8 +164,11 @@ def ground_level(img: np.ndarray, x: float, y: float, r_in: float, r_out: float)
 
 
 def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: float) -> float:
-    """Radius (px) of the structure around (x, y): the last radius at which the largest absolute deviation
-    from the ground over the circle (smoothed by 1 px) exceeds max(0.25 x its largest value, 5 noise)."""
+    """Radius (px) of the structure around (x, y): the last radius at which the ``EXTENT_PERCENTILE``-th
+    percentile of the absolute deviation from the ground over the circle (smoothed by 1 px) exceeds
+    max(0.25 x its largest value, 5 noise). A percentile, not the largest value: a thin line running through
+    a dot (the real EarthExplorer block mark) or a '+' beyond a ring crosses every circle at a few points and
+    would make the mark as large as the box."""
     k = int(np.ceil(r_max))
     p = cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0)
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
@@ -172,8 +177,9 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
     g = float(np.median(p[ring])) if ring.any() else float(np.median(p))
     dev = np.abs(p - g)
     ri = np.floor(rr).astype(int)
-    prof = np.zeros(k + 1)
-    np.maximum.at(prof, ri[rr <= k], dev[rr <= k])
+    inside = rr <= k
+    prof = np.array([np.percentile(dev[inside & (ri == r)], EXTENT_PERCENTILE) if (inside & (ri == r)).any() else 0.0
+                     for r in range(k + 1)])
     thr = max(0.25 * prof.max(), 5.0 * noise)
     above = np.flatnonzero(prof > thr)
     return float(above[-1] + 1) if above.size else 1.0

@@ -244,3 +244,23 @@ def test_bad_parameters_are_rejected():
         hc.detect(img, theta_step=7.0)
     with pytest.raises(ValueError):
         hc.detect(img, mark="circle")
+
+
+def test_the_search_gives_up_after_max_rejections():
+    """A verification that refuses everything is called MAX_REJECTIONS times, then the search ends with a
+    reason that says so; without the limit it is called for every qualifying candidate."""
+    from aerofid.search import MAX_REJECTIONS
+
+    img = synth.aerial_ground((160, 160), np.random.default_rng(4))
+    calls = []
+
+    def refuse(cand, size):
+        calls.append((cand.x, cand.y))
+        return "refused"
+
+    res = search_box(img, "auto", hc.HoughParams(), SearchParams(), refuse)
+    assert res.best is None and len(calls) == MAX_REJECTIONS
+    assert f"stopped after {MAX_REJECTIONS} refused" in res.reason
+    calls.clear()
+    search_box(img, "auto", hc.HoughParams(), SearchParams(max_rejections=None), refuse)
+    assert len(calls) > MAX_REJECTIONS

@@ -59,6 +59,7 @@ import numpy as np
 
 from aerofid.marks import available_methods, detector
 from aerofid.marks.base import FOUND, Detection, not_found
+from aerofid.marks.centrality import patch as _patch, point_asymmetry
 from aerofid.marks.symmetry import noise_sigma
 
 METHOD = "auto"
@@ -149,11 +150,6 @@ def make_runner(mark: str = "auto", params: dict | None = None) -> Runner:
 
 # --- geometry helpers ------------------------------------------------------------------------------------
 
-def _patch(img: np.ndarray, x: float, y: float, k: int) -> np.ndarray:
-    """The (2k+1) x (2k+1) patch centred exactly on (x, y), bilinear (edge pixels replicated)."""
-    return cv2.getRectSubPix(img.astype(np.float32), (2 * k + 1, 2 * k + 1), (float(x), float(y)))
-
-
 def ground_level(img: np.ndarray, x: float, y: float, r_in: float, r_out: float) -> float:
     """Median grey level in the annulus r_in..r_out around (x, y) (whole window when it is empty)."""
     h, w = img.shape
@@ -210,25 +206,6 @@ def core_contrast(img: np.ndarray, x: float, y: float, extent: float, noise: flo
     if not ground.any():
         return 0.0
     return float((p[core].mean() - np.median(p[ground])) / (max(noise, 1e-4) / np.sqrt(core.sum())))
-
-
-def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: float) -> float:
-    """Share of the structure within ``radius`` of (x, y) that changes under a 180-degree rotation about
-    (x, y), net of noise: ``(mean (J - rot J)^2 - 2 n^2) / (2 (var J - n^2))`` over the disc (0: symmetric,
-    about 1: unrelated). The patch is resampled so that (x, y) is exactly its centre."""
-    k = int(np.ceil(radius))
-    p = _patch(img, x, y, k).astype(np.float64)
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    disc = np.hypot(xx, yy) <= radius
-    # bilinear resampling at a fractional phase averages neighbouring pixels: less noise than the window's
-    fx, fy = x - np.floor(x), y - np.floor(y)
-    gain = np.sqrt(((1 - fx) ** 2 + fx ** 2) * ((1 - fy) ** 2 + fy ** 2))
-    n = noise * gain
-    dd = (p - p[::-1, ::-1])[disc]
-    sig = float(p[disc].var()) - n * n
-    if sig <= 0:
-        return float("inf")
-    return float(max(0.0, (dd * dd).mean() - 2.0 * n * n) / (2.0 * sig))
 
 
 def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float = 0.0,

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from aerofid.marks.base import FOUND, Detection, not_found, unusable_window
+from aerofid.marks.centrality import point_asymmetry
 from aerofid.threshold import local_dynamic_threshold, noise_sigma, robust_std
 
 METHOD = "lines"
@@ -41,14 +42,21 @@ THETA_STEP = 0.5
 RHO_STEP = 1.0
 """Hough distance step in px (seed 004 eq. 4: 0 < rho < sqrt(M1^2 + M2^2), here signed)."""
 
-MIN_ANGLE = 30.0
-"""Smallest angle (degrees) between the two lines; the second peak is searched this far from the first."""
+MIN_ANGLE = 45.0
+"""Smallest angle (degrees) between the two lines; the second peak is searched this far from the first.
+Fiducial crosses cross at 60-90 degrees; a band (the frame under a blurred Zeiss notch) is centrally symmetric
+about any point of its midline, and its edges with the notch's corners gave 36-degree crossings that passed
+every other check (5 of 20 strongly blurred notch marks, 13-16 px off)."""
 
 MIN_PEAK_RATIO = 0.3
 """The second Hough peak must hold at least this fraction of the first one's votes."""
 
 BAND_MARGIN = 2.0
 """Half-width of the fitting band beyond the bar's half-width (px): the blurred flanks of the bar."""
+
+MAX_ASYMMETRY = 0.1
+"""Largest share of the structure about the intersection that may change under a half turn (the limit
+``auto`` applies to every answer, :data:`aerofid.auto.MAX_ASYMMETRY`)."""
 
 MIN_ARM = 3
 """Each line needs at least this many supported 1 px slices on each side of the intersection."""
@@ -308,7 +316,8 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
            rho_step: float = RHO_STEP, min_angle: float = MIN_ANGLE, min_peak_ratio: float = MIN_PEAK_RATIO,
            band_margin: float = BAND_MARGIN, min_arm: int = MIN_ARM, min_arm_ratio: float = MIN_ARM_RATIO,
            iterations: int = ITERATIONS, taper: float = TAPER, offset_floor: float = OFFSET_FLOOR,
-           min_contrast: float = MIN_CONTRAST, max_side_foreground: float = MAX_SIDE_FOREGROUND) -> Detection:
+           min_contrast: float = MIN_CONTRAST, max_side_foreground: float = MAX_SIDE_FOREGROUND,
+           max_asymmetry: float = MAX_ASYMMETRY) -> Detection:
     """Centre of a mark made of two crossing lines (Sohn et al., seed 004), in window pixels.
 
     Args:
@@ -324,6 +333,10 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         max_side_foreground: largest foreground fraction of the strips beside each line (a bar has ground there).
         min_contrast: each line's slices must weigh this many noise standard deviations (a bar, not an edge).
         offset_floor: model error (px) of each line's offset added to its fitted standard deviation.
+        max_asymmetry: beyond the seed: the largest share of the structure within the longest arm's reach (+2
+            px, so that a blob's edge is inside) that may change under a half turn about the intersection (:func:`aerofid.marks.centrality.point_asymmetry`).
+            A '+' is centrally symmetric about its crossing; chords through a dot or a bull's-eye cross off its
+            centre (answers 1.5-4.5 px off in docs/benchmarks_marks.md before this check).
 
     Returns:
         Detection with ``method="lines"``: the intersection of the two refined lines; ``sigma`` = mean of its
@@ -408,6 +421,13 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
             return not_found(METHOD, f"line {k + 1} is supported on one side of the intersection only "
                                      f"({f.arms[0]} / {f.arms[1]} px): a 'T' or 'L', or a mark cut by the "
                                      f"window edge", **diag)
+    reach = min(max(max(f.arms) for f in fits) + 2.0, x, y, wd - 1 - x, h - 1 - y)
+    asym = point_asymmetry(w, x, y, max(reach, 3.0), noise)
+    diag["asymmetry"] = asym
+    if not asym <= max_asymmetry:
+        return not_found(METHOD, f"the window is not centrally symmetric about the intersection ({asym:.2f} of the "
+                                 f"structure within {reach:.0f} px changes under a half turn; limit {max_asymmetry}): "
+                                 "not the centre of a '+'", **diag)
     # covariance of the intersection from the two offsets (rotation about the intersection does not move it)
     N = np.array([[np.cos(cur[0][0]), np.sin(cur[0][0])], [np.cos(cur[1][0]), np.sin(cur[1][0])]])
     Ni = np.linalg.inv(N)

@@ -1,0 +1,34 @@
+"""Geometry checks shared by the detectors and ``auto``: a patch resampled about a sub-pixel point, and how far a
+pattern is from being centrally symmetric about it (every supported mark style is)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+
+def patch(img: np.ndarray, x: float, y: float, k: int) -> np.ndarray:
+    """The (2k+1) x (2k+1) patch centred exactly on (x, y), bilinear (edge pixels replicated)."""
+    return cv2.getRectSubPix(img.astype(np.float32), (2 * k + 1, 2 * k + 1), (float(x), float(y)))
+
+
+def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: float) -> float:
+    """Share of the structure within ``radius`` of (x, y) that changes under a 180-degree rotation about
+    (x, y), net of noise: ``(mean (J - rot J)^2 - 2 n^2) / (2 (var J - n^2))`` over the disc (0: symmetric,
+    about 1: unrelated). The patch is resampled so that (x, y) is exactly its centre."""
+    k = int(np.ceil(radius))
+    p = patch(img, x, y, k).astype(np.float64)
+    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+    disc = np.hypot(xx, yy) <= radius
+    # bilinear resampling at a fractional phase averages neighbouring pixels: less noise than the window's
+    fx, fy = x - np.floor(x), y - np.floor(y)
+    gain = np.sqrt(((1 - fx) ** 2 + fx ** 2) * ((1 - fy) ** 2 + fy ** 2))
+    n = noise * gain
+    dd = (p - p[::-1, ::-1])[disc]
+    sig = float(p[disc].var()) - n * n
+    if sig <= 0:
+        return float("inf")
+    return float(max(0.0, (dd * dd).mean() - 2.0 * n * n) / (2.0 * sig))
+
+
+__all__ = ["patch", "point_asymmetry"]

@@ -40,7 +40,8 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
 4. **Compact dots with no method** (the Zeiss dot in a notch, whose frame edge spoils the whole-window
    methods): when nothing was found, the single strongest compact blob (difference of Gaussians, not an
    edge point) whose surroundings are flat (a moat of at least ``MIN_MOAT`` px) is isolated (everything
-   beyond its moat, at most ``ISOLATE_FACTOR`` x its radius + 2 px, replaced by the ground level) and ``symmetry`` runs on it; its answer must agree with an intensity-weighted centroid of
+   beyond its moat, at most ``ISOLATE_FACTOR`` x its radius + 2 px, replaced by the ground level) and
+   ``symmetry`` runs on it; its answer must agree with an intensity-weighted centroid of
    the blob and pass step 3.
 
 **Score** (comparable across methods, in [0, 1]): with s_m the detectors' own scores, the group's evidence

@@ -55,8 +55,9 @@ BAND_MARGIN = 2.0
 """Half-width of the fitting band beyond the bar's half-width (px): the blurred flanks of the bar."""
 
 MAX_ASYMMETRY = 0.1
-"""Largest share of the structure about the intersection that may change under a half turn (the limit
-``auto`` applies to every answer, :data:`aerofid.auto.MAX_ASYMMETRY`)."""
+"""Largest share of the structure about the intersection that may change under a half turn: half the limit
+``auto`` applies to every answer (:data:`aerofid.auto.MAX_ASYMMETRY`), as for ``symmetry``'s own check; at 0.2
+a dot's chords still crossed 1-1.3 px off its centre."""
 
 MIN_ARM = 3
 """Each line needs at least this many supported 1 px slices on each side of the intersection."""

@@ -126,3 +126,21 @@ def test_a_small_zeiss_dot_close_to_its_notchs_walls_is_found():
         d = detect_auto(sc.image)
         assert d.found, d.reason
         assert np.hypot(d.x - m.x, d.y - m.y) < 0.1
+
+
+def test_a_crosss_extent_is_bounded_by_what_its_fit_saw():
+    """Arms that run out of the fitted patch have undetermined lengths (a fit on a crop returned 1e270 px):
+    the mark's extent is what the patch shows, so a cross corroborated on a crop is not 'cut by the box'."""
+    from aerofid.auto import detection_extent
+    from aerofid.marks.base import Detection
+    from aerofid.marks.cross_fit import CrossFit
+
+    fit = CrossFit(x=20.0, y=20.0, sigma_x=0.01, sigma_y=0.01, theta1=0.0, theta2=90.0, length1=1e270,
+                   length2=30.0, width=2.0, blur=0.8, amplitude=0.6, sigma0=0.02, noise=0.02,
+                   arm_contrast=(0.6, 0.6, 0.6, 0.6), patch_half=23.0)
+    d = Detection(status="found", x=20.0, y=20.0, score=0.9, sigma=0.01, method="hough",
+                  diagnostics={"refinement": fit})
+    assert detection_extent(d) == pytest.approx(23.0 + 1.0 + 0.8)
+    short = Detection(status="found", x=20.0, y=20.0, score=0.9, sigma=0.01, method="hough",
+                      diagnostics={"refinement": CrossFit(**{**fit.__dict__, "length1": 30.0})})
+    assert detection_extent(short) == pytest.approx(15.0 + 1.0 + 0.8)

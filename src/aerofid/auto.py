@@ -186,8 +186,8 @@ def detection_extent(det: Detection) -> float | None:
     """The mark's radius (px) from a detector's own model, or None."""
     d = det.diagnostics or {}
     if det.method == "hough" and "refinement" in d:
-        f = d["refinement"]
-        return float(max(f.length1, f.length2) / 2.0 + f.width / 2.0 + f.blur)
+        f = d["refinement"]  # arms that run out of the fitted patch are as long as the patch shows them
+        return float(min(max(f.length1, f.length2) / 2.0, f.patch_half) + f.width / 2.0 + f.blur)
     if det.method == "circles" and d.get("circles"):
         return float(max(r for _, _, r in d["circles"]) + 1.0)
     if det.method == "lines" and d.get("lines"):

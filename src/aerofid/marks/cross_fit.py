@@ -66,6 +66,8 @@ class CrossFit:
     """Mean data minus fitted background along each of the four half-arms."""
     at_bound: str = ""
     """Name of a shape parameter that ended on its bound (the model did not find a '+'), or empty."""
+    patch_half: float = float("inf")
+    """Half-size (px) of the patch the fit saw: bar lengths beyond twice this are not determined."""
     misfit: float = 0.0
     """Robust spread of the residuals on the mark (model coverage > 0.5) over the noise of its
     surroundings (at least ``MODEL_TOLERANCE`` x the amplitude): about 1 when the model explains the
@@ -266,7 +268,7 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     if not np.all(np.isfinite(sol.x)):
         return None
     at_bound = next((nm for nm, b in zip(names, on_bound) if b), "")
-    return CrossFit(at_bound=at_bound, misfit=float(misfit), x=float(xc), y=float(yc), sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
+    return CrossFit(at_bound=at_bound, misfit=float(misfit), patch_half=float(half), x=float(xc), y=float(yc), sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
                     theta1=float(np.rad2deg(t1)), theta2=float(np.rad2deg(t2)), length1=float(l1),
                     length2=float(l2), width=float(wd), blur=float(s), amplitude=float(a), sigma0=sigma0,
                     noise=noise, arm_contrast=tuple(contrast))

@@ -301,11 +301,13 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
     first = ("hough", "symmetry") if mark == "panel" else ("circles", "symmetry")
     for m in first:
         go(m)
-    plain = float((np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)).mean())
+    flat = _plain_ground(img, noise)
+    plain = float(flat.mean())
     if not any(d.found for d in answers.values()) and (mark != "auto" or plain >= MIN_PLAIN):
         go("hough")
     found = [d for d in answers.values() if d.found]
-    diag: dict = {"answers": answers, "noise": noise, "plain_ground": plain}
+    diag: dict = {"answers": answers, "noise": noise, "plain_ground": plain,
+                  "ground_level": float(np.median(img[flat])) if flat.any() else float(np.median(img))}
 
     # group the found answers
     groups: list[list[Detection]] = []
@@ -464,11 +466,10 @@ def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
     """Step 4 of the module docstring."""
     if "symmetry" not in have:
         return not_found(METHOD, _reasons(answers), **diag)
-    plain = float((np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)).mean())
+    plain, ground = diag["plain_ground"], diag["ground_level"]
     if plain < MIN_PLAIN:
         return not_found(METHOD, _reasons(answers) + f"; the ground is not plain (only {plain:.0%} of the box is "
                                  "within 4 noise sigma of its median): no isolated dot is looked for", **diag)
-    ground = float(np.median(img[np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)]))
     peaks = []
     for s in (1.0, 1.5, 2.0, 2.5):
         dog = (cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)) * s
@@ -570,6 +571,11 @@ def _flat_blob(img, bx, by, noise, ground) -> tuple[float, float] | str:
     if moat < r_blob + MIN_MOAT:
         return "the compact blob's surroundings are not flat"
     return r_blob, moat
+
+
+def _plain_ground(img: np.ndarray, noise: float) -> np.ndarray:
+    """The pixels within max(4 noise, ``PLAIN_FLOOR``) of the window's median grey level."""
+    return np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)
 
 
 def _reasons(answers: dict[str, Detection]) -> str:

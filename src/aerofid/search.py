@@ -200,10 +200,13 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
     best_check: Any = None
     seen: set[tuple[int, int, int]] = set()
 
+    def refused_enough() -> bool:
+        """Verification has refused ``max_rejections`` candidates: nothing more is fitted."""
+        return verify is not None and sp.max_rejections is not None and len(rejected) >= sp.max_rejections
+
     def capped() -> bool:
-        """Verification has refused ``max_rejections`` candidates (an exhaustive listing goes on)."""
-        return (verify is not None and sp.max_rejections is not None and len(rejected) >= sp.max_rejections
-                and not sp.exhaustive)
+        """... and the search ends (an exhaustive listing goes on)."""
+        return refused_enough() and not sp.exhaustive
 
     def admit(c: Candidate, size1: int) -> bool:
         """Make ``c`` the best if it beats the best so far and passes verification."""
@@ -213,8 +216,8 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
         near = next((r for r in rejected if abs(r[0].x - c.x) + abs(r[0].y - c.y) < sp.convergence), None)
         if near is not None:  # the same feature, already refused: do not fit it again
             return False
-        if verify is not None and sp.max_rejections is not None and len(rejected) >= sp.max_rejections:
-            return False  # (exhaustive: the listing goes on, nothing more is fitted)
+        if refused_enough():
+            return False
         check = verify(c, size1) if verify is not None else None
         if isinstance(check, str):
             rejected.append((c, check))
@@ -269,7 +272,7 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
     if best is None or best.metric <= sp.min_metric:
         if rejected:
             reason = "no mark identified: the best candidates failed verification (" + rejected[0][1] + ")"
-            if sp.max_rejections is not None and len(rejected) >= sp.max_rejections:
+            if refused_enough():
                 reason += f"; search stopped after {len(rejected)} refused candidates"
         elif candidates:
             reason = "no mark identified"

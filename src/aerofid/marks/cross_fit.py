@@ -204,8 +204,9 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
                 sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
                                     max_nfev=MAX_EVALUATIONS)
                 if not (np.all(np.isfinite(sol.x)) and (sol.success or sol.status > 0)):
-                    inside = np.clip(np.where(np.arange(start.size) // 4 == 1, np.abs(start), start),
-                                     lo + 1e-9, hi - 1e-9)
+                    inside = np.array(start, float)
+                    inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
+                    inside = np.clip(inside, lo + 1e-9, hi - 1e-9)
                     sol = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi),
                                         x_scale="jac", max_nfev=MAX_EVALUATIONS)
         except (ValueError, np.linalg.LinAlgError):

@@ -46,6 +46,7 @@ import numpy as np
 from scipy import ndimage
 
 from aerofid.marks.base import FOUND, Detection, not_found
+from aerofid.threshold import MAD_TO_SIGMA
 
 METHOD = "symmetry"
 
@@ -277,6 +278,7 @@ def _detect(img, diag, *, diagonal, edge_step, radius, min_radius, log_inner, lo
         raise _Failure(f"sub-pixel stage moved the centre by {total:.2f} px (> {max_total_shift} px) "
                        "from the unit-pixel centre")
 
+    x15, y15 = xs, ys
     if point_refine:
         got = point_symmetry_centre(img, xs, ys, r)
         diag["centre_eq15"] = (xs, ys)
@@ -312,9 +314,8 @@ def _detect(img, diag, *, diagonal, edge_step, radius, min_radius, log_inner, lo
                        f"{noise:.4f}, is below {faint_limit:.4f}")
 
     sx, sy = _centre_sigma(img, xs, ys, r, noise, sigma_inefficiency, sigma_floor)
-    if point_refine:  # the two centres' disagreement is part of the uncertainty (texture pulls them apart)
-        x15, y15 = diag["centre_eq15"]
-        sx, sy = float(np.hypot(sx, xs - x15)), float(np.hypot(sy, ys - y15))
+    # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
+    sx, sy = float(np.hypot(sx, xs - x15)), float(np.hypot(sy, ys - y15))
     diag.update(sigma_x=sx, sigma_y=sy)
     return Detection(status=FOUND, x=float(xs), y=float(ys), score=float(np.clip(score, 0.0, 1.0)),
                      sigma=float(0.5 * (sx + sy)), method=METHOD, diagnostics=diag)
@@ -666,7 +667,7 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
         gx = (at(xc + u + 0.5, yc + v) - at(xc + u - 0.5, yc + v)) - (at(xc - u + 0.5, yc - v) - at(xc - u - 0.5, yc - v))
         gy = (at(xc + u, yc + v + 0.5) - at(xc + u, yc + v - 0.5)) - (at(xc - u, yc - v + 0.5) - at(xc - u, yc - v - 0.5))
         # Huber weights: texture that is not point-symmetric (aerial ground around the mark) must not pull
-        scale = max(1.4826 * float(np.median(np.abs(e))), 1e-9)
+        scale = max(MAD_TO_SIGMA * float(np.median(np.abs(e))), 1e-9)
         wgt = np.minimum(1.0, HUBER_K * scale / np.maximum(np.abs(e), 1e-12))
         A = np.column_stack([gx, gy]) * wgt[:, None]
         N = A.T @ A

@@ -30,8 +30,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from aerofid import locate, synth  # noqa: E402
-from aerofid.marks import hough_cross as hc  # noqa: E402
-from aerofid.search import SearchParams, search_box  # noqa: E402
+from aerofid.detect.hough import analysis as hc  # noqa: E402
+from aerofid.detect.hough.search import SearchParams, search_box  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
 SEED_MODE = {"method": "hough", "verify": False, "stage2_fallback": False}
@@ -262,7 +262,7 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     cmd = "python benchmarks/bench_hough.py" + (" --quick" if args.quick else "")
     t0 = time.time()
-    parts = [f"# Hough cross detector: benchmarks\n",
+    parts = ["# Hough cross detector: benchmarks\n",
              f"Produced by `{cmd}` (seed {args.seed}) on {platform.machine()} / Python {platform.python_version()}, "
              f"one thread. Every number below comes from that run.\n",
              "\"seed\" rows run Hunt, Ryan & Gifford's algorithm as published (Hough centre, no sub-pixel fit, "

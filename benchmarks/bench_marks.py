@@ -27,8 +27,8 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
 from aerofid import synth  # noqa: E402
-from aerofid.auto import detect_auto  # noqa: E402
-from aerofid.marks import detector  # noqa: E402
+from aerofid.detect import detector  # noqa: E402
+from aerofid.detect.auto import detect_auto  # noqa: E402
 
 cv2.setNumThreads(1)
 
@@ -224,7 +224,7 @@ def main() -> None:
              "Truth: `aerofid.synth` renders each mark by area coverage at a random sub-pixel centre. *found*: the "
              "method's status is found; *erroneous*: found but further than 1.5 px (or 0.5 px) from the truth; "
              "RMS and max over the found marks; time: median wall time of one call on the window. `auto` is "
-             "`aerofid.auto.detect_auto` (what `locate(..., method=\"auto\")` runs), see its docstring for the "
+             "`aerofid.detect.auto.detect_auto` (what `locate(..., method=\"auto\")` runs), see its docstring for the "
              "rule.\n", *targets(summary, n), *rej, *body]
     with open(args.out, "w") as f:
         f.write("\n".join(parts) + "\n")

@@ -33,9 +33,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import aerofid  # noqa: E402
-from aerofid.camera import Camera  # noqa: E402
-from aerofid.orientation import adjust, apply_transform  # noqa: E402
-from aerofid.raster import open_raster  # noqa: E402
+from aerofid.formats.camera_file import read_camera  # noqa: E402
+from aerofid.io.raster import open_raster  # noqa: E402
+from aerofid.orientation.interior import adjust, apply_transform  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
 MARKS = {  # approximate centres (x, y), full-image pixels
@@ -51,7 +51,7 @@ PIXEL_UM = 25400.0 / 600.0
 
 def orientation_check(auto_px: dict) -> list[str]:
     """The corner marks against their calibrated coordinates; the midsides mapped to mm (module docstring)."""
-    cam = Camera.load(REAL.parent / "MeasuresCamera.xml")
+    cam = read_camera(REAL.parent / "MeasuresCamera.xml")
     names = [f.name for f in cam.fiducials if CALIBRATED.get(f.name) in auto_px]
     out = ["\n## Interior orientation check (auto's centres against the calibration)\n"]
     if len(names) < 4:

@@ -1,4 +1,4 @@
-"""Benchmark of the Cho & Kim symmetry detector (aerofid.marks.symmetry) on synthetic marks with exact truth.
+"""Benchmark of the Cho & Kim symmetry detector (aerofid.detect.symmetry) on synthetic marks with exact truth.
 
     python benchmarks/bench_symmetry.py [--n 100] [--seed 0] [--paper-centre]
 
@@ -18,7 +18,7 @@ from collections import Counter
 import numpy as np
 
 from aerofid import synth
-from aerofid.marks.symmetry import detect
+from aerofid.detect.symmetry import detect
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
 

@@ -4,7 +4,7 @@ the same synthetic marks, sigma honesty, the Detection contract and the rejectio
 import numpy as np
 
 from aerofid import synth
-from aerofid.marks.base import Detection
+from aerofid.detect.result import Detection
 
 
 def synthetic_marks(style, n, seed, rotate=False):

@@ -1,4 +1,4 @@
-"""method="auto" (aerofid.auto): the right detector's accuracy per style, explicit not_found for every
+"""method="auto" (aerofid.detect.auto): the right detector's accuracy per style, explicit not_found for every
 rejection case, and never a found centre far from the truth. Every assertion is against synthetic truth."""
 
 import numpy as np
@@ -6,8 +6,8 @@ import pytest
 
 import aerofid
 from aerofid import synth
-from aerofid.auto import detect_auto
-from aerofid.marks import detector
+from aerofid.detect import detector
+from aerofid.detect.auto import detect_auto
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
 APPLY = {"cross": ("hough", "lines"), "ring_x_dot": ("circles", "symmetry"), "ring_cross": ("circles", "symmetry"),
@@ -131,9 +131,9 @@ def test_a_small_zeiss_dot_close_to_its_notchs_walls_is_found():
 def test_a_crosss_extent_is_bounded_by_what_its_fit_saw():
     """Arms that run out of the fitted patch have undetermined lengths (a fit on a crop returned 1e270 px):
     the mark's extent is what the patch shows, so a cross corroborated on a crop is not 'cut by the box'."""
-    from aerofid.auto import detection_extent
-    from aerofid.marks.base import Detection
-    from aerofid.marks.cross_fit import CrossFit
+    from aerofid.detect.auto import detection_extent
+    from aerofid.detect.hough.cross_fit import CrossFit
+    from aerofid.detect.result import Detection
 
     fit = CrossFit(x=20.0, y=20.0, sigma_x=0.01, sigma_y=0.01, theta1=0.0, theta2=90.0, length1=1e270,
                    length2=30.0, width=2.0, blur=0.8, amplitude=0.6, sigma0=0.02, noise=0.02,

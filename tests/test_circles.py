@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from aerofid import synth
-from aerofid.marks import circles
+from aerofid.detect import circles
 from detector_checks import assert_contract, assert_rejects_noise_flat_and_edges, sigma_ratio
 from detector_checks import synthetic_marks as _marks
 

@@ -9,9 +9,15 @@ import pytest
 
 from aerofid.errors import AerofidInputError
 from aerofid.formats.measurements import Measurements, read_measurements, write_measurements
-from aerofid.formats.micmac import (affine_plane_xml, read_affine_plane, read_mesure_appuis, read_measures_im,
-                                    write_affine_plane, write_measures_camera)
-from aerofid.orientation import apply_transform
+from aerofid.formats.micmac import (
+    affine_plane_xml,
+    read_affine_plane,
+    read_measures_im,
+    read_mesure_appuis,
+    write_affine_plane,
+    write_measures_camera,
+)
+from aerofid.orientation.interior import apply_transform
 
 REAL = Path("/work/shared/realdata")
 M = Measurements(np.array([[167.5, 212.5], [5215.0, 234.0], [148.5, 5259.5], [5194.5, 5279.25]]),
@@ -100,11 +106,12 @@ def test_micmac_real_bare_root_file():
 
 
 def test_micmac_measures_camera_round_trip(tmp_path):
-    from aerofid.camera import Camera
+    from aerofid.formats.camera_file import read_camera
+    from aerofid.orientation.camera import Camera
 
     cam = Camera.from_dict({"name": "c", "fiducials": {"P1": [1, 2], "P2": [100, 2], "P3": [50, 80]}})
     write_measures_camera(tmp_path / "MeasuresCamera.xml", cam)
-    back = Camera.load(tmp_path / "MeasuresCamera.xml")
+    back = read_camera(tmp_path / "MeasuresCamera.xml")
     assert back.names == cam.names
     np.testing.assert_array_equal(back.xy_mm, cam.xy_mm)
 
@@ -130,7 +137,7 @@ def test_affine_plane_refuses_projective():
 
 
 def test_atomic_write_leaves_no_partial_file(tmp_path):
-    from aerofid.formats.atomic import write_text_atomic
+    from aerofid.io.atomic import write_text_atomic
 
     with pytest.raises(AerofidInputError, match="does not exist"):
         write_text_atomic(tmp_path / "nope" / "x.txt", "a")

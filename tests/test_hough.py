@@ -10,10 +10,10 @@ from hypothesis import strategies as st
 
 import aerofid
 from aerofid import synth
-from aerofid.marks import hough_cross as hc
-from aerofid.search import SearchParams, spiral_coordinates, search_box
-from aerofid.threshold import interclass_variance, optimum_threshold
-
+from aerofid.detect.hough import analysis as hc
+from aerofid.detect.hough import detector as hd
+from aerofid.detect.hough.search import SearchParams, search_box, spiral_coordinates
+from aerofid.detect.threshold import interclass_variance, optimum_threshold
 
 # --- pieces of the algorithm -----------------------------------------------------------------------------
 
@@ -124,7 +124,7 @@ def test_external_fiducials_to_a_few_hundredths_of_a_pixel_with_honest_sigma():
     err, sig = [], []
     for _ in range(12):
         sc = _cross(rng)
-        d = hc.detect(sc.image, mark="external")
+        d = hd.detect(sc.image, mark="external")
         assert d.found, d.reason
         err.append(np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y))
         sig.append(d.sigma)
@@ -140,7 +140,7 @@ def test_thin_blurred_crosses_whose_bars_never_reach_full_coverage():
     for _ in range(6):
         size = rng.uniform(20, 26)
         sc = _cross(rng, size=size, width=size / 20.0, blur_sigma=rng.uniform(0.85, 1.0), noise_sigma=0.02)
-        d = hc.detect(sc.image)
+        d = hd.detect(sc.image)
         assert d.found, d.reason
         assert np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y) < 0.1
 
@@ -152,7 +152,7 @@ def test_cloth_panels_on_aerial_ground():
         sc = synth.panel_scene(rng, shape_hw=(160, 160), size=rng.uniform(7, 11))
         m = sc.marks[0]
         x0, y0, x1, y1 = m.box
-        d = hc.detect(sc.image[y0:y1, x0:x1], mark="panel")
+        d = hd.detect(sc.image[y0:y1, x0:x1], mark="panel")
         if d.found:
             err.append(np.hypot(d.x + x0 - m.x, d.y + y0 - m.y))
     assert len(err) >= 8
@@ -167,7 +167,7 @@ def test_non_orthogonal_cross_decodes_with_eq2():
     c = (60.37, 58.81)
     img = synth.paint(img, synth.coverage((120, 120), c, shape, 16, extent=25), 0.85)
     img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng)
-    d = hc.detect(img, mark="external", pair_separation=70.0)
+    d = hd.detect(img, mark="external", pair_separation=70.0)
     assert d.found, d.reason
     assert np.hypot(d.x - c[0], d.y - c[1]) < 0.2
 
@@ -186,7 +186,7 @@ def test_things_that_are_not_a_cross_are_not_found(case):
         img = synth.paint(img, synth.coverage((100, 100), c, shapes[case], 8), 0.85)
     if case != "flat":
         img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.03, rng)
-    d = hc.detect(img)
+    d = hd.detect(img)
     assert not d.found, (d.x, d.y, d.score)
     assert d.reason
 
@@ -200,7 +200,7 @@ def test_a_compact_blob_beside_a_panel_is_not_taken_for_it():
 
     img = cv2.imread(str(Path(__file__).parent / "data" / "panel_beside_blob_jpeg40.png"), cv2.IMREAD_GRAYSCALE)
     img = img.astype(np.float32) / 255
-    for d in (hc.detect(img, mark="panel"), aerofid.locate(img, (0, 0, 58, 58), mark="panel")):
+    for d in (hd.detect(img, mark="panel"), aerofid.locate(img, (0, 0, 58, 58), mark="panel")):
         assert not d.found or np.hypot(d.x - 28.459, d.y - 28.196) < 0.5, (d.x, d.y)
 
 
@@ -213,7 +213,7 @@ def _offset_bar(dx, dy, angle, length=30):
 def test_dark_cross_on_bright_ground_after_inversion():
     rng = np.random.default_rng(3)
     sc = _cross(rng, polarity="dark")
-    d = hc.detect(1.0 - sc.image, mark="external")
+    d = hd.detect(1.0 - sc.image, mark="external")
     assert d.found and np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y) < 0.1
 
 
@@ -221,7 +221,7 @@ def test_seed_mode_returns_one_pixel_answers_without_verification():
     """verify=False is the seed's algorithm: the Hough centre, good to about a pixel."""
     rng = np.random.default_rng(8)
     sc = _cross(rng)
-    d = hc.detect(sc.image, mark="external", verify=False)
+    d = hd.detect(sc.image, mark="external", verify=False)
     assert d.found and np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y) < 1.0
     assert "refinement" not in d.diagnostics
 
@@ -239,17 +239,17 @@ def test_exhaustive_search_lists_every_candidate_with_stage_and_metric():
 def test_bad_parameters_are_rejected():
     img = np.zeros((50, 50), np.float32)
     with pytest.raises(TypeError):
-        hc.detect(img, not_a_parameter=1)
+        hd.detect(img, not_a_parameter=1)
     with pytest.raises(ValueError):
-        hc.detect(img, theta_step=7.0)
+        hd.detect(img, theta_step=7.0)
     with pytest.raises(ValueError):
-        hc.detect(img, mark="circle")
+        hd.detect(img, mark="circle")
 
 
 def test_the_search_gives_up_after_max_rejections():
     """A verification that refuses everything is called MAX_REJECTIONS times, then the search ends with a
     reason that says so; without the limit it is called for every qualifying candidate."""
-    from aerofid.search import MAX_REJECTIONS
+    from aerofid.detect.hough.search import MAX_REJECTIONS
 
     img = synth.aerial_ground((160, 160), np.random.default_rng(4))
     calls = []

@@ -4,11 +4,10 @@ import numpy as np
 import pytest
 
 from aerofid import synth
-from aerofid.marks import lines
-from aerofid.threshold import local_dynamic_threshold
+from aerofid.detect import lines
+from aerofid.detect.threshold import local_dynamic_threshold
 from detector_checks import assert_contract, assert_rejects_noise_flat_and_edges, sigma_ratio
 from detector_checks import synthetic_marks as _marks
-
 
 # --- local dynamic thresholding -------------------------------------------------------------------------
 

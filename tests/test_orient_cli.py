@@ -152,10 +152,10 @@ def test_ambiguous_correspondence_exit_1_with_json(files, tmp_path):
 
 
 def test_python_api_mirrors_cli(files):
-    from aerofid.camera import Camera
-    from aerofid.orientation import orient
+    from aerofid import read_camera, read_measurements
+    from aerofid.orientation.interior import orient
 
     cam, meas = files
-    res = orient(Camera.load(cam), meas)
+    res = orient(read_camera(cam), read_measurements(meas))
     r = run("--camera", cam, "--measurements", meas, "--json")
     assert json.loads(r.stdout) == json.loads(json.dumps(res.to_dict()))

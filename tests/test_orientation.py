@@ -11,10 +11,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aerofid.camera import Camera
 from aerofid.errors import AerofidInputError
-from aerofid.orientation import (ARRANGEMENTS, AmbiguousCorrespondenceError, adjust, apply_transform,
-                                 arrangement_matrix, invert_transform, match_fiducials, orient)
+from aerofid.orientation.camera import Camera
+from aerofid.orientation.interior import (
+    ARRANGEMENTS,
+    AmbiguousCorrespondenceError,
+    adjust,
+    apply_transform,
+    arrangement_matrix,
+    invert_transform,
+    match_fiducials,
+    orient,
+)
 
 REAL = Path("/work/shared/realdata")
 
@@ -203,7 +211,7 @@ def test_four_fiducials_affine_cannot_locate_a_blunder_and_says_so():
 @pytest.mark.parametrize("model,n", [("affine", 2), ("projective", 3), ("similarity", 1)])
 def test_too_few_points_for_the_model_is_a_clear_error(model, n):
     pts = dict(list(synthetic().items())[:n])
-    with pytest.raises(AerofidInputError, match=f"needs at least"):
+    with pytest.raises(AerofidInputError, match="needs at least"):
         orient(rc10_camera(), pts, model)
 
 

@@ -1,4 +1,4 @@
-"""Tests of aerofid.raster: opening scans, windowed reads, boxes, grey levels and colour policy."""
+"""Tests of aerofid.io.raster: opening scans, windowed reads, boxes, grey levels and colour policy."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import tifffile
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aerofid import raster as raster_module
 from aerofid.errors import AerofidInputError
-from aerofid.raster import (
+from aerofid.io import raster as raster_module
+from aerofid.io.raster import (
     MIX_WEIGHTS,
     Raster,
     check_window_size,

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import aerofid
-from aerofid.camera import Camera
-from aerofid.orientation import adjust, apply_transform
-from aerofid.raster import open_raster
+from aerofid.formats.camera_file import read_camera
+from aerofid.io.raster import open_raster
+from aerofid.orientation.interior import adjust, apply_transform
 
 DIR = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20"
 FRAME = DIR / "15BCC02013_114.jpg"
@@ -61,7 +61,7 @@ def test_every_mark_found_and_mirror_consistent(crops, centres, name):
 
 
 def test_corner_marks_fit_the_calibration_and_midsides_the_spans(centres):
-    cam = Camera.load(DIR / "MeasuresCamera.xml")
+    cam = read_camera(DIR / "MeasuresCamera.xml")
     px = np.array([centres[CALIBRATED[f.name]] for f in cam.fiducials])
     mm = np.array([[f.x_mm, f.y_mm] for f in cam.fiducials])
     fit = adjust(px, mm, "affine")

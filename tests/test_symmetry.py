@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, HealthCheck
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from aerofid import synth
-from aerofid.marks import detector
-from aerofid.marks.symmetry import detect, fiducial_area, self_diagnosis, simplified_log
+from aerofid.detect import detector
+from aerofid.detect.symmetry import detect, fiducial_area, self_diagnosis, simplified_log
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye")
 RMS_BOUND = 0.1     # px, radial; achieved <= 0.045

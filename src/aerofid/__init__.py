@@ -2,15 +2,20 @@
 
 Public API:
     locate(image, box, mark="auto", method="auto", **params) -> Location
-    Camera.load(path) -> Camera
+    read_camera(path) -> Camera;  read_measurements(path) -> Measurements
     orient(camera, measurements, model="affine", ...) -> InteriorOrientation
 """
 
-from aerofid.camera import Camera
 from aerofid.errors import AerofidInputError
+from aerofid.formats.camera_file import read_camera, write_camera
+from aerofid.formats.measurements import read_measurements, write_measurements
 from aerofid.locate import Location, locate
-from aerofid.orientation import AmbiguousCorrespondenceError, InteriorOrientation, orient
+from aerofid.orientation.camera import Camera, Fiducial
+from aerofid.orientation.interior import AmbiguousCorrespondenceError, InteriorOrientation, orient
+from aerofid.orientation.measurements import Measurements
 
 __version__ = "0.1.0"
 
-__all__ = ["AerofidInputError", "AmbiguousCorrespondenceError", "Camera", "InteriorOrientation", "Location", "locate", "orient", "__version__"]
+__all__ = ["AerofidInputError", "AmbiguousCorrespondenceError", "Camera", "Fiducial", "InteriorOrientation",
+           "Location", "Measurements", "__version__", "locate", "orient", "read_camera", "read_measurements",
+           "write_camera", "write_measurements"]

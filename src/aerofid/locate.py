@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from aerofid.detect import METHODS, available_methods, detector
+from aerofid.detect.result import FOUND, NOT_FOUND, Detection
 from aerofid.errors import AerofidInputError
-from aerofid.marks import METHODS, available_methods, detector
-from aerofid.marks.base import FOUND, NOT_FOUND, Detection
-from aerofid.raster import check_window_size, clip_box, open_raster, to_grey
+from aerofid.io.raster import check_window_size, clip_box, open_raster, to_grey
 
 MARKS = ("auto", "external", "panel")
 """Kinds of mark: an external (film) fiducial, a cloth ground panel, or let the detector decide."""
@@ -28,7 +28,7 @@ POLARITIES = ("bright", "dark", "auto")
 
 AUTO_METHODS = ("circles", "symmetry", "hough", "lines")
 """The detectors ``method="auto"`` may use; which of them run, how they are cross-checked and which answer
-is trusted is the rule of :mod:`aerofid.auto`."""
+is trusted is the rule of :mod:`aerofid.detect.auto`."""
 
 
 @dataclass(frozen=True)
@@ -104,8 +104,8 @@ def read_box(image: str | os.PathLike | np.ndarray, box) -> tuple[np.ndarray, tu
 
 def _check_auto_params(params: dict) -> None:
     """``method="auto"`` passes the user's parameters to ``hough``: check them before anything runs."""
-    from aerofid.marks.hough_cross import HoughParams
-    from aerofid.search import SearchParams
+    from aerofid.detect.hough.analysis import HoughParams
+    from aerofid.detect.hough.search import SearchParams
 
     extra = {"verify", "min_arm_balance", "min_arm_snr"}
     hk, sk = set(HoughParams.__dataclass_fields__), set(SearchParams.__dataclass_fields__)
@@ -122,7 +122,7 @@ def _check_auto_params(params: dict) -> None:
 
 def _run(method: str, grey: np.ndarray, mark: str, params: dict) -> Detection:
     if method == "auto":
-        from aerofid.auto import detect_auto, make_runner
+        from aerofid.detect.auto import detect_auto, make_runner
 
         have = available_methods()
         return detect_auto(grey, mark, run=make_runner(mark, params),
@@ -148,15 +148,15 @@ def locate(image: str | os.PathLike | np.ndarray, box, mark: str = "auto", metho
         mark: "external" (film fiducial), "panel" (cloth ground panel) or "auto".
         method: "hough" (Hunt, Ryan & Gifford), "symmetry" (Cho & Kim), "circles" (Seedahmed), "lines"
             (Sohn et al.) runs that one detector; "auto" runs the detectors that apply, cross-checks them and
-            answers only with a corroborated, verified centre (:mod:`aerofid.auto`; ``score`` is then
+            answers only with a corroborated, verified centre (:mod:`aerofid.detect.auto`; ``score`` is then
             comparable across methods and ``method`` names the detector whose centre is returned).
         polarity: "bright" marks on darker ground (the seed's case), "dark" marks on brighter ground, or
             "auto" (both are tried; the more confident answer wins).
         colour: how RGB becomes grey: "auto" (the channel mix with the most mark contrast), "luminance",
             "red", "green", "blue" or "max".
         **params: the method's parameters (e.g. ``window_size=24``, ``rho_step=0.5``, ``theta_step=5``,
-            ``hough_threshold=0.3``); see :class:`aerofid.marks.hough_cross.HoughParams` and
-            :class:`aerofid.search.SearchParams`.
+            ``hough_threshold=0.3``); see :class:`aerofid.detect.hough.analysis.HoughParams` and
+            :class:`aerofid.detect.hough.search.SearchParams`.
 
     Returns:
         :class:`Location`; "not found" is a status, never an exception.

@@ -8,7 +8,7 @@
   window, the Hough accumulator before and after thresholding, and the theta projection with the fitted
   similarity model.
 
-Both return PNG bytes; the CLI writes them with :func:`aerofid.formats.atomic.write_bytes_atomic`.
+Both return PNG bytes; the CLI writes them with :func:`aerofid.io.atomic.write_bytes_atomic`.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ def demo(out_dir: Path, seed: int) -> int:
 
     from aerofid import synth
     from aerofid.errors import AerofidInputError
-    from aerofid.formats.atomic import write_bytes_atomic, write_text_atomic
+    from aerofid.io.atomic import write_bytes_atomic, write_text_atomic
     from aerofid.locate import locate
     from aerofid.render import diagnostic_png, overlay_png
 

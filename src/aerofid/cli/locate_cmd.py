@@ -6,10 +6,10 @@ import json
 
 import click
 
+from aerofid.detect import METHODS
 from aerofid.errors import AerofidInputError
 from aerofid.locate import MARKS, POLARITIES
 from aerofid.locate import locate as locate_mark
-from aerofid.marks import METHODS
 
 
 def parse_box(text: str) -> tuple[float, float, float, float]:
@@ -66,7 +66,7 @@ def locate_cmd(image, box_text, mark, method, polarity, colour, params, as_json,
 
     Exit status 0 when found, 1 when not found, 2 on bad input.
     """
-    from aerofid.formats.atomic import write_bytes_atomic
+    from aerofid.io.atomic import write_bytes_atomic
     from aerofid.render import diagnostic_png, overlay_png
 
     result = locate_mark(image, parse_box(box_text), mark=mark, method=method, polarity=polarity, colour=colour,

@@ -34,12 +34,12 @@ REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
               help="write MeasuresIm-<image>.xml, MeasuresCamera.xml and <image>-AffinePlane-px2mm.xml into DIR")
 def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir) -> int:
     """Interior orientation (pixel -> film mm) of a scan from its measured fiducials."""
-    from aerofid.camera import Camera
-    from aerofid.formats.atomic import write_text_atomic
+    from aerofid.formats.camera_file import read_camera
     from aerofid.formats.measurements import read_measurements
-    from aerofid.orientation import AmbiguousCorrespondenceError
-    from aerofid.orientation import orient as run_orient
-    from aerofid.report_orient import to_html, to_text
+    from aerofid.io.atomic import write_text_atomic
+    from aerofid.orientation.interior import AmbiguousCorrespondenceError
+    from aerofid.orientation.interior import orient as run_orient
+    from aerofid.orientation.report import to_html, to_text
 
     if meas_path is None:
         if image:
@@ -50,7 +50,7 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         raise AerofidInputError(f"report {output!r} must end in .json, .html or .txt")
     if micmac_dir is not None and not Path(micmac_dir).is_dir():
         raise AerofidInputError(f"MicMac folder {micmac_dir!r} does not exist")
-    cam = Camera.load(camera_path)
+    cam = read_camera(camera_path)
     meas = read_measurements(meas_path)
     image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
     try:
@@ -81,8 +81,8 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
 
 
 def _write_micmac(folder: Path, cam, res) -> None:
-    from aerofid.formats.measurements import Measurements
     from aerofid.formats.micmac import write_affine_plane, write_measures_camera, write_measures_im
+    from aerofid.orientation.measurements import Measurements
 
     used = res.used
     name = res.image or "image"

@@ -26,16 +26,13 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from aerofid.errors import AerofidInputError
-from aerofid.formats.atomic import write_text_atomic
-from aerofid.formats.measurements import Measurements
-
-if TYPE_CHECKING:
-    from aerofid.camera import Camera
+from aerofid.io.atomic import write_text_atomic
+from aerofid.orientation.camera import Camera, Fiducial
+from aerofid.orientation.measurements import Measurements
 
 
 def _parse(path: Path) -> ET.Element:
@@ -109,7 +106,7 @@ def read_measures_im(path: str | Path, image: str | None = None) -> Measurements
     return Measurements(np.array([[x, y] for _, x, y in pts], dtype=float), tuple(n for n, _, _ in pts), image)
 
 
-def read_measures_camera(path: str | Path, name: str | None = None, y_axis: str = "auto") -> "Camera":
+def read_measures_camera(path: str | Path, name: str | None = None, y_axis: str = "auto") -> Camera:
     """Calibrated fiducials (mm) from a MicMac MeasuresCamera.xml.
 
     Args:
@@ -117,8 +114,6 @@ def read_measures_camera(path: str | Path, name: str | None = None, y_axis: str 
         y_axis: ``"up"``, ``"down"`` or ``"auto"``: down (image-like) when every coordinate is >= 0 (the
             origin in a corner, as in MicMac's own examples), else up (origin at the principal point).
     """
-    from aerofid.camera import Camera, Fiducial
-
     path = Path(path)
     data = read_mesure_appuis(path)
     if len(data) > 1:
@@ -149,7 +144,7 @@ def write_measures_im(path: str | Path, m: Measurements) -> None:
                                         [(n, float(x), float(y)) for n, (x, y) in zip(m.names, m.xy)]))
 
 
-def write_measures_camera(path: str | Path, camera: "Camera", name_im: str = "Glob") -> None:
+def write_measures_camera(path: str | Path, camera: Camera, name_im: str = "Glob") -> None:
     """Write the camera's calibrated fiducials as a MicMac MeasuresCamera.xml (mm, as stored), atomically."""
     write_text_atomic(path, _mesure_xml(name_im, [(f.name, f.x_mm, f.y_mm) for f in camera.fiducials]))
 

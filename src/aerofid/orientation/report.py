@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from aerofid.orientation import InteriorOrientation, apply_transform
+from aerofid.orientation.interior import InteriorOrientation, apply_transform
 
 
 def _f(v, fmt: str = ".4f") -> str:

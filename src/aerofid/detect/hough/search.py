@@ -21,7 +21,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from aerofid.marks.hough_cross import HoughParams, WindowAnalysis, analyse_window, similarity
+from aerofid.detect.hough.analysis import HoughParams, WindowAnalysis, analyse_window, similarity
 
 WINDOW_EXTERNAL = 40
 """First-stage window for external fiducials, px (Appendix C: ``WNDSZ1 = 40`` for ``alg_flag == 1``)."""

@@ -3,7 +3,7 @@
 The procedure of seed 004 (section 2, figure 2, and section 4) on one window:
 
 1. **Binary image by local dynamic thresholding** -- a bimodal threshold per local 8 x 8 region
-   (:func:`aerofid.threshold.local_dynamic_threshold`), "two classes (foreground and background)".
+   (:func:`aerofid.detect.threshold.local_dynamic_threshold`), "two classes (foreground and background)".
 2. **Hough transform of the foreground pixels** in the polar form ``rho = x cos(theta) + y sin(theta)``
    (seed eq. 3), ``0 <= theta < 180`` degrees (eq. 5) (:func:`hough_lines`).
 3. **Two peaks**, one per direction of the mark: the strongest cell, and the strongest cell whose direction
@@ -26,9 +26,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from aerofid.marks.base import FOUND, Detection, not_found, unusable_window
-from aerofid.marks.centrality import point_asymmetry
-from aerofid.threshold import local_dynamic_threshold, noise_sigma, robust_std
+from aerofid.detect.asymmetry import point_asymmetry
+from aerofid.detect.noise import difference_noise_sigma
+from aerofid.detect.result import FOUND, Detection, not_found, unusable_window
+from aerofid.detect.threshold import local_dynamic_threshold
+from aerofid.robust import robust_std
 
 METHOD = "lines"
 
@@ -56,7 +58,7 @@ BAND_MARGIN = 2.0
 
 MAX_ASYMMETRY = 0.1
 """Largest share of the structure about the intersection that may change under a half turn: half the limit
-``auto`` applies to every answer (:data:`aerofid.auto.MAX_ASYMMETRY`), as for ``symmetry``'s own check; at 0.2
+``auto`` applies to every answer (:data:`aerofid.detect.auto.MAX_ASYMMETRY`), as for ``symmetry``'s own check; at 0.2
 a dot's chords still crossed 1-1.3 px off its centre."""
 
 MIN_ARM = 3
@@ -335,7 +337,7 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         min_contrast: each line's slices must weigh this many noise standard deviations (a bar, not an edge).
         offset_floor: model error (px) of each line's offset added to its fitted standard deviation.
         max_asymmetry: beyond the seed: the largest share of the structure within the longest arm's reach (+2
-            px, so that a blob's edge is inside) that may change under a half turn about the intersection (:func:`aerofid.marks.centrality.point_asymmetry`).
+            px, so that a blob's edge is inside) that may change under a half turn about the intersection (:func:`aerofid.detect.asymmetry.point_asymmetry`).
             A '+' is centrally symmetric about its crossing; chords through a dot or a bull's-eye cross off its
             centre (answers 1.5-4.5 px off in docs/benchmarks_marks.md before this check).
 
@@ -375,7 +377,7 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
     if max(hw) > max_hw:
         return not_found(METHOD, f"a Hough line is {2 * max(hw):.0f} px wide: an edge or a blob, not a bar",
                          **diag)
-    noise = noise_sigma(w)
+    noise = difference_noise_sigma(w)
     # foreground (dilated by 1 px) is kept out of the background estimate: the ring of a Wild mark crosses
     # the strips beside the lines
     fg_near = cv2.dilate(binary.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0

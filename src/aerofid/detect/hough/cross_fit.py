@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import ndtr
 
-from aerofid.threshold import robust_std
+from aerofid.robust import robust_std
 
 PATCH_MARGIN = 3.0
 """The patch fitted reaches this many px beyond the arms' estimated ends."""

@@ -15,17 +15,15 @@ A camera file is JSON or YAML (see docs/orientation.md)::
 
 The minimal JSON ``{"name": "...", "fiducials": {"P1": [x_mm, y_mm], ...}}`` is always accepted; the
 fiducials may also be a list of ``{"name", "x", "y", "style"}`` objects. MicMac's ``MeasuresCamera.xml``
-(:func:`aerofid.formats.micmac.read_measures_camera`) is read as well.
+is read as well (:func:`aerofid.formats.camera_file.read_camera`).
 
 Film coordinates: mm as the certificate gives them, x right, y up (``y_axis: up``) unless stated.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 import numpy as np
@@ -142,31 +140,6 @@ class Camera:
         s = np.linalg.solve(A, b)
         return float(s[0]), float(s[1])
 
-    # -- files --------------------------------------------------------------------------------------
-    @classmethod
-    def load(cls, path: str | Path) -> "Camera":
-        """Read a camera file: ``.json``, ``.yaml``/``.yml`` or MicMac ``.xml`` (MeasuresCamera)."""
-        path = Path(path)
-        if not path.is_file():
-            raise AerofidInputError(f"camera file {str(path)!r} does not exist")
-        suffix = path.suffix.lower()
-        if suffix == ".xml":
-            from aerofid.formats.micmac import read_measures_camera
-
-            return read_measures_camera(path)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as e:
-            raise AerofidInputError(f"cannot read camera file {str(path)!r}: {e}") from None
-        if suffix in (".yaml", ".yml"):
-            data = _load_yaml_unique(text, path)
-        else:
-            try:
-                data = json.loads(text, object_pairs_hook=_unique_pairs(path))
-            except json.JSONDecodeError as e:
-                raise AerofidInputError(f"camera file {str(path)!r} is not valid JSON: {e}") from None
-        return cls.from_dict(data, source=str(path))
-
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "") -> "Camera":
         """Build a camera from the JSON/YAML structure (see the module docstring)."""
@@ -224,24 +197,6 @@ class Camera:
         d["y_axis"] = self.y_axis
         d["fiducials"] = {f.name: ([f.x_mm, f.y_mm] if not f.style else f.to_dict()) for f in self.fiducials}
         return d
-
-    def save(self, path: str | Path) -> None:
-        """Write the camera as JSON, YAML (by extension) or MicMac MeasuresCamera ``.xml``."""
-        from aerofid.formats.atomic import write_text_atomic
-
-        path = Path(path)
-        suffix = path.suffix.lower()
-        if suffix == ".xml":
-            from aerofid.formats.micmac import write_measures_camera
-
-            write_measures_camera(path, self)
-        elif suffix in (".yaml", ".yml"):
-            import yaml
-
-            write_text_atomic(path, yaml.safe_dump(self.to_dict(), sort_keys=False))
-        else:
-            write_text_atomic(path, json.dumps(self.to_dict(), indent=2) + "\n")
-
 
 # ---------------------------------------------------------------------------------------------------
 def _validate(cam: Camera) -> None:
@@ -318,35 +273,3 @@ def _fiducial(name: str, v: Any, where: str) -> Fiducial:
         raise AerofidInputError(f"fiducial {name!r} must be [x_mm, y_mm] or {{x, y}}, not {v!r}{where}")
     return Fiducial(name.strip(), _number(v[0], f"fiducial {name!r} x", where),
                     _number(v[1], f"fiducial {name!r} y", where), style)
-
-
-def _unique_pairs(path):
-    def hook(pairs):
-        keys = [k for k, _ in pairs]
-        dup = sorted({k for k in keys if keys.count(k) > 1})
-        if dup:
-            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {str(path)!r}")
-        return dict(pairs)
-
-    return hook
-
-
-def _load_yaml_unique(text: str, path) -> Any:
-    import yaml
-
-    class UniqueLoader(yaml.SafeLoader):
-        pass
-
-    def construct_mapping(loader, node, deep=False):
-        keys = [loader.construct_object(k, deep=deep) for k, _ in node.value]
-        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
-        if dup:
-            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {str(path)!r}")
-        return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
-
-    UniqueLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
-    try:
-        return yaml.load(text, Loader=UniqueLoader)
-    except yaml.YAMLError as e:
-        msg = " ".join(str(e).split())
-        raise AerofidInputError(f"camera file {str(path)!r} is not valid YAML: {msg}") from None

@@ -38,12 +38,14 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from scipy import optimize, stats
 
 from aerofid.errors import AerofidInputError
+from aerofid.orientation.camera import Camera
+from aerofid.orientation.measurements import Measurements
 
 MODELS = ("similarity", "affine", "projective")
 #: Minimum number of fiducials that determine each model (zero redundancy).
@@ -761,15 +763,16 @@ def scan_geometry(H: np.ndarray, at: Sequence[float] = (0.0, 0.0)) -> dict[str, 
             "det": det}
 
 
-def orient(camera, measurements, model: str = "affine", *, correspondence: str | None = None,
+def orient(camera: Camera, measurements: Measurements | Mapping | np.ndarray, model: str = "affine", *, correspondence: str | None = None,
            reject: bool = True, alpha: float = ALPHA_BLUNDER, min_blunder_px: float = MIN_BLUNDER_PX,
            image: str | None = None) -> InteriorOrientation:
     """Interior orientation of one scan from measured fiducial centres (seed 004, section 4).
 
     Args:
-        camera: a :class:`aerofid.camera.Camera` or the path of a camera file.
-        measurements: a :class:`aerofid.formats.measurements.Measurements`, a path (JSON, CSV, MicMac
-            XML), a mapping name -> (x, y) or an n x 2 array of unnamed points.
+        camera: a :class:`aerofid.orientation.camera.Camera` (:func:`aerofid.read_camera` reads a file).
+        measurements: a :class:`aerofid.orientation.measurements.Measurements`
+            (:func:`aerofid.read_measurements` reads a file), a mapping name -> (x, y) or an n x 2 array of
+            unnamed points.
         model: ``"similarity"``, ``"affine"`` (seed 004) or ``"projective"``.
         correspondence: ``"names"`` (trust the point names), ``"auto"`` (assign by testing the 8
             arrangements of the film in the scanner) or None (names when the points have names).
@@ -780,10 +783,9 @@ def orient(camera, measurements, model: str = "affine", *, correspondence: str |
         AerofidInputError: bad input, too few fiducials for the model, degenerate geometry.
         AmbiguousCorrespondenceError: auto correspondence found two equally good arrangements.
     """
-    from aerofid.camera import Camera
-    from aerofid.formats.measurements import Measurements
-
-    cam = camera if isinstance(camera, Camera) else Camera.load(camera)
+    if not isinstance(camera, Camera):
+        raise AerofidInputError("camera must be a Camera: read a camera file with aerofid.read_camera(path)")
+    cam = camera
     meas = Measurements.from_any(measurements)
     if model not in MODELS:
         raise AerofidInputError(f"unknown model {model!r}: choose one of {', '.join(MODELS)}")

@@ -45,8 +45,9 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from aerofid.marks.base import FOUND, Detection, not_found
-from aerofid.threshold import MAD_TO_SIGMA
+from aerofid.detect.noise import laplacian_noise_sigma
+from aerofid.detect.result import FOUND, Detection, not_found
+from aerofid.robust import MAD_TO_SIGMA
 
 METHOD = "symmetry"
 
@@ -143,7 +144,7 @@ def detect(window: np.ndarray, *, polarity: str = "bright", diagonal: str | None
             ``sigma`` (per axis, in quadrature): on textured ground both centres are pulled, differently.
 
     Returns:
-        :class:`~aerofid.marks.base.Detection` with the centre in window pixels, ``score = R_self`` of eq.
+        :class:`~aerofid.detect.result.Detection` with the centre in window pixels, ``score = R_self`` of eq.
         (13) at the final centre (clipped to [0, 1]), ``sigma`` in px, and ``diagnostics`` holding the LoG
         image, the symmetry profiles, the bounds and the iteration history. Failures return
         ``not_found("symmetry", reason)``.
@@ -185,7 +186,7 @@ def _detect(img, diag, *, diagonal, edge_step, radius, min_radius, log_inner, lo
             max_total_shift, faint_snr, min_std, area_smooth, sigma_inefficiency, sigma_floor, point_refine,
             max_refine_shift) -> Detection:
     h, w = img.shape
-    noise = noise_sigma(img)
+    noise = laplacian_noise_sigma(img)
     diag["noise_sigma"] = noise
 
     # --- 1. fiducial-area analysis: L1, L2, horizontal extent, L3 (eqs. 1-2) ---------------------------
@@ -614,15 +615,6 @@ def _resample(img: np.ndarray, xc: float, yc: float, r: int) -> np.ndarray:
 
 
 # --- noise and precision -----------------------------------------------------------------------------------
-
-def noise_sigma(img: np.ndarray) -> float:
-    """Robust standard deviation of white noise in ``img`` (Immerkaer 1996: the 3x3 Laplacian-difference kernel
-    [[1,-2,1],[-2,4,-2],[1,-2,1]] has gain 6 on white noise; the median of its absolute response, /0.6745,
-    resists the mark's edges)."""
-    k = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
-    resp = cv2.filter2D(img.astype(np.float32), -1, k, borderType=cv2.BORDER_REFLECT)[1:-1, 1:-1]
-    return float(np.median(np.abs(resp)) / 0.6745 / 6.0)
-
 
 def _mirror_step(img, xc, yc, r, order):
     """One Gauss-Newton step (x, y) towards the mirror-symmetric centre of the (2r+1)-square around (xc, yc),

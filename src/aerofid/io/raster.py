@@ -33,7 +33,7 @@ import numpy as np
 import tifffile
 
 from aerofid.errors import AerofidInputError
-from aerofid.threshold import MAD_TO_SIGMA
+from aerofid.robust import MAD_TO_SIGMA
 
 __all__ = [
     "COLOUR_POLICIES",

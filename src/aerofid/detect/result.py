@@ -1,6 +1,6 @@
 """The result every mark detector returns.
 
-Each detector module in :mod:`aerofid.marks` offers ``detect(window, **params) -> Detection``: ``window`` is
+Each detector module in :mod:`aerofid.detect` offers ``detect(window, **params) -> Detection``: ``window`` is
 a 2-D float32 array (grey levels, the mark brighter than its ground; the caller inverts dark marks), and
 the centre is returned in *window* pixel coordinates (x = column, y = row, centre of the top-left pixel at
 (0, 0)). A detector never raises for "no mark": it returns ``status="not_found"`` with a ``reason``.

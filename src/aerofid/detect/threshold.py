@@ -10,7 +10,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
+
+from aerofid.detect.noise import difference_noise_sigma
 
 N_BINS = 256
 """Histogram bins (thesis Appendix C, ``NBIN``)."""
@@ -21,27 +24,6 @@ MAX_ITERATIONS = 50
 MIN_CONTRAST = 0.02
 """Windows whose grey range (max - min, on the [0, 1] scale) is below this are 'substantially homogeneous,
 all black or all white' (seed 001, Optimum Thresholding) and are rejected. About 5 grey levels of 8 bits."""
-
-
-MAD_TO_SIGMA = 1.4826
-"""Median absolute deviation -> standard deviation of a Gaussian."""
-
-
-def robust_std(values: np.ndarray) -> float:
-    """MAD_TO_SIGMA x the median absolute deviation of ``values`` (0 for no values)."""
-    v = np.asarray(values, np.float64).ravel()
-    if v.size == 0:
-        return 0.0
-    return float(MAD_TO_SIGMA * np.median(np.abs(v - np.median(v))))
-
-
-def noise_sigma(window: np.ndarray) -> float:
-    """Robust estimate of the window's white-noise standard deviation: the robust std of the horizontal
-    and vertical first differences divided by sqrt(2) (edges are a minority of differences, so the MAD
-    ignores them)."""
-    w = np.asarray(window, np.float64)
-    d = np.concatenate([np.diff(w, axis=0).ravel(), np.diff(w, axis=1).ravel()])
-    return robust_std(d) / np.sqrt(2.0)
 
 
 @dataclass(frozen=True)
@@ -134,14 +116,12 @@ def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float 
     Returns the boolean image ``window > threshold`` (all False when no tile is bimodal) and, with
     ``return_thresholds``, also the per-pixel threshold surface (NaN when no tile is bimodal).
     """
-    import cv2  # local import: the rest of this module needs only numpy
-
     w = np.asarray(window, dtype=np.float32)
     if w.ndim != 2 or w.size == 0:
         raise ValueError("window must be a non-empty 2-D array")
     h, wd = w.shape
     region = max(2, int(region))
-    noise = noise_sigma(w)
+    noise = difference_noise_sigma(w)
     min_sep = max(min_contrast, noise_k * noise)
     ny, nx = -(-h // region), -(-wd // region)
     t = np.full((ny, nx), np.nan)

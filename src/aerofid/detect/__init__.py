@@ -10,13 +10,13 @@ from __future__ import annotations
 import importlib
 from typing import Callable
 
-from aerofid.marks.base import Detection
+from aerofid.detect.result import Detection
 
 METHODS: dict[str, str] = {
-    "hough": "aerofid.marks.hough_cross",   # Hunt, Ryan & Gifford (seed 001, thesis 000)
-    "symmetry": "aerofid.marks.symmetry",   # Cho & Kim (seed 002)
-    "circles": "aerofid.marks.circles",     # Seedahmed (seed 003)
-    "lines": "aerofid.marks.lines",         # Sohn et al. (seed 004)
+    "hough": "aerofid.detect.hough",   # Hunt, Ryan & Gifford (seed 001, thesis 000)
+    "symmetry": "aerofid.detect.symmetry",   # Cho & Kim (seed 002)
+    "circles": "aerofid.detect.circles",     # Seedahmed (seed 003)
+    "lines": "aerofid.detect.lines",         # Sohn et al. (seed 004)
 }
 
 

@@ -58,10 +58,11 @@ from typing import Callable
 import cv2
 import numpy as np
 
-from aerofid.marks import available_methods, detector
-from aerofid.marks.base import FOUND, Detection, not_found
-from aerofid.marks.centrality import patch as _patch, point_asymmetry
-from aerofid.marks.symmetry import noise_sigma
+from aerofid.detect import available_methods, detector
+from aerofid.detect.asymmetry import patch as _patch
+from aerofid.detect.asymmetry import point_asymmetry
+from aerofid.detect.noise import laplacian_noise_sigma
+from aerofid.detect.result import FOUND, Detection, not_found
 
 METHOD = "auto"
 
@@ -113,8 +114,8 @@ Picking the member with the smallest sigma, or the sigma-weighted mean, did wors
 
 
 def _hough_keys() -> frozenset[str]:
-    from aerofid.marks.hough_cross import HoughParams
-    from aerofid.search import SearchParams
+    from aerofid.detect.hough.analysis import HoughParams
+    from aerofid.detect.hough.search import SearchParams
 
     return frozenset(HoughParams.__dataclass_fields__) | frozenset(SearchParams.__dataclass_fields__) | {
         "verify", "min_arm_balance", "min_arm_snr"}
@@ -291,7 +292,7 @@ def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = Non
         return not_found(METHOD, "window holds NaN or infinite grey levels")
     if float(img.max() - img.min()) < 0.02:
         return not_found(METHOD, "homogeneous window (grey range below 0.02): no mark")
-    noise = max(noise_sigma(img), 1e-4)
+    noise = max(laplacian_noise_sigma(img), 1e-4)
     answers: dict[str, Detection] = {}
 
     def go(m: str) -> None:

@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from aerofid.marks.base import FOUND, Detection, not_found, unusable_window
-from aerofid.threshold import noise_sigma
+from aerofid.detect.noise import difference_noise_sigma
+from aerofid.detect.result import FOUND, Detection, not_found, unusable_window
 
 METHOD = "circles"
 
@@ -140,7 +140,7 @@ def edges(window: np.ndarray, canny_sigma: float = CANNY_SIGMA, canny_high: floa
     """
     w = np.asarray(window, np.float32)
     h, wd = w.shape
-    noise = noise_sigma(w)
+    noise = difference_noise_sigma(w)
     if canny_sigma > 0:
         k = int(2 * np.ceil(3 * canny_sigma) + 1)
         s = cv2.GaussianBlur(w, (k, k), canny_sigma, borderType=cv2.BORDER_REPLICATE)

@@ -508,9 +508,9 @@ def detect(window: np.ndarray, radii: tuple[float, float] | None = None, *, n_ci
         [(x0, y0, R)], ``points``, ``labels``, ``fit``.
     """
     w = np.asarray(window, np.float32)
-    bad = unusable_window(w, METHOD)
+    bad = unusable_window(w)
     if bad is not None:
-        return bad
+        return not_found(METHOD, bad)
     h, wd = w.shape
     ep = edges(w, canny_sigma, canny_high, canny_low_ratio)
     diag: dict = {"edges": ep.edge_map, "noise": ep.noise}

@@ -348,9 +348,9 @@ def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THET
         (with ``thetas``, ``rhos``), ``hough_lines`` [(theta, rho)], ``lines`` [LineFit], ``hough_centre``.
     """
     w = np.asarray(window, np.float32)
-    bad = unusable_window(w, METHOD)
+    bad = unusable_window(w)
     if bad is not None:
-        return bad
+        return not_found(METHOD, bad)
     h, wd = w.shape
     binary, surface = local_dynamic_threshold(w, region, return_thresholds=True)
     diag: dict = {"binary": binary, "thresholds": surface}

@@ -1,81 +1,142 @@
-"""The result every mark detector returns.
+"""The result every mark detector returns: :class:`Detection`, subclassed by each method.
 
-Each detector module in :mod:`aerofid.detect` offers ``detect(window, **params) -> Detection``: ``window`` is
-a 2-D float32 array (grey levels, the mark brighter than its ground; the caller inverts dark marks), and
-the centre is returned in *window* pixel coordinates (x = column, y = row, centre of the top-left pixel at
-(0, 0)). A detector never raises for "no mark": it returns ``status="not_found"`` with a ``reason``.
+Each method module in :mod:`aerofid.detect` offers ``detect(window, params) -> <Method>Result``: ``window`` is
+a 2-D float32 array (grey levels on [0, 1], the mark brighter than its ground; the caller inverts dark
+marks), and the centre is returned in *window* pixel coordinates (x = column, y = row, centre of the
+top-left pixel at (0, 0)). A detector never raises for "no mark": it returns ``status="not_found"`` with a
+``reason``. Each result type carries its method's intermediate results as typed fields (never a dictionary
+read by other modules), says how large the mark is by its own model (:attr:`Detection.extent`) and draws
+its own diagnostic figure (:meth:`Detection.plot`).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-FOUND = "found"
-NOT_FOUND = "not_found"
+from aerofid.conventions import FOUND, NOT_FOUND
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+D = TypeVar("D", bound="Detection")
 
 
 @dataclass(frozen=True)
 class Detection:
-    """A detector's answer for one window.
+    """A detector's answer for one window (the base of every method's result type).
 
-    Attributes:
-        status: ``"found"`` or ``"not_found"``.
-        x, y: centre in window pixels (NaN when not found).
-        score: the detector's self-diagnosis in [0, 1] (1 = certain); comparable across methods.
-        sigma: standard deviation of the centre in pixels (per axis, mean of x and y), NaN if unknown.
-        method: name of the method that produced it.
-        reason: why nothing was found (empty when found).
-        diagnostics: intermediate arrays and numbers for plots (never in JSON).
+    Attributes
+    ----------
+    status : str
+        ``"found"`` or ``"not_found"``.
+    x, y : float
+        Centre in window pixels (NaN when not found).
+    score : float
+        The detector's self-diagnosis in [0, 1] (1 = certain).
+    sigma : float
+        Standard deviation of the centre in pixels (per axis), NaN if unknown.
+    method : str
+        Name of the method that produced it.
+    reason : str
+        Why nothing was found (empty when found).
+    origin : tuple of float
+        Where the window the method saw lies in the caller's window (``(0, 0)`` unless the answer was
+        :meth:`shifted`); the typed diagnostics of subclasses stay in the coordinates of the window the
+        method saw.
+
+    Examples
+    --------
+    >>> d = Detection(status="found", x=10.25, y=4.5, score=0.9, sigma=0.02, method="demo")
+    >>> d.found, d.shifted(100, 200).x
+    (True, 110.25)
+    >>> Detection.not_found("demo", "homogeneous window").to_dict()["status"]
+    'not_found'
     """
 
-    status: str
+    status: str = NOT_FOUND
     x: float = float("nan")
     y: float = float("nan")
     score: float = 0.0
     sigma: float = float("nan")
     method: str = ""
     reason: str = ""
+    origin: tuple[float, float] = (0.0, 0.0)
     diagnostics: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    """TRANSITIONAL (issue 8): untyped diagnostics, removed once every method returns its own typed result."""
 
     @property
     def found(self) -> bool:
+        """True when a mark was located."""
         return self.status == FOUND
 
-    def to_dict(self) -> dict:
-        """Scalars only (no arrays), ready for JSON."""
-        return {
-            "status": self.status,
-            "x": _num(self.x),
-            "y": _num(self.y),
-            "score": _num(self.score),
-            "sigma": _num(self.sigma),
-            "method": self.method,
-            "reason": self.reason,
-        }
+    @property
+    def extent(self) -> float | None:
+        """The mark's radius (px) by the method's own model of it, or None when the method has none."""
+        return None
+
+    @classmethod
+    def not_found(cls: type[D], method: str, reason: str, **fields: Any) -> D:
+        """An explicit not-found answer of this type, with any of its typed diagnostic ``fields``."""
+        return cls(status=NOT_FOUND, method=method, reason=reason, **fields)
+
+    def shifted(self: D, dx: float, dy: float) -> D:
+        """The same answer in a window whose origin is (-dx, -dy) from this one's (e.g. from a crop back
+        to the window it was cut from)."""
+        return dataclasses.replace(self, x=self.x + dx, y=self.y + dy,
+                                   origin=(self.origin[0] + dx, self.origin[1] + dy))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Scalars only (no arrays), ready for JSON (NaN becomes None)."""
+        return {"status": self.status, "x": _num(self.x), "y": _num(self.y), "score": _num(self.score),
+                "sigma": _num(self.sigma), "method": self.method, "reason": self.reason}
+
+    def plot(self, fig: Figure, window: np.ndarray) -> None:
+        """Draw this method's diagnostic figure into ``fig`` for the ``window`` it saw (window pixels).
+
+        The base draws the window with the centre; methods with intermediate results override it."""
+        ax = fig.add_subplot(1, 1, 1)
+        ax.imshow(window, cmap="gray", interpolation="nearest")
+        if self.found:
+            ax.plot([self.x - self.origin[0]], [self.y - self.origin[1]], "+", color="orange", ms=14, mew=2)
+            ax.set_title(f"{self.method}: ({self.x:.3f}, {self.y:.3f}) sigma {self.sigma:.3f} px", fontsize=9)
+        else:
+            ax.set_title(f"{self.method}: not found: {self.reason}"[:90], fontsize=9)
+
+
+def unusable_window(window: np.ndarray, min_side: int = 8, min_range: float = 0.02) -> str | None:
+    """Why no detector can use ``window`` (not 2-D, smaller than ``min_side``, NaN or infinite values, grey
+    range below ``min_range``), or None when it is usable.
+
+    Examples
+    --------
+    >>> unusable_window(np.zeros((4, 4)))
+    'window must be a 2-D array of at least 8 x 8 px'
+    >>> unusable_window(np.eye(10)) is None
+    True
+    """
+    w = np.asarray(window)
+    if w.ndim != 2 or min(w.shape) < min_side:
+        return f"window must be a 2-D array of at least {min_side} x {min_side} px"
+    if not np.isfinite(w).all():
+        return "window holds NaN or infinite grey levels"
+    if float(w.max() - w.min()) < min_range:
+        return f"homogeneous window (grey range below {min_range})"
+    return None
 
 
 def not_found(method: str, reason: str, **diagnostics: Any) -> Detection:
-    """Shorthand for an explicit not-found answer."""
+    """TRANSITIONAL (issue 8): use ``<Method>Result.not_found(method, reason, ...)``."""
     return Detection(status=NOT_FOUND, method=method, reason=reason, diagnostics=diagnostics)
-
-
-def unusable_window(window: np.ndarray, method: str, min_side: int = 8,
-                    min_range: float = 0.02) -> Detection | None:
-    """An explicit not-found answer for a window no detector can use (not 2-D, smaller than
-    ``min_side``, NaN or infinite values, grey range below ``min_range``), else None."""
-    w = np.asarray(window)
-    if w.ndim != 2 or min(w.shape) < min_side:
-        return not_found(method, f"window must be a 2-D array of at least {min_side} x {min_side} px")
-    if not np.isfinite(w).all():
-        return not_found(method, "window holds NaN or infinite grey levels")
-    if float(w.max() - w.min()) < min_range:
-        return not_found(method, f"homogeneous window (grey range below {min_range})")
-    return None
 
 
 def _num(v: float) -> float | None:
     v = float(v)
     return None if not np.isfinite(v) else v
+
+
+__all__ = ["FOUND", "NOT_FOUND", "Detection", "unusable_window"]

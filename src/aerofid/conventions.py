@@ -1,0 +1,28 @@
+"""The package's vocabulary, in one place (lowest layer: imports nothing of aerofid).
+
+Pixel coordinates: x = column, y = row, the centre of the top-left pixel is (0, 0); boxes are
+(x0, y0, x1, y1) with x1, y1 exclusive.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+Polarity = Literal["bright", "dark"]
+"""A mark brighter than its ground (most fiducials) or darker (negatives, some panels)."""
+POLARITIES: tuple[Polarity, ...] = ("bright", "dark")
+POLARITY_CHOICES = (*POLARITIES, "auto")
+"""What a user may ask for: one polarity, or ``"auto"`` (both are tried; the more confident answer wins)."""
+
+MarkKind = Literal["auto", "external", "panel"]
+MARKS: tuple[str, ...] = ("auto", "external", "panel")
+"""Kinds of mark: let the detector decide, an external (film) fiducial, or a cloth ground panel."""
+
+FOUND = "found"
+NOT_FOUND = "not_found"
+"""Every answer's status: a mark was located, or explicitly not (never an exception, never a made-up centre)."""
+
+Box = tuple[int, int, int, int]
+"""(x0, y0, x1, y1) in full-image pixels, x1 and y1 exclusive."""
+
+__all__ = ["FOUND", "MARKS", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "Box", "MarkKind", "Polarity"]

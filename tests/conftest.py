@@ -1,0 +1,36 @@
+"""Shared fixtures.
+
+Real data lives beside the repository, in ``../shared/realdata`` (never copied into it). Tests that read it
+use :func:`realdata`: they skip when the folder is absent (a fresh clone elsewhere) and *fail* when it is
+present but the file they need is missing or unreadable (so CI never silently skips the checks against
+real scans and published numbers).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+REALDATA = REPO.parent / "shared" / "realdata"
+
+
+def realdata_path(relative: str) -> Path:
+    """The path of ``relative`` inside ``../shared/realdata``: skips the test when the folder is absent,
+    fails it when the folder is there but ``relative`` is not a readable file or folder."""
+    if not REALDATA.is_dir():
+        pytest.skip(f"{REALDATA} is absent")
+    path = REALDATA / relative
+    if not path.exists():
+        pytest.fail(f"{relative} is missing from {REALDATA}")
+    if not os.access(path, os.R_OK):
+        pytest.fail(f"{path} is not readable")
+    return path
+
+
+@pytest.fixture
+def realdata():
+    """``realdata("unbc_bc_wild_rc20/15BCC02013_114.jpg") -> Path`` (see :func:`realdata_path`)."""
+    return realdata_path

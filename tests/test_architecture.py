@@ -1,0 +1,115 @@
+"""The folder tree is the architecture: the imports between aerofid's modules form no cycle, each layer
+imports only the layers below it, and no import hides inside a function (the way cycles were hidden before).
+
+Layers, lowest first (a module may import its own layer and those below):
+``conventions, errors, robust`` < ``io`` < ``detect`` < ``orientation`` < ``formats`` < ``locate, synth,
+testing`` < ``render`` < ``cli``. ``detect`` and ``orientation`` are independent of each other.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
+
+LAYER = {"conventions": 0, "errors": 0, "robust": 0, "io": 1, "detect": 2, "orientation": 2, "formats": 3,
+         "synth": 4, "testing": 5, "locate": 5, "render": 6, "cli": 7, "__init__": 8}
+"""Each top-level part of the package and its layer."""
+INDEPENDENT = {frozenset({"detect", "orientation"}), frozenset({"detect", "formats"})}
+"""Parts that must not import each other although their layers would allow it."""
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(SRC.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _imports(path: Path) -> tuple[set[str], list[int]]:
+    """The aerofid modules ``path`` imports, and the line numbers of imports inside functions."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    out: set[str] = set()
+    nested: list[int] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:  # "from aerofid import synth" imports aerofid.synth, not the package's __init__
+                names = [f"{node.module}.{a.name}" for a in node.names]
+                names += [node.module or ""] if node.module != "aerofid" else []
+            out |= {n for n in names if n == "aerofid" or n.startswith("aerofid.")}
+    for fn in ast.walk(tree):
+        if isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
+            for n in ast.walk(fn):
+                mods = ([a.name for a in n.names] if isinstance(n, ast.Import)
+                        else [n.module or ""] if isinstance(n, ast.ImportFrom) else [])
+                if any(m == "aerofid" or m.startswith("aerofid.") for m in mods):
+                    nested.append(n.lineno)
+    return out, nested
+
+
+def _graph() -> dict[str, set[str]]:
+    files = {_module_name(p): p for p in SRC.rglob("*.py")}
+    graph = {}
+    for name, path in files.items():
+        deps, _ = _imports(path)
+        # "from aerofid.x import y" names module aerofid.x.y when that is a module, else aerofid.x
+        graph[name] = {d if d in files else d.rsplit(".", 1)[0] for d in deps} & set(files) - {name}
+    return graph
+
+
+def _part(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "__init__"
+
+
+def test_no_import_cycle():
+    graph = _graph()
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(n: str) -> None:
+        state[n] = 1
+        stack.append(n)
+        for m in sorted(graph[n]):
+            if state.get(m) == 1:
+                raise AssertionError("import cycle: " + " -> ".join(stack[stack.index(m):] + [m]))
+            if m not in state:
+                visit(m)
+        stack.pop()
+        state[n] = 2
+
+    for n in sorted(graph):
+        if n not in state:
+            visit(n)
+
+
+def test_layers_import_only_downwards():
+    bad = []
+    for mod, deps in _graph().items():
+        a = _part(mod)
+        for d in deps:
+            b = _part(d)
+            if b == "__init__" and d != "aerofid":
+                continue
+            if a != b and (LAYER[b] > LAYER[a] or frozenset({a, b}) in INDEPENDENT):
+                bad.append(f"{mod} imports {d}")
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("path", sorted(p for p in SRC.rglob("*.py") if "cli" not in p.parts),
+                         ids=lambda p: str(p.relative_to(SRC)))
+def test_no_import_inside_a_function(path):
+    """Outside the CLI (which imports lazily to start fast), every aerofid import is at module level."""
+    _, nested = _imports(path)
+    assert not nested, f"{path.name}: aerofid imports inside functions at lines {nested}"
+
+
+def test_every_part_has_a_layer():
+    parts = {_part(m) for m in _graph()}
+    assert parts <= set(LAYER), parts - set(LAYER)

@@ -1,3 +1,6 @@
+"""``python -m aerofid.cli``."""
+
 from aerofid.cli import main
 
-main()
+if __name__ == "__main__":
+    main()

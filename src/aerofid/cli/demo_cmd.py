@@ -49,11 +49,14 @@ def demo(out_dir: Path, seed: int) -> int:
         err = float(np.hypot(r.x - m.x, r.y - m.y)) if r.found else float("nan")
         errors.append(err)
         rows.append({"name": m.name, "truth": [m.x, m.y], **r.to_dict(), "error_px": None if not r.found else err})
-        found = f"{r.x:9.3f} {r.y:9.3f} {err:8.3f} {r.sigma:8.3f} {r.score:5.2f}" if r.found else f"{'not found: ' + r.reason:>44}"
+        if r.found:
+            found = f"{r.x:9.3f} {r.y:9.3f} {err:8.3f} {r.sigma:8.3f} {r.score:5.2f}"
+        else:
+            found = f"{'not found: ' + r.reason:>44}"
         click.echo(f"{m.name:6} {kind:8} {m.x:9.3f} {m.y:9.3f} {found}")
     write_text_atomic(out_dir / "results.json", json.dumps(rows, indent=1))
-    e = np.array(errors)
-    ok = np.isfinite(e)
-    click.echo(f"found {ok.sum()} of {len(e)}; RMS error {np.sqrt(np.mean(e[ok] ** 2)):.3f} px, "
-               f"max {np.max(e[ok]):.3f} px; overlays, diagnostics_P1.png and results.json in {out_dir}/")
+    err_px = np.array(errors)
+    ok = np.isfinite(err_px)
+    click.echo(f"found {ok.sum()} of {len(err_px)}; RMS error {np.sqrt(np.mean(err_px[ok] ** 2)):.3f} px, "
+               f"max {np.max(err_px[ok]):.3f} px; overlays, diagnostics_P1.png and results.json in {out_dir}/")
     return 0 if ok.all() else 1

@@ -6,9 +6,9 @@ import json
 
 import click
 
-from aerofid.detect import METHODS
+from aerofid.conventions import MARKS, POLARITY_CHOICES
+from aerofid.detect.registry import METHODS
 from aerofid.errors import AerofidInputError
-from aerofid.locate import MARKS, POLARITIES
 from aerofid.locate import locate as locate_mark
 
 
@@ -20,7 +20,8 @@ def parse_box(text: str) -> tuple[float, float, float, float]:
     try:
         return tuple(float(p) for p in parts)  # type: ignore[return-value]
     except ValueError:
-        raise AerofidInputError(f"--box {text!r} has a malformed number; give X0,Y0,X1,Y1 such as 100,200,220,320") from None
+        raise AerofidInputError(f"--box {text!r} has a malformed number; "
+                                "give X0,Y0,X1,Y1 such as 100,200,220,320") from None
 
 
 def parse_params(items: tuple[str, ...]) -> dict:
@@ -51,8 +52,8 @@ def parse_params(items: tuple[str, ...]) -> dict:
               help="Search box in full-image pixels (x = column, y = row, x1/y1 exclusive).")
 @click.option("--mark", type=click.Choice(MARKS), default="auto", show_default=True,
               help="external = film fiducial, panel = cloth ground panel.")
-@click.option("--method", type=click.Choice(("auto", *METHODS)), default="auto", show_default=True)
-@click.option("--polarity", type=click.Choice(POLARITIES), default="bright", show_default=True,
+@click.option("--method", type=click.Choice(tuple(METHODS)), default="auto", show_default=True)
+@click.option("--polarity", type=click.Choice(POLARITY_CHOICES), default="bright", show_default=True,
               help="Mark brighter (bright) or darker (dark) than its ground, or try both (auto).")
 @click.option("--colour", default="auto", show_default=True,
               help="RGB to grey: auto, luminance, red, green, blue or max.")

@@ -5,321 +5,652 @@ method needs no model of the mark, only two weak assumptions (seed section 2.1):
 about its centre, (2) the *fiducial area* around it is roughly symmetric about an axis through that centre.
 It runs in four stages (seed Fig. 3):
 
-1. **Fiducial-area analysis** (seed 3.1): accumulated edge profiles, eq. (1), thresholded at their mean,
-   give the upper and lower bounds L1, L2 and the horizontal extent of the area; the symmetry of the
-   accumulated grey-level profile between them, eq. (2), gives the axis L3. For a corner area the window is
-   first projected diagonally (rotated 45 degrees) so that the area's axis is upright (``diagonal=``).
-   The bounds also give the half-size of the mark, which sets the symmetry kernel (seed 3.2).
-2. **Mark analysis** (seed 3.2): a simplified Laplacian of Gaussian by box filtering, eq. (3); symmetry
-   enhancement, eqs. (4)-(5); accumulation to a profile, eq. (6); high-pass filtering, eq. (7), whose peak
-   is the centre of symmetry along one axis. Alternately along y and x, with an accumulation / smoothing
-   interval that narrows each iteration, until the shift is at most one pixel; no convergence is a failure.
-3. **Self-diagnosis** (seed 3.3): mirror-added images, eqs. (8)-(9), their 90-degree rotations,
-   eqs. (10)-(11), and the mean of four normalised cross-correlations, eqs. (12)-(13); ``R_self`` below 0.5
-   is a failure.
-4. **Sub-pixel location** (seed 3.4): the neighbourhood of the unit-pixel centre is enlarged (bilinear),
-   Gaussian-smoothed and analysed again in the same way; the centre is the weighted mean of the final
-   high-pass profile, eq. (14), mapped back by eq. (15). A total shift that is too large, or a neighbourhood
-   whose grey levels hardly vary (too faint), is a failure.
+1. **Fiducial-area analysis** (seed 3.1, :func:`fiducial_area`): accumulated edge profiles, eq. (1),
+   thresholded at their mean, give the upper and lower bounds L1, L2 and the horizontal extent of the area;
+   the symmetry of the accumulated grey-level profile between them, eq. (2), gives the axis L3. For a corner
+   area the window is first projected diagonally (rotated 45 degrees) so that the area's axis is upright
+   (``diagonal``). The bounds also give the half-size of the mark, which sets the symmetry kernel (seed 3.2).
+2. **Mark analysis** (seed 3.2, :func:`unit_pixel_centre`): a simplified Laplacian of Gaussian by box
+   filtering, eq. (3); symmetry enhancement, eqs. (4)-(5); accumulation to a profile, eq. (6); high-pass
+   filtering, eq. (7), whose peak is the centre of symmetry along one axis. Alternately along y and x, with an
+   accumulation / smoothing interval that narrows each iteration, until the shift is at most one pixel; no
+   convergence is a failure.
+3. **Self-diagnosis** (seed 3.3, :func:`self_diagnosis`): mirror-added images, eqs. (8)-(9), their 90-degree
+   rotations, eqs. (10)-(11), and the mean of four normalised cross-correlations, eqs. (12)-(13); ``R_self``
+   below 0.5 is a failure.
+4. **Sub-pixel location** (seed 3.4, :func:`subpixel_centre`): the neighbourhood of the unit-pixel centre is
+   enlarged (bilinear), Gaussian-smoothed and analysed again in the same way; the centre is the weighted mean
+   of the final high-pass profile, eq. (14), mapped back by eq. (15). A total shift that is too large, or a
+   neighbourhood whose grey levels hardly vary (too faint), is a failure.
 
 Beyond the seed, the centre of eq. (15) is refined by least squares on point symmetry itself
 (:func:`point_symmetry_centre`, ``point_refine=True``): eq. (14) is biased on marks whose filter response is
 uneven (rotated thin crosses: 0.1-0.3 px), the refinement is not; the two centres' disagreement enters
-``sigma``.
+``sigma``. The final centre must be centrally symmetric by the shared measure
+:func:`aerofid.detect.asymmetry.point_asymmetry` (``max_asymmetry``).
 
 Every step works on absolute differences of a linear filter, so the method is blind to polarity: a bright
 mark on dark ground and a dark mark on bright ground give the same centre.
 
 The returned ``score`` is ``R_self`` (clipped to [0, 1]) evaluated at the final sub-pixel centre, so a found
 mark has ``score >= rself_threshold`` (0.5). ``sigma`` is a propagated standard deviation (see
-:func:`_centre_sigma`); the benchmark ``benchmarks/bench_symmetry.py`` checks it against observed errors.
+:func:`centre_sigma`); the benchmark ``benchmarks/bench_symmetry.py`` checks it against observed errors.
 
-Deviations from, and readings of, the paper are marked "Reading:" in the parameter docs of :func:`detect`.
+Deviations from, and readings of, the paper are marked "Reading:" in the docs of :class:`SymmetryParams`.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import dataclasses
+import math
+from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 from scipy import ndimage
 
+from aerofid.conventions import FOUND
+from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
-from aerofid.detect.result import FOUND, Detection, not_found
+from aerofid.detect.params import MethodParams, check
+from aerofid.detect.result import Detection
 from aerofid.robust import MAD_TO_SIGMA
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 METHOD = "symmetry"
 
-_POLARITIES = ("bright", "dark", "either")
-_DIAGONALS = (None, "main", "anti")
+DIAGONALS = (None, "main", "anti")
+"""The fiducial area's symmetry axis: upright (None), along the main or the anti-diagonal (seed 2.2)."""
+
+
+# --- parameters ---------------------------------------------------------------------------------------------
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int | np.integer) and not isinstance(v, bool)
+
+
+def _is_num(v: Any) -> bool:
+    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool) and not math.isnan(v)
+
+
+@dataclass(frozen=True)
+class SymmetryParams(MethodParams):
+    """Parameters of the symmetry detector (Cho & Kim, seed 002); the seed's values where it gives them.
+
+    Examples
+    --------
+    >>> SymmetryParams().max_asymmetry
+    0.2
+    >>> SymmetryParams(radius=0)
+    Traceback (most recent call last):
+    ...
+    ValueError: radius must be None or an integer >= 1 (px), not 0
+    """
+
+    diagonal: str | None = None
+    """``None`` for a side fiducial area whose symmetry axis L3 is upright (seed Fig. 2); ``"main"`` for a
+    corner area whose axis runs along the main diagonal (top-left to bottom-right), ``"anti"`` along the
+    anti-diagonal. The window is then "diagonally projected" (rotated by 45 degrees) before L1, L2, L3 are found
+    (seed 2.2); the mark analysis itself is unchanged."""
+    edge_step: int = 2
+    """``d`` of eq. (1), the pixel separation of the edge profile; the profile is thresholded at its mean
+    (seed 3.1)."""
+    radius: int | None = None
+    """Radius of the symmetry-enhancement kernel of eqs. (4)-(5), "as large as the half-size of the target
+    object" (seed 3.2). ``None``: half the larger extent of the fiducial area (L1..L2 and the horizontal
+    extent), never less than ``min_radius``."""
+    min_radius: int = 3
+    """Smallest kernel radius used when the bounds give a smaller one."""
+    log_inner: int = 2
+    """The simplified LoG of eq. (3), seed 3.2: "the inner radius of R1 as two, outer one as three, and outer
+    one of R2 as four". Reading: R1 is the square of half-width ``log_inner`` (5 x 5), R2 the square frame
+    between half-widths ``log_gap`` and ``log_outer`` (9 x 9 minus 7 x 7); I2 = mean(R2) - mean(R1), computed
+    with box filters."""
+    log_gap: int = 3
+    """See ``log_inner`` (seed 3.2)."""
+    log_outer: int = 4
+    """See ``log_inner`` (seed 3.2)."""
+    interval: int | None = None
+    """``d`` of eqs. (6)-(7) at the first iteration; ``None`` = the kernel radius ("the half-size of the target
+    object at first step", seed 3.2)."""
+    interval_shrink: float = 0.5
+    """Factor by which the interval narrows at each iteration (seed 3.2 says only "narrowing"; halving is our
+    choice)."""
+    min_interval: int = 1
+    """The interval never narrows below this."""
+    max_iter: int = 12
+    """Iterations (each one vertical and one horizontal step) before the refinement is declared divergent."""
+    converge_px: float = 1.0
+    """The iteration stops when the shift of one iteration is at most this ("converges into one pixel", seed
+    3.2); it diverges when the shift grows twice in a row or ``max_iter`` passes."""
+    rself_threshold: float = 0.5
+    """Threshold on ``R_self`` of eq. (13) ("adequate value of the threshold can be 0.5", seed 3.3)."""
+    min_rotation_corr: float = 0.25
+    """Our guard, not in the seed: each 90-degree term R13, R24 of eq. (13) must reach this too. Because R34
+    equals R12 identically, a straight bar or band (mirror-symmetric, no centre along its length) scores exactly
+    0.5 and would pass the seed's test half of the time."""
+    max_asymmetry: float = 0.1
+    """Our guard, not in the seed: the largest share of the structure within the kernel radius of the final
+    centre (net of noise) that may differ from its 180-degree rotation about it
+    (:func:`aerofid.detect.asymmetry.point_asymmetry`, the measure ``auto`` uses too). The mirror additions of
+    eqs. (8)-(9) hide a one-sided part (a disc with a bump scores R_self ~ 0.8); assumption (1) of the seed is
+    checked directly instead. Synthetic marks on film border stay below 0.04, a disc with a bump of a quarter
+    of its area reaches 0.3 or more (docs/marks.md). On textured (aerial) ground the texture inside the disc is
+    itself asymmetric and most marks are rejected: raise this (e.g. to 2.0) there, accepting that one-sided
+    blobs may then pass."""
+    enlarge: int = 4
+    """``R_e`` of eq. (15), the enlargement rate of the bilinear interpolation (not given in the seed; 4 gives
+    steps of 1/4 px, refined further by the weighted mean of eq. 14)."""
+    smooth_sigma: float = 0.5
+    """Standard deviation, in original pixels, of the Gaussian smoothing of the enlarged image (seed 3.4; value
+    not given in the seed)."""
+    max_total_shift: float = 1.5
+    """The sub-pixel stage fails when its total shift from the unit-pixel centre exceeds this many original
+    pixels (seed 3.4, "a given threshold")."""
+    faint_snr: float = 1.0
+    """The mark is "too faint" (seed 3.4) when the standard deviation of the grey levels within ``radius`` of the
+    final centre, less the part the noise explains (``sqrt(std^2 - noise^2)``), is below
+    ``max(min_std, faint_snr * noise)``; the noise is estimated from the window
+    (:func:`aerofid.detect.noise.laplacian_noise_sigma`). The seed gives no values; the noise correction is ours
+    (a plain std threshold rejects thin, high-contrast crosses)."""
+    min_std: float = 0.005
+    """See ``faint_snr`` (seed 3.4)."""
+    area_smooth: int = 3
+    """Side of a box filter applied to the window before the edge profiles of eq. (1) (not in the seed: it keeps
+    the mean threshold from being crossed by noise rows when the mark is thin; 1 = off)."""
+    sigma_inefficiency: float = 1.7
+    """Calibration of the reported ``sigma`` (not in the seed): the Cramer-Rao-like bound
+    ``noise / sqrt(sum of squared gradients)`` times this, ..."""
+    sigma_floor: float = 0.005
+    """... plus this many px in quadrature for the discretisation of eq. (14) (:func:`centre_sigma`)."""
+    point_refine: bool = True
+    """Beyond the seed: after eq. (15), the centre is refined by least squares on point symmetry itself
+    (:func:`point_symmetry_centre`: the (x, y) about which the window best equals its 180-degree rotation,
+    cubic-spline resampled, within the kernel radius). Eq. (14)'s weighted mean of a filtered, accumulated
+    profile is biased on marks whose symmetry filters respond unevenly, e.g. 0.1-0.3 px (0.6 px under strong
+    blur) on rotated thin crosses, where the refinement gives 0.02 (0.07) px (docs/benchmarks_marks.md).
+    ``False``: the seed's centre as published."""
+    max_refine_shift: float = 1.0
+    """The refinement fails (not found) when it moves the centre further than this (px) from eq. (15)'s: the
+    two definitions of the centre disagree. A smaller disagreement is added to ``sigma`` (per axis, in
+    quadrature): on textured ground both centres are pulled, differently."""
+
+    def validate(self) -> None:
+        """One-line ``ValueError`` for a value no later step could use."""
+        check(self.diagonal in DIAGONALS, f"diagonal must be one of {DIAGONALS}, not {self.diagonal!r}")
+        for name, low in (("edge_step", 1), ("min_radius", 1), ("log_inner", 0), ("min_interval", 1),
+                          ("max_iter", 1), ("enlarge", 1), ("area_smooth", 1)):
+            v = getattr(self, name)
+            check(_is_int(v) and v >= low, f"{name} must be an integer >= {low}, not {v!r}")
+        for name in ("radius", "interval"):
+            v = getattr(self, name)
+            check(v is None or (_is_int(v) and v >= 1), f"{name} must be None or an integer >= 1 (px), not {v!r}")
+        check(_is_int(self.log_gap) and _is_int(self.log_outer) and self.log_inner < self.log_gap <= self.log_outer,
+              f"log_inner < log_gap <= log_outer must hold (integers), not {self.log_inner}, {self.log_gap}, "
+              f"{self.log_outer}")
+        check(_is_num(self.interval_shrink) and 0 < self.interval_shrink <= 1,
+              f"interval_shrink must be in (0, 1], not {self.interval_shrink!r}")
+        for name in ("rself_threshold", "min_rotation_corr"):
+            v = getattr(self, name)
+            check(_is_num(v) and -1 <= v <= 1, f"{name} must be a correlation in [-1, 1], not {v!r}")
+        for name in ("converge_px", "max_asymmetry", "smooth_sigma", "faint_snr", "min_std", "sigma_floor",
+                     "max_refine_shift"):
+            v = getattr(self, name)
+            check(_is_num(v) and v >= 0, f"{name} must be a number >= 0, not {v!r}")
+        for name in ("max_total_shift", "sigma_inefficiency"):
+            v = getattr(self, name)
+            check(_is_num(v) and 0 < v < math.inf, f"{name} must be a finite number > 0, not {v!r}")
+        check(isinstance(self.point_refine, bool | np.bool_), f"point_refine must be True or False, not "
+              f"{self.point_refine!r}")
+
+
+DEFAULT = SymmetryParams()
+
+
+# --- typed diagnostics --------------------------------------------------------------------------------------
+
+def _diag(default: Any = None) -> Any:
+    """A diagnostic field of a result: not compared (it may hold arrays), not in the repr."""
+    return field(default=default, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class FiducialArea:
+    """Seed 3.1: the fiducial area's bounds, in window pixels (with ``diagonal``, L1, L2, p1, p2 and the
+    profiles are in the diagonally projected window; L3 and ``y_mid`` are mapped back)."""
+
+    L1: int
+    """Upper bound (row)."""
+    L2: int
+    """Lower bound (row)."""
+    p1: int
+    """Left end of the horizontal extent (column)."""
+    p2: int
+    """Right end of the horizontal extent (column)."""
+    L3: float
+    """Symmetry axis (column), eq. (2)."""
+    y_mid: float
+    """Middle row between L1 and L2."""
+    half_height: float
+    half_width: float
+    edge_profile_v: np.ndarray = _diag()
+    """Eq. (1) along the rows (vertical edges)."""
+    edge_profile_h: np.ndarray = _diag()
+    """Eq. (1) along the columns, below L1 (horizontal edges)."""
+    area_profile: np.ndarray = _diag()
+    """The grey levels accumulated over rows L1..L2."""
+    symmetry_profile: np.ndarray = _diag()
+    """Eq. (2) of ``area_profile``."""
+    diagonal: str | None = None
+    L3_rotated: float | None = None
+    y_mid_rotated: float | None = None
+
+
+@dataclass(frozen=True)
+class AxisProfile:
+    """One step of the mark analysis along one axis: eq. (6) ``I4`` and eq. (7) ``I5`` at ``positions``."""
+
+    positions: np.ndarray = _diag()
+    I4: np.ndarray = _diag()
+    I5: np.ndarray = _diag()
+
+
+@dataclass(frozen=True)
+class Profiles:
+    """The last profiles of an iteration: along x (columns) and along y (rows)."""
+
+    x: AxisProfile
+    y: AxisProfile
+
+
+@dataclass(frozen=True)
+class SelfDiagnosis:
+    """Eq. (12)-(13): the four normalised cross-correlations and their mean ``r_self``."""
+
+    R12: float
+    R34: float
+    R13: float
+    R24: float
+
+    @property
+    def r_self(self) -> float:
+        """Eq. (13): the mean of the four correlations (the seed's ``R_self``)."""
+        return float((self.R12 + self.R34 + self.R13 + self.R24) / 4.0)
+
+
+@dataclass(frozen=True)
+class SubpixelStage:
+    """Seed 3.4, on the enlarged neighbourhood: its LoG, the iterations (x', y', d') in enlarged px, the last
+    profiles, the enlarged kernel radius and the enlargement rate."""
+
+    enlarged_log: np.ndarray = _diag()
+    iterations: tuple[tuple[int, int, int], ...] = ()
+    profiles: Profiles | None = None
+    kernel_radius: int = 0
+    enlarge: int = 1
+
+
+@dataclass(frozen=True)
+class SymmetryResult(Detection):
+    """The symmetry detector's answer with every stage's intermediate results (window pixels).
+
+    A field stays at its default when the detector stopped before that stage.
+    """
+
+    noise_sigma: float = _diag(float("nan"))
+    """The window's noise (:func:`aerofid.detect.noise.laplacian_noise_sigma`)."""
+    bounds: FiducialArea | None = _diag()
+    """Stage 1, seed 3.1."""
+    radius: int | None = _diag()
+    """The symmetry kernel's radius (px)."""
+    log: np.ndarray | None = _diag()
+    """Eq. (3) of the window."""
+    aoi: tuple[int, int, int, int] | None = _diag()
+    """The area of interest searched at unit-pixel accuracy (x_lo, y_lo, x_hi, y_hi), inclusive."""
+    iterations: tuple[tuple[int, int, int], ...] = _diag(())
+    """Stage 2: (x, y, interval) after each iteration, starting from (L3, y_mid)."""
+    shifts: tuple[float, ...] = _diag(())
+    """Stage 2: the shift of each iteration (px)."""
+    profiles: Profiles | None = _diag()
+    """Stage 2: the last iteration's profiles."""
+    centre_pixel: tuple[int, int] | None = _diag()
+    """The unit-pixel centre."""
+    R_self_pixel: float = _diag(float("nan"))
+    R_parts_pixel: SelfDiagnosis | None = _diag()
+    """Stage 3 at the unit-pixel centre."""
+    subpixel: SubpixelStage | None = _diag()
+    """Stage 4."""
+    centre_eq15: tuple[float, float] | None = _diag()
+    """The centre of eq. (15), before the point-symmetry refinement."""
+    R_self: float = _diag(float("nan"))
+    R_parts: SelfDiagnosis | None = _diag()
+    """Stage 3 at the final centre."""
+    asymmetry: float = _diag(float("nan"))
+    """:func:`aerofid.detect.asymmetry.point_asymmetry` at the final centre."""
+    neighbourhood_std: float = _diag(float("nan"))
+    signal_std: float = _diag(float("nan"))
+    faint_limit: float = _diag(float("nan"))
+    """Faintness test (seed 3.4): the grey-level std near the centre, net of noise, and its limit."""
+    sigma_x: float = _diag(float("nan"))
+    sigma_y: float = _diag(float("nan"))
+
+    def plot(self, fig: Figure, window: np.ndarray) -> None:
+        """The window with the fiducial area's bounds L1, L2 (rows), p1, p2 and the axis L3 (columns), the
+        unit-pixel and final centres; beside it the last iteration's high-pass profiles ``I5`` (eq. 7)."""
+        ax = fig.add_subplot(1, 2, 1)
+        ax.imshow(window, cmap="gray", interpolation="nearest")
+        b = self.bounds
+        if b is not None and b.diagonal is None:
+            for yv in (b.L1, b.L2):
+                ax.axhline(yv, color="tab:cyan", lw=0.8)
+            for xv in (b.p1, b.p2):
+                ax.axvline(xv, color="tab:cyan", lw=0.5, ls=":")
+            ax.axvline(b.L3, color="tab:green", lw=0.8)
+        elif b is not None:
+            ax.plot([b.L3], [b.y_mid], "x", color="tab:green", ms=10)
+        if self.centre_pixel is not None:
+            ax.plot([self.centre_pixel[0]], [self.centre_pixel[1]], "s", mfc="none", color="tab:blue", ms=8)
+        if self.found:
+            ax.plot([self.x - self.origin[0]], [self.y - self.origin[1]], "+", color="orange", ms=14, mew=2)
+            ax.set_title(f"symmetry: ({self.x:.3f}, {self.y:.3f}) R_self {self.score:.2f}", fontsize=9)
+        else:
+            ax.set_title(f"symmetry: {self.reason}"[:60], fontsize=8)
+        ax2 = fig.add_subplot(1, 2, 2)
+        if self.profiles is not None:
+            for name, prof in (("x", self.profiles.x), ("y", self.profiles.y)):
+                ax2.plot(prof.positions, prof.I5, label=f"I5 along {name}")
+            ax2.legend(fontsize=7)
+        ax2.set_title("high-pass profiles, eq. (7)", fontsize=9)
 
 
 class _Failure(Exception):
     """Internal: a step could not go on; carries the reason for ``not_found``."""
 
-    def __init__(self, reason: str, **diagnostics: Any):
+    def __init__(self, reason: str):
         super().__init__(reason)
         self.reason = reason
-        self.diagnostics = diagnostics
 
 
-def detect(window: np.ndarray, *, polarity: str = "bright", diagonal: str | None = None,
-           edge_step: int = 2, radius: int | None = None, min_radius: int = 3,
-           log_inner: int = 2, log_gap: int = 3, log_outer: int = 4,
-           interval: int | None = None, interval_shrink: float = 0.5, min_interval: int = 1,
-           max_iter: int = 12, converge_px: float = 1.0,
-           rself_threshold: float = 0.5, min_rotation_corr: float = 0.25, max_asymmetry: float = 0.1,
-           enlarge: int = 4, smooth_sigma: float = 0.5, max_total_shift: float = 1.5,
-           faint_snr: float = 1.0, min_std: float = 0.005, area_smooth: int = 3,
-           sigma_inefficiency: float = 1.7, sigma_floor: float = 0.005,
-           point_refine: bool = True, max_refine_shift: float = 1.0) -> Detection:
+@dataclass
+class _Trace:
+    """Internal: the intermediate results gathered so far (the diagnostic fields of :class:`SymmetryResult`)."""
+
+    noise_sigma: float = float("nan")
+    bounds: FiducialArea | None = None
+    radius: int | None = None
+    log: np.ndarray | None = None
+    aoi: tuple[int, int, int, int] | None = None
+    iterations: tuple[tuple[int, int, int], ...] = ()
+    shifts: tuple[float, ...] = ()
+    profiles: Profiles | None = None
+    centre_pixel: tuple[int, int] | None = None
+    R_self_pixel: float = float("nan")
+    R_parts_pixel: SelfDiagnosis | None = None
+    subpixel: SubpixelStage | None = None
+    centre_eq15: tuple[float, float] | None = None
+    R_self: float = float("nan")
+    R_parts: SelfDiagnosis | None = None
+    asymmetry: float = float("nan")
+    neighbourhood_std: float = float("nan")
+    signal_std: float = float("nan")
+    faint_limit: float = float("nan")
+    sigma_x: float = float("nan")
+    sigma_y: float = float("nan")
+
+    def fields(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def detect(window: np.ndarray, params: SymmetryParams = DEFAULT, **overrides: Any) -> SymmetryResult:
     """Find the centre of a centrally symmetric mark in ``window`` (Cho & Kim, seed 002).
 
-    Args:
-        window: 2-D grey-level image, float on [0, 1]. The mark may be brighter or darker than its ground.
-        polarity: ``"bright"`` (default), ``"dark"`` or ``"either"``. Recorded only: the method uses
-            absolute differences of linear filters (eqs. 3-5) and normalised correlations (eq. 12), so its
-            answer is the same for a mark and its negative (seed section 2.1 assumes only symmetry).
-        diagonal: ``None`` for a side fiducial area whose symmetry axis L3 is upright (seed Fig. 2);
-            ``"main"`` for a corner area whose axis runs along the main diagonal (top-left to bottom-right),
-            ``"anti"`` along the anti-diagonal. The window is then "diagonally projected" (rotated by 45
-            degrees) before L1, L2, L3 are found (seed 2.2); the mark analysis itself is unchanged.
-        edge_step: ``d`` of eq. (1), the pixel separation of the edge profile; the profile is thresholded
-            at its mean (seed 3.1).
-        radius: radius of the symmetry-enhancement kernel of eqs. (4)-(5), "as large as the half-size of
-            the target object" (seed 3.2). ``None``: half the larger extent of the fiducial area (L1..L2
-            and the horizontal extent), never less than ``min_radius``.
-        min_radius: smallest kernel radius used when the bounds give a smaller one.
-        log_inner, log_gap, log_outer: the simplified LoG of eq. (3), seed 3.2: "the inner radius of R1 as
-            two, outer one as three, and outer one of R2 as four". Reading: R1 is the square of half-width
-            ``log_inner`` (5 x 5), R2 the square frame between half-widths ``log_gap`` and ``log_outer``
-            (9 x 9 minus 7 x 7); I2 = mean(R2) - mean(R1), computed with box filters.
-        interval: ``d`` of eqs. (6)-(7) at the first iteration; ``None`` = the kernel radius ("the half-size
-            of the target object at first step", seed 3.2).
-        interval_shrink: factor by which the interval narrows at each iteration (seed 3.2 says only
-            "narrowing"; halving is our choice).
-        min_interval: the interval never narrows below this.
-        max_iter: iterations (each one vertical and one horizontal step) before the refinement is declared
-            divergent.
-        converge_px: the iteration stops when the shift of one iteration is at most this ("converges into
-            one pixel", seed 3.2); it diverges when the shift grows twice in a row or ``max_iter`` passes.
-        rself_threshold: threshold on ``R_self`` of eq. (13) ("adequate value of the threshold can be 0.5").
-        min_rotation_corr: our guard, not in the seed: each 90-degree term R13, R24 of eq. (13) must reach
-            this too. Because R34 equals R12 identically, a straight bar or band (mirror-symmetric, no
-            centre along its length) scores exactly 0.5 and would pass the seed's test half of the time.
-        max_asymmetry: our guard, not in the seed: the largest share of the sub-image's structure (net of
-            noise) that may differ from its 180-degree rotation about the final centre
-            (:func:`point_asymmetry`). The mirror additions of eqs. (8)-(9) hide a one-sided part (a disc
-            with a bump scores R_self ~ 0.8); assumption (1) of the seed is checked directly instead.
-            Synthetic marks on film border stay below 0.02, a disc with a bump of a quarter of its area
-            reaches 0.18. On textured (aerial) ground the texture inside the sub-image is itself asymmetric
-            (0.1-0.9) and most marks are rejected: raise this (e.g. to 1.0) there, accepting that one-sided
-            blobs may then pass.
-        enlarge: ``R_e`` of eq. (15), the enlargement rate of the bilinear interpolation (not given in the
-            seed; 4 gives steps of 1/4 px, refined further by the weighted mean of eq. 14).
-        smooth_sigma: standard deviation, in original pixels, of the Gaussian smoothing of the enlarged image
-            (seed 3.4; value not given in the seed).
-        max_total_shift: the sub-pixel stage fails when its total shift from the unit-pixel centre exceeds
-            this many original pixels (seed 3.4, "a given threshold").
-        faint_snr, min_std: the mark is "too faint" (seed 3.4) when the standard deviation of the grey levels
-            within ``radius`` of the final centre, less the part the noise explains
-            (``sqrt(std^2 - noise^2)``), is below ``max(min_std, faint_snr * noise)``; the noise is estimated
-            from the window (Immerkaer's Laplacian estimator, robust form). The seed gives no values; the
-            noise correction is ours (a plain std threshold rejects thin, high-contrast crosses).
-        area_smooth: side of a box filter applied to the window before the edge profiles of eq. (1) (not in
-            the seed: it keeps the mean threshold from being crossed by noise rows when the mark is thin;
-            1 = off).
-        sigma_inefficiency, sigma_floor: calibration of the reported ``sigma`` (not in the seed): the
-            Cramer-Rao-like bound ``noise / sqrt(sum of squared gradients)`` times ``sigma_inefficiency``,
-            plus ``sigma_floor`` px in quadrature for the discretisation of eq. (14).
-        point_refine: beyond the seed: after eq. (15), the centre is refined by least squares on point
-            symmetry itself (:func:`point_symmetry_centre`: the (x, y) about which the window best equals its
-            180-degree rotation, cubic-spline resampled, within the kernel radius). Eq. (14)'s weighted mean
-            of a filtered, accumulated profile is biased on marks whose symmetry filters respond unevenly,
-            e.g. 0.1-0.3 px (0.6 px under strong blur) on rotated thin crosses, where the refinement gives
-            0.02 (0.07) px (docs/benchmarks_marks.md). ``False``: the seed's centre as published.
-        max_refine_shift: the refinement fails (not found) when it moves the centre further than this (px)
-            from eq. (15)'s: the two definitions of the centre disagree. A smaller disagreement is added to
-            ``sigma`` (per axis, in quadrature): on textured ground both centres are pulled, differently.
+    Parameters
+    ----------
+    window : ndarray
+        2-D grey-level image, float on [0, 1]. The mark may be brighter or darker than its ground (the method
+        is polarity-blind: absolute differences of linear filters, eqs. 3-5, and normalised correlations,
+        eq. 12).
+    params : SymmetryParams
+        The method's parameters (seed defaults).
+    **overrides
+        TRANSITIONAL (issue 8): parameter overrides, ``params.replace(**overrides)``; to be removed once every
+        caller passes ``params``.
 
-    Returns:
-        :class:`~aerofid.detect.result.Detection` with the centre in window pixels, ``score = R_self`` of eq.
-        (13) at the final centre (clipped to [0, 1]), ``sigma`` in px, and ``diagnostics`` holding the LoG
-        image, the symmetry profiles, the bounds and the iteration history. Failures return
-        ``not_found("symmetry", reason)``.
+    Returns
+    -------
+    SymmetryResult
+        The centre in window pixels, ``score = R_self`` of eq. (13) at the final centre (clipped to [0, 1]),
+        ``sigma`` in px, and every stage's intermediate results as typed fields. A window without a centrally
+        symmetric mark gives ``status="not_found"`` with the reason (never an exception).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("ring_x_dot", 40, window=90, rng=np.random.default_rng(1))
+    >>> d = detect(scene.image)
+    >>> d.found, bool(np.hypot(d.x - scene.marks[0].x, d.y - scene.marks[0].y) < 0.05)
+    (True, True)
+    >>> detect(np.full((60, 60), 0.5, np.float32)).reason
+    'homogeneous window: no grey-level variation at all'
     """
-    if polarity not in _POLARITIES:
-        raise ValueError(f"polarity must be one of {_POLARITIES}, not {polarity!r}")
-    if diagonal not in _DIAGONALS:
-        raise ValueError(f"diagonal must be one of {_DIAGONALS}, not {diagonal!r}")
+    p = params.replace(**overrides) if overrides else params
     img = np.asarray(window)
-    if img.ndim != 2:
-        return not_found(METHOD, f"window must be a 2-D grey image, got shape {img.shape}")
-    img = img.astype(np.float32, copy=False)
-    if not np.all(np.isfinite(img)):
-        return not_found(METHOD, "window contains NaN or infinite values")
-    h, w = img.shape
-    need = 2 * (log_outer + min_radius) + 3
-    if h < need or w < need:
-        return not_found(METHOD, f"window {w}x{h} px is too small (needs at least {need}x{need})")
-    if float(img.max() - img.min()) < 1e-6:
-        return not_found(METHOD, "homogeneous window: no grey-level variation at all")
-
-    diag: dict[str, Any] = {"polarity": polarity}
+    problem = _window_problem(img, p)
+    if problem is not None:
+        return SymmetryResult.not_found(METHOD, problem)
+    trace = _Trace()
     try:
-        return _detect(img, diag, diagonal=diagonal, edge_step=edge_step, radius=radius,
-                       min_radius=min_radius, log_inner=log_inner, log_gap=log_gap, log_outer=log_outer,
-                       interval=interval, interval_shrink=interval_shrink, min_interval=min_interval,
-                       max_iter=max_iter, converge_px=converge_px, rself_threshold=rself_threshold,
-                       min_rotation_corr=min_rotation_corr, max_asymmetry=max_asymmetry, enlarge=enlarge, smooth_sigma=smooth_sigma, max_total_shift=max_total_shift,
-                       faint_snr=faint_snr, min_std=min_std, area_smooth=area_smooth, sigma_inefficiency=sigma_inefficiency,
-                       sigma_floor=sigma_floor, point_refine=point_refine, max_refine_shift=max_refine_shift)
+        x, y, score = _run(img.astype(np.float32, copy=False), p, trace)
     except _Failure as f:
-        diag.update(f.diagnostics)
-        return not_found(METHOD, f.reason, **diag)
+        return SymmetryResult.not_found(METHOD, f.reason, **trace.fields())
+    return SymmetryResult(status=FOUND, x=x, y=y, score=score, sigma=float(0.5 * (trace.sigma_x + trace.sigma_y)),
+                          method=METHOD, **trace.fields())
 
 
-def _detect(img, diag, *, diagonal, edge_step, radius, min_radius, log_inner, log_gap, log_outer, interval,
-            interval_shrink, min_interval, max_iter, converge_px, rself_threshold, min_rotation_corr,
-            max_asymmetry, enlarge, smooth_sigma,
-            max_total_shift, faint_snr, min_std, area_smooth, sigma_inefficiency, sigma_floor, point_refine,
-            max_refine_shift) -> Detection:
+def _window_problem(img: np.ndarray, p: SymmetryParams) -> str | None:
+    """Why the method cannot run on ``img`` at all (the shape, NaN, no variation), or None."""
+    if img.ndim != 2:
+        return f"window must be a 2-D grey image, got shape {img.shape}"
+    if not np.all(np.isfinite(img)):
+        return "window contains NaN or infinite values"
     h, w = img.shape
-    noise = laplacian_noise_sigma(img)
-    diag["noise_sigma"] = noise
+    need = 2 * (p.log_outer + p.min_radius) + 3
+    if h < need or w < need:
+        return f"window {w}x{h} px is too small (needs at least {need}x{need})"
+    if float(img.max() - img.min()) < 1e-6:
+        return "homogeneous window: no grey-level variation at all"
+    return None
 
-    # --- 1. fiducial-area analysis: L1, L2, horizontal extent, L3 (eqs. 1-2) ---------------------------
-    area_img = img if area_smooth <= 1 else cv2.blur(img, (int(area_smooth), int(area_smooth)),
-                                                      borderType=cv2.BORDER_REFLECT)
-    bounds = fiducial_area(area_img, edge_step=edge_step, diagonal=diagonal)
-    diag["bounds"] = bounds
-    r_max = (min(h, w) - 1) // 2 - log_outer - 1
-    if radius is None:
-        r = int(round(max(bounds["half_height"], bounds["half_width"])))
-        r = max(min_radius, min(r, r_max))
-    else:
-        r = int(radius)
-        if r > r_max:
-            raise _Failure(f"kernel radius {r} px does not fit in the {w}x{h} px window (max {r_max})")
-    diag["radius"] = r
 
-    # --- 2. mark analysis at unit-pixel accuracy (eqs. 3-7), iterated with a narrowing interval -------
-    i2 = simplified_log(img, log_inner, log_gap, log_outer)
-    diag["log"] = i2
-    lo_x, hi_x = log_outer + r, w - 1 - log_outer - r
-    lo_y, hi_y = log_outer + r, h - 1 - log_outer - r
+def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, float]:
+    """The four stages on a usable window; fills ``t``; returns (x, y, score) or raises :class:`_Failure`."""
+    t.noise_sigma = noise = laplacian_noise_sigma(img)
+    area_img = img if p.area_smooth <= 1 else cv2.blur(img, (p.area_smooth, p.area_smooth),
+                                                        borderType=cv2.BORDER_REFLECT)
+    t.bounds = bounds = fiducial_area(area_img, edge_step=p.edge_step, diagonal=p.diagonal)
+    t.radius = r = kernel_radius(bounds, p, img.shape)
+    t.log = i2 = simplified_log(img, p.log_inner, p.log_gap, p.log_outer)
+    t.aoi = aoi = search_range(bounds, r, p, img.shape)
+    x, y, d = unit_pixel_centre(i2, bounds, r, aoi, p, t)
+    t.centre_pixel = (x, y)
+    diag = self_diagnosis(img[y - r:y + r + 1, x - r:x + r + 1])
+    t.R_self_pixel, t.R_parts_pixel = diag.r_self, diag
+    _check_self_diagnosis(diag, p, "unit-pixel", x, y)
+    xs, ys = _subpixel_stage(img, x, y, r, d, p, t)
+    x15, y15 = xs, ys
+    if p.point_refine:
+        xs, ys = _refine(img, xs, ys, r, p, t)
+    score = _verify_centre(img, xs, ys, r, noise, p, t)
+    sx, sy = centre_sigma(img, xs, ys, r, noise, p.sigma_inefficiency, p.sigma_floor)
+    # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
+    t.sigma_x, t.sigma_y = float(np.hypot(sx, xs - x15)), float(np.hypot(sy, ys - y15))
+    return float(xs), float(ys), float(np.clip(score, 0.0, 1.0))
+
+
+def kernel_radius(bounds: FiducialArea, p: SymmetryParams, shape: tuple[int, ...]) -> int:
+    """The symmetry kernel's radius (seed 3.2): ``p.radius``, or half the larger extent of the fiducial area
+    (at least ``p.min_radius``); it must leave room for the LoG inside the window."""
+    h, w = shape
+    r_max = (min(h, w) - 1) // 2 - p.log_outer - 1
+    if p.radius is None:
+        r = int(round(max(bounds.half_height, bounds.half_width)))
+        return max(p.min_radius, min(r, r_max))
+    if p.radius > r_max:
+        raise _Failure(f"kernel radius {p.radius} px does not fit in the {w}x{h} px window (max {r_max})")
+    return int(p.radius)
+
+
+def search_range(bounds: FiducialArea, r: int, p: SymmetryParams, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
+    """The area of interest of the mark analysis (seed 3.2): the neighbourhood of L3 and the rows between L1 and
+    L2 (a square of the kernel radius about the initial centre with ``diagonal``), within the positions where
+    the kernel and the LoG fit; (x_lo, y_lo, x_hi, y_hi), inclusive."""
+    h, w = shape
+    lo_x, hi_x = p.log_outer + r, w - 1 - p.log_outer - r
+    lo_y, hi_y = p.log_outer + r, h - 1 - p.log_outer - r
     if lo_x > hi_x or lo_y > hi_y:
         raise _Failure(f"window {w}x{h} px leaves no room for a symmetry kernel of radius {r} px")
-    # area of interest (seed 3.2): the neighbourhood of L3 and the vertical limits L1, L2
-    if diagonal is None:
-        ax0, ax1 = bounds["L3"] - max(bounds["half_width"], r), bounds["L3"] + max(bounds["half_width"], r)
-        ay0, ay1 = min(bounds["L1"], bounds["y_mid"] - r), max(bounds["L2"], bounds["y_mid"] + r)
+    if p.diagonal is None:
+        ax0, ax1 = bounds.L3 - max(bounds.half_width, r), bounds.L3 + max(bounds.half_width, r)
+        ay0, ay1 = min(bounds.L1, bounds.y_mid - r), max(bounds.L2, bounds.y_mid + r)
     else:
-        ax0, ax1 = bounds["L3"] - r, bounds["L3"] + r
-        ay0, ay1 = bounds["y_mid"] - r, bounds["y_mid"] + r
+        ax0, ax1 = bounds.L3 - r, bounds.L3 + r
+        ay0, ay1 = bounds.y_mid - r, bounds.y_mid + r
     lo_x, hi_x = max(lo_x, int(np.floor(ax0))), min(hi_x, int(np.ceil(ax1)))
     lo_y, hi_y = max(lo_y, int(np.floor(ay0))), min(hi_y, int(np.ceil(ay1)))
-    diag["aoi"] = (lo_x, lo_y, hi_x, hi_y)
     if lo_x > hi_x or lo_y > hi_y:
         raise _Failure("the area of interest around L3 and between L1 and L2 leaves no room for a symmetry "
                        f"kernel of radius {r} px inside the window")
-    x = int(np.clip(round(bounds["L3"]), lo_x, hi_x))
-    y = int(np.clip(round(bounds["y_mid"]), lo_y, hi_y))
-    d = int(interval) if interval is not None else r
-    history = [(x, y, d)]
-    shifts: list[float] = []
+    return lo_x, lo_y, hi_x, hi_y
+
+
+def unit_pixel_centre(i2: np.ndarray, bounds: FiducialArea, r: int, aoi: tuple[int, int, int, int],
+                      p: SymmetryParams, t: _Trace) -> tuple[int, int, int]:
+    """Stage 2 (seed 3.2): from (L3, y_mid), alternate vertical and horizontal steps (:func:`axis_peak`) with an
+    interval that narrows by ``p.interval_shrink`` until a step moves the centre at most ``p.converge_px``;
+    returns the unit-pixel centre (x, y) and the last interval. Divergence, or a centre at the limit of the
+    search range (a mark cut by the window edge), is a failure."""
+    lo_x, lo_y, hi_x, hi_y = aoi
+    x = int(np.clip(round(bounds.L3), lo_x, hi_x))
+    y = int(np.clip(round(bounds.y_mid), lo_y, hi_y))
+    d = int(p.interval) if p.interval is not None else r
+    history, shifts = [(x, y, d)], []
     converged = False
-    prof = {}
-    for _ in range(max_iter):
-        y_new, py = _axis_peak(i2.T, x, r, d, lo_y, hi_y)     # vertical step: L4 (centre row)
-        x_new, px = _axis_peak(i2, y_new, r, d, lo_x, hi_x)   # horizontal step: centre column
-        prof = {"x": px, "y": py}
+    for _ in range(p.max_iter):
+        y_new, py = axis_peak(i2.T, x, r, d, lo_y, hi_y)     # vertical step: L4 (centre row)
+        x_new, px = axis_peak(i2, y_new, r, d, lo_x, hi_x)   # horizontal step: centre column
+        t.profiles = Profiles(x=px, y=py)
         shift = float(np.hypot(x_new - x, y_new - y))
         shifts.append(shift)
         x, y = x_new, y_new
         history.append((x, y, d))
-        d_next = max(min_interval, int(np.floor(d * interval_shrink)))
-        if shift <= converge_px and d_next == d:
-            converged = True
-            break
-        if shift <= converge_px and len(shifts) >= 2 and shifts[-2] <= converge_px:
-            converged = True
-            break
-        if len(shifts) >= 3 and shifts[-1] > shifts[-2] > shifts[-3] and shift > converge_px:
+        d_next = max(p.min_interval, int(np.floor(d * p.interval_shrink)))
+        converged = _converged(shifts, p.converge_px, d_next == d)
+        if converged or _diverging(shifts, p.converge_px):
             break
         d = d_next
-    diag.update(iterations=history, shifts=shifts, profiles=prof)
+    t.iterations, t.shifts = tuple(history), tuple(shifts)
     if not converged:
         raise _Failure(f"symmetry centre diverged: shifts {', '.join(f'{s:.1f}' for s in shifts)} px "
                        f"in {len(shifts)} iterations")
-    for name, p, lo, hi in (("x", x, lo_x, hi_x), ("y", y, lo_y, hi_y)):
-        if hi - lo >= 2 and (p <= lo or p >= hi):
-            raise _Failure(f"symmetry centre {name}={p} is at the limit of the search range [{lo}, {hi}]: "
+    for name, c, lo, hi in (("x", x, lo_x, hi_x), ("y", y, lo_y, hi_y)):
+        if hi - lo >= 2 and (c <= lo or c >= hi):
+            raise _Failure(f"symmetry centre {name}={c} is at the limit of the search range [{lo}, {hi}]: "
                            "the mark is probably cut by the window edge or larger than the window")
+    return x, y, d
 
-    # --- 3. self-diagnosis at the unit-pixel centre (eqs. 8-13) ----------------------------------------
-    sub = img[y - r:y + r + 1, x - r:x + r + 1]
-    r_self, parts = self_diagnosis(sub)
-    diag.update(centre_pixel=(x, y), R_self_pixel=r_self, R_parts_pixel=parts)
-    if not r_self >= rself_threshold:
-        raise _Failure(f"self-diagnosis failed: R_self = {r_self:.2f} < {rself_threshold} at pixel "
-                       f"({x}, {y}); the window holds no centrally symmetric mark there")
-    _check_rotation(parts, min_rotation_corr, "unit-pixel", x, y)
 
-    # --- 4. sub-pixel location on the enlarged, smoothed neighbourhood (eqs. 14-15) -------------------
-    xs, ys, sp = _subpixel(img, x, y, r, d, log_inner, log_gap, log_outer, enlarge, smooth_sigma,
-                           max_total_shift, interval_shrink, max_iter)
-    diag["subpixel"] = sp
-    if "reason" in sp:
-        raise _Failure(f"sub-pixel stage: {sp['reason']} (the mark is too close to the window edge); "
-                       "enlarge the box")
+def _converged(shifts: list[float], converge_px: float, interval_final: bool) -> bool:
+    """The last step moved at most ``converge_px`` with the interval at its floor, or two steps in a row did."""
+    if shifts[-1] > converge_px:
+        return False
+    return interval_final or (len(shifts) >= 2 and shifts[-2] <= converge_px)
+
+
+def _diverging(shifts: list[float], converge_px: float) -> bool:
+    """The shift grew twice in a row and is still above ``converge_px``."""
+    return len(shifts) >= 3 and shifts[-1] > shifts[-2] > shifts[-3] and shifts[-1] > converge_px
+
+
+def _check_self_diagnosis(diag: SelfDiagnosis, p: SymmetryParams, stage: str, x: float, y: float) -> None:
+    """Seed 3.3: ``R_self >= p.rself_threshold``; and (ours, not the seed's) the 90-degree terms R13, R24 at
+    least ``p.min_rotation_corr``: since R34 == R12, any pattern mirror-symmetric in x and y but with no structure
+    across the other axis (a straight bar or band) scores R_self = (1 + 1 + 0 + 0) / 4 = 0.5 and passes the
+    seed's threshold by the toss of the noise."""
+    if not diag.r_self >= p.rself_threshold:
+        if stage == "unit-pixel":
+            raise _Failure(f"self-diagnosis failed: R_self = {diag.r_self:.2f} < {p.rself_threshold} at pixel "
+                           f"({x}, {y}); the window holds no centrally symmetric mark there")
+        raise _Failure(f"self-diagnosis failed at the sub-pixel centre: R_self = {diag.r_self:.2f} < "
+                       f"{p.rself_threshold}")
+    if not min(diag.R13, diag.R24) >= p.min_rotation_corr:
+        raise _Failure(f"self-diagnosis failed at the {stage} centre ({x:.1f}, {y:.1f}): the 90-degree "
+                       f"correlations R13 = {diag.R13:.2f}, R24 = {diag.R24:.2f} are below {p.min_rotation_corr} "
+                       "(a straight bar or band, or a pattern symmetric about one axis only)")
+
+
+def _subpixel_stage(img: np.ndarray, x: int, y: int, r: int, d: int, p: SymmetryParams,
+                    t: _Trace) -> tuple[float, float]:
+    """Stage 4 (seed 3.4) with its failures: no room for the enlarged kernel, or a total shift above
+    ``p.max_total_shift``."""
+    got = subpixel_centre(img, x, y, r, d, p)
+    if got is None:
+        raise _Failure("sub-pixel stage: no room for the enlarged kernel (the mark is too close to the window "
+                       "edge); enlarge the box")
+    xs, ys, t.subpixel = got
     total = float(np.hypot(xs - x, ys - y))
-    if not np.isfinite(total) or total > max_total_shift:
-        raise _Failure(f"sub-pixel stage moved the centre by {total:.2f} px (> {max_total_shift} px) "
+    if not np.isfinite(total) or total > p.max_total_shift:
+        raise _Failure(f"sub-pixel stage moved the centre by {total:.2f} px (> {p.max_total_shift} px) "
                        "from the unit-pixel centre")
+    return xs, ys
 
-    x15, y15 = xs, ys
-    if point_refine:
-        got = point_symmetry_centre(img, xs, ys, r)
-        diag["centre_eq15"] = (xs, ys)
-        if got is None:
-            raise _Failure("the point-symmetry refinement did not converge (a flat or one-sided pattern)")
-        shift = float(np.hypot(got[0] - xs, got[1] - ys))
-        if shift > max_refine_shift:
-            raise _Failure(f"the point-symmetry centre lies {shift:.2f} px from eq. (15)'s (> {max_refine_shift} "
-                           "px): the two disagree")
-        xs, ys = got
 
-    # final self-diagnosis and faintness at the sub-pixel centre
+def _refine(img: np.ndarray, xs: float, ys: float, r: int, p: SymmetryParams, t: _Trace) -> tuple[float, float]:
+    """Beyond the seed: :func:`point_symmetry_centre` from eq. (15)'s centre; it must converge and stay within
+    ``p.max_refine_shift`` of it."""
+    t.centre_eq15 = (xs, ys)
+    got = point_symmetry_centre(img, xs, ys, r)
+    if got is None:
+        raise _Failure("the point-symmetry refinement did not converge (a flat or one-sided pattern)")
+    shift = float(np.hypot(got[0] - xs, got[1] - ys))
+    if shift > p.max_refine_shift:
+        raise _Failure(f"the point-symmetry centre lies {shift:.2f} px from eq. (15)'s (> {p.max_refine_shift} "
+                       "px): the two disagree")
+    return got
+
+
+def _verify_centre(img: np.ndarray, xs: float, ys: float, r: int, noise: float, p: SymmetryParams,
+                   t: _Trace) -> float:
+    """The checks at the final centre: self-diagnosis (seed 3.3), point symmetry (``p.max_asymmetry``, ours)
+    and faintness (seed 3.4); returns ``R_self`` there."""
     subs = _resample(img, xs, ys, r)
-    score, parts_s = self_diagnosis(subs)
-    diag.update(R_self=score, R_parts=parts_s)
-    if not score >= rself_threshold:
-        raise _Failure(f"self-diagnosis failed at the sub-pixel centre: R_self = {score:.2f} < "
-                       f"{rself_threshold}")
-    _check_rotation(parts_s, min_rotation_corr, "sub-pixel", xs, ys)
-    asym = point_asymmetry(subs, noise)
-    diag["asymmetry"] = asym
-    if not asym <= max_asymmetry:
+    diag = self_diagnosis(subs)
+    t.R_self, t.R_parts = diag.r_self, diag
+    _check_self_diagnosis(diag, p, "sub-pixel", xs, ys)
+    t.asymmetry = asym = _square_asymmetry(subs, noise)
+    if not asym <= p.max_asymmetry:
         raise _Failure(f"the pattern is not centrally symmetric about ({xs:.2f}, {ys:.2f}): the 180-degree "
-                       f"residual holds {asym:.2f} of its structure (limit {max_asymmetry})")
+                       f"residual holds {asym:.2f} of its structure (limit {p.max_asymmetry})")
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
-    disc = xx * xx + yy * yy <= r * r
-    spread = float(subs[disc].std())
-    signal = float(np.sqrt(max(spread * spread - noise * noise, 0.0)))
-    faint_limit = max(min_std, faint_snr * noise)
-    diag.update(neighbourhood_std=spread, signal_std=signal, faint_limit=faint_limit)
-    if signal < faint_limit:
-        raise _Failure(f"mark too faint: grey-level std {spread:.4f} near the centre, {signal:.4f} net of noise "
-                       f"{noise:.4f}, is below {faint_limit:.4f}")
+    spread = float(subs[xx * xx + yy * yy <= r * r].std())
+    t.neighbourhood_std, t.signal_std = spread, float(np.sqrt(max(spread * spread - noise * noise, 0.0)))
+    t.faint_limit = max(p.min_std, p.faint_snr * noise)
+    if t.signal_std < t.faint_limit:
+        raise _Failure(f"mark too faint: grey-level std {spread:.4f} near the centre, {t.signal_std:.4f} net of "
+                       f"noise {noise:.4f}, is below {t.faint_limit:.4f}")
+    return diag.r_self
 
-    sx, sy = _centre_sigma(img, xs, ys, r, noise, sigma_inefficiency, sigma_floor)
-    # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
-    sx, sy = float(np.hypot(sx, xs - x15)), float(np.hypot(sy, ys - y15))
-    diag.update(sigma_x=sx, sigma_y=sy)
-    return Detection(status=FOUND, x=float(xs), y=float(ys), score=float(np.clip(score, 0.0, 1.0)),
-                     sigma=float(0.5 * (sx + sy)), method=METHOD, diagnostics=diag)
+
+def _square_asymmetry(sub, noise):
+    j = sub.astype(np.float64)
+    dd = j - j[::-1, ::-1]
+    sig = float(j.var()) - noise * noise
+    if sig <= 0:
+        return float("inf")
+    return float(((dd * dd).mean() - 2.0 * noise * noise) / (2.0 * sig))
 
 
 # --- stage 1: fiducial-area analysis ----------------------------------------------------------------------
@@ -366,7 +697,7 @@ def symmetry_profile(a: np.ndarray, d: int) -> np.ndarray:
     return out
 
 
-def fiducial_area(img: np.ndarray, edge_step: int = 2, diagonal: str | None = None) -> dict:
+def fiducial_area(img: np.ndarray, edge_step: int = 2, diagonal: str | None = None) -> FiducialArea:
     """Seed 3.1: bounds L1, L2 (rows), horizontal extent p1..p2 (columns) and symmetry axis L3 (column) of the
     fiducial area, and the mid-row between L1 and L2, all in window pixels.
 
@@ -389,14 +720,15 @@ def fiducial_area(img: np.ndarray, edge_step: int = 2, diagonal: str | None = No
     rot = np.where(valid, rot, fill).astype(np.float32)
     b = _area_upright(rot, edge_step)
     inv = cv2.invertAffineTransform(m)
-    x0 = inv[0, 0] * b["L3"] + inv[0, 1] * b["y_mid"] + inv[0, 2]
-    y0 = inv[1, 0] * b["L3"] + inv[1, 1] * b["y_mid"] + inv[1, 2]
-    b = dict(b, diagonal=diagonal, L3_rotated=b["L3"], y_mid_rotated=b["y_mid"], L3=float(x0), y_mid=float(y0),
-             half_height=b["half_height"] / np.sqrt(2), half_width=b["half_width"] / np.sqrt(2))
-    return b
+    x0 = inv[0, 0] * b.L3 + inv[0, 1] * b.y_mid + inv[0, 2]
+    y0 = inv[1, 0] * b.L3 + inv[1, 1] * b.y_mid + inv[1, 2]
+    return dataclasses.replace(b, diagonal=diagonal, L3_rotated=b.L3, y_mid_rotated=b.y_mid, L3=float(x0),
+                               y_mid=float(y0), half_height=b.half_height / np.sqrt(2),
+                               half_width=b.half_width / np.sqrt(2))
 
 
-def _area_upright(img: np.ndarray, edge_step: int) -> dict:
+def _area_upright(img: np.ndarray, edge_step: int) -> FiducialArea:
+    """:func:`fiducial_area` for an upright axis."""
     h, w = img.shape
     d = edge_step
     # L1: first row where the accumulated vertical-edge profile (eq. 1, all columns) exceeds its mean
@@ -427,9 +759,9 @@ def _area_upright(img: np.ndarray, edge_step: int) -> dict:
         l3 = 0.5 * (p1 + p2)
     else:
         l3 = float(p1 + int(np.argmin(seg)))
-    return {"L1": int(l1), "L2": int(l2), "p1": int(p1), "p2": int(p2), "L3": l3, "y_mid": 0.5 * (l1 + l2),
-            "half_height": 0.5 * (l2 - l1), "half_width": 0.5 * (p2 - p1),
-            "edge_profile_v": iv, "edge_profile_h": ih, "area_profile": ia, "symmetry_profile": i_s}
+    return FiducialArea(L1=int(l1), L2=int(l2), p1=int(p1), p2=int(p2), L3=l3, y_mid=0.5 * (l1 + l2),
+                        half_height=0.5 * (l2 - l1), half_width=0.5 * (p2 - p1), edge_profile_v=iv,
+                        edge_profile_h=ih, area_profile=ia, symmetry_profile=i_s)
 
 
 # --- stage 2: mark analysis --------------------------------------------------------------------------------
@@ -439,7 +771,7 @@ def simplified_log(img: np.ndarray, inner: int = 2, gap: int = 3, outer: int = 4
     frame between half-widths ``gap`` and ``outer``, by box filtering (McDonald 1981), float32."""
     f = img.astype(np.float32)
 
-    def boxsum(k):
+    def boxsum(k: int) -> np.ndarray:
         return cv2.boxFilter(f, -1, (2 * k + 1, 2 * k + 1), normalize=False, borderType=cv2.BORDER_REFLECT)
 
     n1 = (2 * inner + 1) ** 2
@@ -473,12 +805,13 @@ def high_pass(profile: np.ndarray, d: int) -> np.ndarray:
     return ndimage.uniform_filter1d(profile, 2 * d + 1, mode="nearest") - profile
 
 
-def _axis_peak(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int) -> tuple[int, dict]:
-    """One step along the columns of ``i2``: profile I4 over ``lo..hi`` around ``row``, I5, and its peak."""
+def axis_peak(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int) -> tuple[int, AxisProfile]:
+    """One step along the columns of ``i2``: profile I4 (eq. 6) over ``lo..hi`` around ``row``, I5 (eq. 7), and
+    the column of its peak."""
     xs = np.arange(lo, hi + 1)
     i4 = symmetry_accumulation(i2, row, r, d, xs)
     i5 = high_pass(i4, d)
-    return int(lo + int(np.argmax(i5))), {"positions": xs, "I4": i4, "I5": i5}
+    return int(lo + int(np.argmax(i5))), AxisProfile(positions=xs, I4=i4, I5=i5)
 
 
 # --- stage 3: self-diagnosis -------------------------------------------------------------------------------
@@ -491,7 +824,7 @@ def ncc(a: np.ndarray, b: np.ndarray) -> float:
     return float((a * b).sum() / den) if den > 0 else 0.0
 
 
-def self_diagnosis(sub: np.ndarray) -> tuple[float, dict]:
+def self_diagnosis(sub: np.ndarray) -> SelfDiagnosis:
     """Eqs. (8)-(13) on a square sub-image ``I6`` centred on the candidate centre.
 
     ``S1 = I6 + mirror_x(I6)``, ``S2 = I6 + mirror_y(I6)`` (eqs. 8-9), ``S3 = Rot90(S1)``, ``S4 = Rot90(S2)``
@@ -502,80 +835,67 @@ def self_diagnosis(sub: np.ndarray) -> tuple[float, dict]:
     s2 = sub + sub[::-1, :]
     s3 = np.rot90(s1)
     s4 = np.rot90(s2)
-    parts = {"R12": ncc(s1, s2), "R34": ncc(s3, s4), "R13": ncc(s1, s3), "R24": ncc(s2, s4)}
-    return float(sum(parts.values()) / 4.0), parts
-
-
-def _check_rotation(parts: dict, limit: float, stage: str, x, y) -> None:
-    """Guard (ours, not the seed's): since R34 == R12, any pattern mirror-symmetric in x and y but with no
-    structure across the other axis (a straight bar or band) scores R_self = (1 + 1 + 0 + 0) / 4 = 0.5 and
-    passes the seed's threshold by the toss of the noise. Require the 90-degree terms R13, R24 too."""
-    rot = min(parts["R13"], parts["R24"])
-    if not rot >= limit:
-        raise _Failure(f"self-diagnosis failed at the {stage} centre ({x:.1f}, {y:.1f}): the 90-degree "
-                       f"correlations R13 = {parts['R13']:.2f}, R24 = {parts['R24']:.2f} are below {limit} "
-                       "(a straight bar or band, or a pattern symmetric about one axis only)")
-
-
-def point_asymmetry(sub: np.ndarray, noise: float) -> float:
-    """Share of the structure of ``sub`` that is not symmetric about its centre, net of noise:
-    ``(mean (J - Rot180 J)^2 - 2 noise^2) / (2 (var J - noise^2))``; 0 for a centrally symmetric pattern,
-    about 1 for an unrelated one. Ours, not the seed's (see ``max_asymmetry``)."""
-    j = sub.astype(np.float64)
-    dd = j - j[::-1, ::-1]
-    sig = float(j.var()) - noise * noise
-    if sig <= 0:
-        return float("inf")
-    return float(((dd * dd).mean() - 2.0 * noise * noise) / (2.0 * sig))
+    return SelfDiagnosis(R12=ncc(s1, s2), R34=ncc(s3, s4), R13=ncc(s1, s3), R24=ncc(s2, s4))
 
 
 # --- stage 4: sub-pixel location ---------------------------------------------------------------------------
 
-def _subpixel(img, x, y, r, d, log_inner, log_gap, log_outer, enlarge, smooth_sigma, max_total_shift,
-              interval_shrink, max_iter):
-    """Seed 3.4: enlarge the neighbourhood of pixel (x, y) by ``enlarge`` (bilinear), smooth it, run the mark
-    analysis there with scaled kernels, and take the weighted mean of eq. (14); return (x, y) by eq. (15)."""
-    re = int(enlarge)
-    hs = r + log_outer                                   # fits: candidates keep log_outer + r from the edges
+def subpixel_centre(img: np.ndarray, x: int, y: int, r: int, d: int,
+                    p: SymmetryParams = DEFAULT) -> tuple[float, float, SubpixelStage] | None:
+    """Seed 3.4: enlarge the neighbourhood of pixel (x, y) by ``p.enlarge`` (bilinear), smooth it, run the mark
+    analysis there with scaled kernels (:func:`_enlarged_iteration`) and take the weighted mean of eq. (14);
+    return (x, y) by eq. (15) and the stage's intermediate results, or None when the enlarged kernel does not
+    fit (the mark is too close to the window edge)."""
+    re = int(p.enlarge)
+    hs = r + p.log_outer                                  # fits: candidates keep log_outer + r from the edges
     sub = img[y - hs:y + hs + 1, x - hs:x + hs + 1]
     n = 2 * hs + 1
     big = cv2.resize(sub, (n * re, n * re), interpolation=cv2.INTER_LINEAR)
-    if smooth_sigma > 0:
-        big = cv2.GaussianBlur(big, (0, 0), smooth_sigma * re, borderType=cv2.BORDER_REFLECT)
-    i2 = simplified_log(big, log_inner * re, log_gap * re, log_outer * re)
+    if p.smooth_sigma > 0:
+        big = cv2.GaussianBlur(big, (0, 0), p.smooth_sigma * re, borderType=cv2.BORDER_REFLECT)
+    i2 = simplified_log(big, p.log_inner * re, p.log_gap * re, p.log_outer * re)
     # enlarged pixel x' <-> sub-image coordinate (x' + 0.5) / re - 0.5 (cv2's half-pixel convention)
     c = int(round(re * (hs + 0.5) - 0.5))                # enlarged index nearest to the unit-pixel centre
-    m = int(np.ceil((max_total_shift + 0.5) * re))        # search half-range, enlarged px
-    margin = log_outer * re + int(np.ceil(3 * smooth_sigma * re)) + 1
+    m = int(np.ceil((p.max_total_shift + 0.5) * re))      # search half-range, enlarged px
+    margin = p.log_outer * re + int(np.ceil(3 * p.smooth_sigma * re)) + 1
     re_r = int(min(r * re, c - m - margin))
     if re_r < re:
-        return float("nan"), float("nan"), {"reason": "no room for the enlarged kernel"}
-    de = max(1, int(d * re))
-    cx = cy = c
-    hist = [(cx, cy, de)]
-    profiles = {}
-    for _ in range(max_iter):
-        cy_new, py = _axis_peak_local(i2.T, cx, re_r, de, c - m, c + m)
-        cx_new, px = _axis_peak_local(i2, cy_new, re_r, de, c - m, c + m)
-        profiles = {"x": px, "y": py}
-        shift = max(abs(cx_new - cx), abs(cy_new - cy))
-        cx, cy = cx_new, cy_new
-        hist.append((cx, cy, de))
-        de_next = max(1, int(np.floor(de * interval_shrink)))
-        if shift < 1 and de_next == de:
-            break
-        de = de_next
-    fx = _weighted_peak(profiles["x"], cx)
-    fy = _weighted_peak(profiles["y"], cy)
+        return None
+    (cx, cy), hist, profiles = _enlarged_iteration(i2, c, m, re_r, max(1, int(d * re)), p)
+    fx = _weighted_peak(profiles.x, cx)
+    fy = _weighted_peak(profiles.y, cy)
     # eq. (15): x_t = x_f + x'_p + x''_s / R_e, with x_f the sub-image origin in the window
     xt = (x - hs) + (fx + 0.5) / re - 0.5
     yt = (y - hs) + (fy + 0.5) / re - 0.5
-    return xt, yt, {"enlarged_log": i2, "iterations": hist, "profiles": profiles, "kernel_radius": re_r,
-                    "enlarge": re}
+    return xt, yt, SubpixelStage(enlarged_log=i2, iterations=tuple(hist), profiles=profiles, kernel_radius=re_r,
+                                 enlarge=re)
 
 
-def _axis_peak_local(i2, row, r, d, lo, hi):
-    """Like :func:`_axis_peak`, on ``lo..hi`` with I4 computed ``d`` further on each side so that the
+def _enlarged_iteration(i2: np.ndarray, c: int, m: int, r: int, d: int, p: SymmetryParams
+                        ) -> tuple[tuple[int, int], list[tuple[int, int, int]], Profiles]:
+    """The iteration of stage 2 on the enlarged LoG ``i2`` from (c, c), searching ``c - m .. c + m``, until a
+    step moves less than one enlarged pixel at the final interval; returns the centre, the history and the last
+    profiles."""
+    cx = cy = c
+    hist = [(cx, cy, d)]
+    profiles = None
+    for _ in range(p.max_iter):
+        cy_new, py = _axis_peak_local(i2.T, cx, r, d, c - m, c + m)
+        cx_new, px = _axis_peak_local(i2, cy_new, r, d, c - m, c + m)
+        profiles = Profiles(x=px, y=py)
+        shift = max(abs(cx_new - cx), abs(cy_new - cy))
+        cx, cy = cx_new, cy_new
+        hist.append((cx, cy, d))
+        d_next = max(1, int(np.floor(d * p.interval_shrink)))
+        if shift < 1 and d_next == d:
+            break
+        d = d_next
+    assert profiles is not None                           # max_iter >= 1
+    return (cx, cy), hist, profiles
+
+
+def _axis_peak_local(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int) -> tuple[int, AxisProfile]:
+    """Like :func:`axis_peak`, on ``lo..hi`` with I4 computed ``d`` further on each side so that the
     high-pass of eq. (7) is exact on the search range."""
     ext_lo = max(r, lo - d)
     ext_hi = min(i2.shape[1] - 1 - r, hi + d)
@@ -584,13 +904,13 @@ def _axis_peak_local(i2, row, r, d, lo, hi):
     i5 = high_pass(i4, d)
     a, b = lo - ext_lo, hi - ext_lo
     p = a + int(np.argmax(i5[a:b + 1]))
-    return int(ext_lo + p), {"positions": xs, "I4": i4, "I5": i5}
+    return int(ext_lo + p), AxisProfile(positions=xs, I4=i4, I5=i5)
 
 
-def _weighted_peak(prof: dict, peak: int) -> float:
+def _weighted_peak(prof: AxisProfile, peak: int) -> float:
     """Eq. (14): weighted mean position of I5 over ``peak - dd .. peak + dd``, where ``dd`` is half the extent
     of the run of positive I5 around the peak (seed 3.4). Negative values inside the interval count as 0."""
-    xs, i5 = prof["positions"], prof["I5"]
+    xs, i5 = prof.positions, prof.I5
     k = int(peak - xs[0])
     if not (0 <= k < len(i5)) or i5[k] <= 0:
         return float(peak)
@@ -616,7 +936,7 @@ def _resample(img: np.ndarray, xc: float, yc: float, r: int) -> np.ndarray:
 
 # --- noise and precision -----------------------------------------------------------------------------------
 
-def _mirror_step(img, xc, yc, r, order):
+def _mirror_step(img: np.ndarray, xc: float, yc: float, r: int, order: int) -> np.ndarray:
     """One Gauss-Newton step (x, y) towards the mirror-symmetric centre of the (2r+1)-square around (xc, yc),
     resampled with spline ``order``: minimises sum (J - mirror(J))^2 over a shift of the centre."""
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
@@ -648,7 +968,7 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
     u, v = xx[half], yy[half]
     coeffs = ndimage.spline_filter(np.asarray(img, np.float64), order=3)
 
-    def at(px, py):
+    def at(px: np.ndarray, py: np.ndarray) -> np.ndarray:
         return ndimage.map_coordinates(coeffs, [py, px], order=3, mode="nearest", prefilter=False)
 
     step = np.inf
@@ -673,7 +993,8 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
     return (xc, yc) if step < 1e-2 else None
 
 
-def _centre_sigma(img, xc, yc, r, noise, inefficiency, floor):
+def centre_sigma(img: np.ndarray, xc: float, yc: float, r: int, noise: float, inefficiency: float,
+                 floor: float) -> tuple[float, float]:
     """Standard deviation of the centre per axis, (sigma_x, sigma_y).
 
     Noise: mirror symmetry about ``c`` pairs ``I(c + u)`` with ``I(c - u)``; a small shift ``dc`` changes each

@@ -1,6 +1,6 @@
 """Benchmark of the Cho & Kim symmetry detector (aerofid.detect.symmetry) on synthetic marks with exact truth.
 
-    python benchmarks/bench_symmetry.py [--n 100] [--seed 0] [--paper-centre]
+    python benchmarks/bench_symmetry.py [--n 100] [--seed 0] [--paper-centre] [--asymmetry]
 
 Prints, per mark style: found / tried, RMS and max radial error (px), RMS error per axis vs the mean
 reported sigma (their ratio should be near 1), median time per call; then, per rejection case, how many
@@ -18,7 +18,7 @@ from collections import Counter
 import numpy as np
 
 from aerofid import synth
-from aerofid.detect.symmetry import detect
+from aerofid.detect.symmetry import SymmetryParams, detect
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
 
@@ -105,10 +105,9 @@ def main(argv=None):
             size = rng.uniform(20, 60)
             s = synth.mark_scene(style, size, rng=rng, blur_sigma=rng.uniform(0.5, 1.0),
                                  noise_sigma=rng.uniform(0.01, 0.03), ground=ground)
-            kw = {"radius": int(0.3 * size)} if hint else {}
-            kw["point_refine"] = not a.paper_centre
+            params = SymmetryParams(radius=int(0.3 * size) if hint else None, point_refine=not a.paper_centre)
             t0 = time.perf_counter()
-            d = detect(s.image, **kw)
+            d = detect(s.image, params)
             times.append(time.perf_counter() - t0)
             if d.found:
                 ex, ey = d.x - s.marks[0].x, d.y - s.marks[0].y

@@ -14,10 +14,10 @@ In one window the algorithm (thesis section 4.2.8, C function ``fid``):
 5. rejects rho values far from the median of each column and averages the rest;
 6. decodes the centre with the inverse transform (eq. 2, valid for non-orthogonal pairs too).
 
-Beyond the seed (which stops at one pixel): :func:`verify_candidate` fits a blurred-cross model to the
-grey values (:mod:`aerofid.detect.hough.cross_fit`) for a sub-pixel centre with its standard deviation, and
-checks that the candidate is a '+' (four balanced, visible arms) before it may be accepted. The search over a box (spiral of windows, two tiers, recursion, similarity metric) is in
-:mod:`aerofid.detect.hough.search`; :func:`detect` runs it on a whole window.
+Steps 2 and 6 are the package's one Hough line transform (:mod:`aerofid.detect.hough_lines`). The search
+over a box (spiral of windows, two tiers, recursion, similarity metric) is in :mod:`aerofid.detect.hough.search`;
+the sub-pixel fit and verification (beyond the seed) in :mod:`aerofid.detect.hough.cross_fit` and
+:mod:`aerofid.detect.hough.detector`.
 """
 
 from __future__ import annotations
@@ -26,71 +26,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aerofid.detect.hough.params import DEFAULT, HoughParams
+from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
 from aerofid.detect.threshold import optimum_threshold
 
 METHOD = "hough"
 
-# --- parameters: the seed's values (thesis 4.2.8 and Appendix C) ----------------------------------------
-RHO_STEP = 0.5
-"""Quantisation of rho in px (seed 001, Hough Transform: "rho has a resolution of 0.5 pixels"; C ``RES``)."""
-THETA_STEP = 5.0
-"""Quantisation of theta in degrees over 0..175 (seed 001: "the angle theta has 5 deg of resolution")."""
-HOUGH_THRESHOLD = 0.30
-"""Accumulator cells below this fraction of the peak are zeroed (seed 001, Detection/Decoding: 30 %)."""
-MAX_BRIGHT_FRACTION = 0.30
-"""A window with more than this fraction of pixels above threshold is rejected (seed 001, Optimum
-Thresholding: "if the number of pixels identified as fiducial ... exceeds 30 percent")."""
-THRESHOLD_GAIN = 1.1
-"""The optimum threshold is multiplied by this before use (thesis Appendix C, ``optth *= 1.1``)."""
-MIN_PIXELS = 3
-"""Fewest above-threshold pixels for a Hough transform (the C code rejects an accumulator peak below one
-vote, ``Hthresh <= 10`` with votes of 80); a line needs at least a few pixels."""
-TAPER = 0.8
-"""Weight of the matched filter 5 deg from each of its two peaks (Appendix C ``coordinate``: .8, 1, .8)."""
-TAPER_HALF_WIDTH = 5.0
-"""Angular half-width in degrees over which the matched filter tapers from 1 to ``TAPER``."""
-PAIR_SEPARATION = 90.0
-"""Angle between the two lines of the mark in degrees (90 for a '+'; eq. 2 decodes any separation)."""
-RHO_DEVIATION = 5.0
-"""Rho values further than this (px) from the median of their theta column are outliers (Appendix C
-``DEV`` = 10 cells of 0.5 px)."""
-MIN_RHO_EXTENT = 2.0
-"""Smallest rho extent (px) used in the projection's denominator (eq. 5): the 2 px stroke of the seed's
-external fiducial. Not in the seed, whose marks were axis-aligned (see :func:`theta_projection`)."""
 EXTERNAL_NEIGHBOUR = 0.75
 """The ideal external-fiducial profile: 1 at the two peaks, this value one theta step either side
 (Appendix C ``correlate``)."""
-
-MARK_MODELS = ("external", "panel", "auto")
-
-
-@dataclass(frozen=True)
-class HoughParams:
-    """Every parameter of one window's Hough analysis, with the seed's values as defaults."""
-
-    rho_step: float = RHO_STEP
-    theta_step: float = THETA_STEP
-    hough_threshold: float = HOUGH_THRESHOLD
-    max_bright_fraction: float = MAX_BRIGHT_FRACTION
-    threshold_gain: float = THRESHOLD_GAIN
-    min_pixels: int = MIN_PIXELS
-    taper: float = TAPER
-    taper_half_width: float = TAPER_HALF_WIDTH
-    pair_separation: float = PAIR_SEPARATION
-    rho_deviation: float = RHO_DEVIATION
-    min_rho_extent: float = MIN_RHO_EXTENT
-
-    def __post_init__(self):
-        if not (0 < self.rho_step <= 20):
-            raise ValueError("rho_step must be in (0, 20] px")
-        if not (0 < self.theta_step <= 45) or abs(180.0 / self.theta_step - round(180.0 / self.theta_step)) > 1e-9:
-            raise ValueError("theta_step must divide 180 degrees (e.g. 1, 2, 3, 5, 10, 20, 30)")
-        if not (0 <= self.hough_threshold < 1):
-            raise ValueError("hough_threshold must be a fraction in [0, 1)")
-        if not (0 < self.max_bright_fraction <= 1):
-            raise ValueError("max_bright_fraction must be a fraction in (0, 1]")
-        if not (0 < self.pair_separation < 180):
-            raise ValueError("pair_separation must be between 0 and 180 degrees")
 
 
 @dataclass(frozen=True)
@@ -111,30 +55,7 @@ class WindowAnalysis:
     accumulator: np.ndarray = field(repr=False)
     accumulator_thresholded: np.ndarray = field(repr=False)
     rho_min: float = 0.0
-    rho_step: float = RHO_STEP
-
-
-def theta_grid(theta_step: float) -> np.ndarray:
-    """theta in degrees: 0, step, ..., 180 - step (seed: 0..175 by 5)."""
-    return np.arange(0.0, 180.0 - 1e-9, theta_step)
-
-
-def hough_accumulate(xs: np.ndarray, ys: np.ndarray, thetas_deg: np.ndarray, rho_step: float,
-                     rho_max: float) -> tuple[np.ndarray, float]:
-    """Accumulator A[theta, rho] of the points (xs, ys) by rho = x cos(theta) + y sin(theta) (eq. 1).
-
-    Cell ``j`` of a column holds rho in [rho_min + j*rho_step, rho_min + (j+1)*rho_step) with
-    rho_min = -rho_max. Returns (accumulator, rho_min).
-    """
-    t = np.deg2rad(thetas_deg)
-    rho = np.outer(np.cos(t), xs) + np.outer(np.sin(t), ys)          # (n_theta, n_points)
-    n_rho = int(np.ceil(2 * rho_max / rho_step)) + 1
-    rho_min = -rho_max
-    j = np.floor((rho - rho_min) / rho_step).astype(np.int64)
-    np.clip(j, 0, n_rho - 1, out=j)
-    flat = (np.arange(len(thetas_deg))[:, None] * n_rho + j).ravel()
-    acc = np.bincount(flat, minlength=len(thetas_deg) * n_rho).reshape(len(thetas_deg), n_rho)
-    return acc.astype(np.float64), rho_min
+    rho_step: float = 0.5
 
 
 def threshold_accumulator(acc: np.ndarray, fraction: float) -> np.ndarray:
@@ -144,7 +65,7 @@ def threshold_accumulator(acc: np.ndarray, fraction: float) -> np.ndarray:
     return out
 
 
-def theta_projection(acc_t: np.ndarray, rho_step: float = RHO_STEP, min_extent: float = MIN_RHO_EXTENT) -> np.ndarray:
+def theta_projection(acc_t: np.ndarray, rho_step: float, min_extent: float) -> np.ndarray:
     """projection(theta) = sum_rho AM / (rho_max - rho_min)^2 (seed 001, eq. 5).
 
     The extent is measured in px over the non-zero cells, inclusive of the cells' width
@@ -162,8 +83,7 @@ def theta_projection(acc_t: np.ndarray, rho_step: float = RHO_STEP, min_extent: 
     return np.where(any_nz, total / extent ** 2, 0.0)
 
 
-def matched_filter(thetas_deg: np.ndarray, taper: float = TAPER, half_width: float = TAPER_HALF_WIDTH,
-                   separation: float = PAIR_SEPARATION) -> np.ndarray:
+def matched_filter(thetas_deg: np.ndarray, taper: float, half_width: float, separation: float) -> np.ndarray:
     """Weights w[k, i]: the matched filter of two tapered peaks ``separation`` apart, the first at theta_k.
 
     Each peak weighs 1 at its centre and falls linearly to ``taper`` at ``half_width`` degrees (Appendix C:
@@ -172,14 +92,14 @@ def matched_filter(thetas_deg: np.ndarray, taper: float = TAPER, half_width: flo
     d1 = _angle_diff(thetas_deg[None, :], thetas_deg[:, None])
     d2 = _angle_diff(thetas_deg[None, :], thetas_deg[:, None] + separation)
 
-    def peak(d):
+    def peak(d: np.ndarray) -> np.ndarray:
         w = 1.0 - (1.0 - taper) * np.abs(d) / half_width
         return np.where(np.abs(d) <= half_width + 1e-9, w, 0.0)
 
     return peak(d1) + peak(d2)
 
 
-def _angle_diff(a, b):
+def _angle_diff(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray:
     """Signed difference a - b of line angles, folded into [-90, 90) degrees."""
     return (np.asarray(a) - np.asarray(b) + 90.0) % 180.0 - 90.0
 
@@ -209,16 +129,17 @@ def column_rho(acc_t: np.ndarray, k: int, rho_min: float, rho_step: float, devia
     return float(rho[keep].mean()) if keep.any() else float(med)
 
 
-def decode(theta1_deg: float, rho1: float, theta2_deg: float, rho2: float) -> tuple[float, float]:
-    """Intersection of two lines given in normal form: the inverse transform, eq. 2 of seed 001."""
-    t1, t2 = np.deg2rad(theta1_deg), np.deg2rad(theta2_deg)
-    det = np.cos(t1) * np.sin(t2) - np.cos(t2) * np.sin(t1)
-    x = (rho1 * np.sin(t2) - rho2 * np.sin(t1)) / det
-    y = (-rho1 * np.cos(t2) + rho2 * np.cos(t1)) / det
-    return float(x), float(y)
+def window_accumulator(binary: np.ndarray, thetas_deg: np.ndarray, rho_step: float) -> tuple[np.ndarray, float]:
+    """The Hough accumulator of the bright pixels of ``binary`` (seed 001, eq. 1;
+    :func:`aerofid.detect.hough_lines.accumulate`), rho cells from -hypot(h, w); returns (accumulator, rho_min)."""
+    ys, xs = np.nonzero(binary)
+    h, w = binary.shape
+    rho_max = float(np.hypot(h, w))
+    n_rho = int(np.ceil(2 * rho_max / rho_step)) + 1
+    return accumulate(xs, ys, np.deg2rad(thetas_deg), -rho_max, rho_step, n_rho), -rho_max
 
 
-def analyse_window(window: np.ndarray, params: HoughParams = HoughParams()) -> WindowAnalysis | str:
+def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT) -> WindowAnalysis | str:
     """One window's Hough analysis (thesis ``fid`` without the recursion), or a string saying why not."""
     thr = optimum_threshold(window)
     if thr is None:
@@ -230,11 +151,8 @@ def analyse_window(window: np.ndarray, params: HoughParams = HoughParams()) -> W
         return f"more than {params.max_bright_fraction:.0%} of the window is bright"
     if count < params.min_pixels:
         return "too few bright pixels"
-    ys, xs = np.nonzero(binary)
     thetas = theta_grid(params.theta_step)
-    h, w = window.shape
-    acc, rho_min = hough_accumulate(xs.astype(np.float64), ys.astype(np.float64), thetas, params.rho_step,
-                                    float(np.hypot(h, w)))
+    acc, rho_min = window_accumulator(binary, thetas, params.rho_step)
     acc_t = threshold_accumulator(acc, params.hough_threshold)
     projection = theta_projection(acc_t, params.rho_step, params.min_rho_extent)
     k1, k2 = best_pair(projection, thetas, params)
@@ -242,16 +160,18 @@ def analyse_window(window: np.ndarray, params: HoughParams = HoughParams()) -> W
     rho2 = column_rho(acc_t, k2, rho_min, params.rho_step, params.rho_deviation)
     if rho1 is None or rho2 is None:
         return "no pair of orthogonal peaks"
-    x, y = decode(thetas[k1], rho1, thetas[k2], rho2)
-    return WindowAnalysis(x=x, y=y, theta1=float(thetas[k1]), theta2=float(thetas[k2]), rho1=rho1, rho2=rho2,
-                          threshold=threshold, background=thr.mean_dark, projection=projection,
-                          thetas=thetas, binary=binary, accumulator=acc, accumulator_thresholded=acc_t,
-                          rho_min=rho_min, rho_step=params.rho_step)
+    centre = intersection(np.deg2rad(thetas[k1]), rho1, np.deg2rad(thetas[k2]), rho2)
+    if centre is None:
+        return "the two Hough lines are parallel"
+    return WindowAnalysis(x=centre[0], y=centre[1], theta1=float(thetas[k1]), theta2=float(thetas[k2]),
+                          rho1=rho1, rho2=rho2, threshold=threshold, background=thr.mean_dark,
+                          projection=projection, thetas=thetas, binary=binary, accumulator=acc,
+                          accumulator_thresholded=acc_t, rho_min=rho_min, rho_step=params.rho_step)
 
 
 # --- similarity metric (seed 001, Similarity Measure; C ``correlate``) ------------------------------------
 
-def external_model(thetas_deg: np.ndarray, theta0: float, separation: float = PAIR_SEPARATION,
+def external_model(thetas_deg: np.ndarray, theta0: float, separation: float = 90.0,
                    neighbour: float = EXTERNAL_NEIGHBOUR) -> np.ndarray:
     """The ideal external-fiducial projection: two sharp peaks ``separation`` apart at theta0 (1 at the
     peaks, ``neighbour`` one theta step either side, 0 elsewhere)."""
@@ -279,7 +199,7 @@ def correlation(a: np.ndarray, b: np.ndarray) -> float | None:
 
 
 def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, mark: str = "auto",
-               separation: float = PAIR_SEPARATION) -> tuple[float | None, str, np.ndarray]:
+               separation: float = 90.0) -> tuple[float | None, str, np.ndarray]:
     """The similarity metric: correlation of the projection with the model of ``mark`` ("external",
     "panel", or "auto" = the better of both, as the C ``correlate`` returns). Returns (metric, model name,
     model profile); the metric is None for a projection with no variance."""
@@ -293,5 +213,5 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
     return best
 
 
-__all__ = ["HoughParams", "WindowAnalysis", "analyse_window", "decode", "hough_accumulate",
-           "matched_filter", "similarity", "theta_projection", "threshold_accumulator"]
+__all__ = ["HoughParams", "WindowAnalysis", "analyse_window", "best_pair", "column_rho", "matched_filter",
+           "similarity", "theta_projection", "threshold_accumulator", "window_accumulator"]

@@ -19,6 +19,7 @@ external fiducials, for non-orthogonal arms and for arms of unequal length.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -147,13 +148,22 @@ def cross_model(p: np.ndarray, px: np.ndarray, py: np.ndarray, x0: float, y0: fl
     return model, J
 
 
-def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float,
-              arm: float, width: float = 2.0, blur: float = 0.8,
-              margin: float = PATCH_MARGIN, max_patch: int = MAX_PATCH) -> CrossFit | None:
-    """Fit the blurred-cross model around the start (x, y) with arms of half-length ``arm`` px.
+@dataclass(frozen=True)
+class _Patch:
+    """The pixels fitted: coordinates, grey values, the start centre and the patch's half-size."""
 
-    Returns None when the patch is too small, the fit does not converge, or its normal matrix is singular.
-    """
+    px: np.ndarray
+    py: np.ndarray
+    g: np.ndarray
+    x: float
+    y: float
+    half: int
+
+
+def _patch(window: np.ndarray, x: float, y: float, thetas_deg: tuple[float, float], arm: float, width: float,
+           margin: float, max_patch: int) -> _Patch | None:
+    """The square patch around (x, y) reaching ``margin`` beyond the arms, reduced to the pixels near either
+    arm when there are enough of them (far background only adds work); None when it is too small."""
     h, w = window.shape
     half = int(np.ceil(min(arm + margin, max_patch / 2)))
     c0, c1 = max(0, int(round(x)) - half), min(w, int(round(x)) + half + 1)
@@ -163,73 +173,87 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     patch = window[r0:r1, c0:c1].astype(np.float64)
     yy, xx = np.mgrid[r0:r1, c0:c1]
     px, py, g = xx.ravel().astype(np.float64), yy.ravel().astype(np.float64), patch.ravel()
-    # the pixels near either arm carry the information; far background only adds work
     near = np.zeros(px.size, bool)
-    for th in (theta1_deg, theta2_deg):
+    for th in thetas_deg:
         t = np.deg2rad(th)
         r = (px - x) * np.cos(t) + (py - y) * np.sin(t)
         u = -(px - x) * np.sin(t) + (py - y) * np.cos(t)
         near |= (np.abs(r) <= width / 2.0 + margin + 1.0) & (np.abs(u) <= arm + margin)
     if near.sum() >= 40:
         px, py, g = px[near], py[near], g[near]
-    b0 = float(np.percentile(g, 25))
-    a0 = max(float(np.percentile(g, 99)) - b0, 1e-3)
+    return _Patch(px, py, g, x, y, half)
+
+
+def _start(pt: _Patch, thetas_deg: tuple[float, float], arm: float, width: float,
+           blur: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Start values and the plausible region (lower, upper) of the 12 parameters."""
+    x, y = pt.x, pt.y
+    b0 = float(np.percentile(pt.g, 25))
+    a0 = max(float(np.percentile(pt.g, 99)) - b0, 1e-3)
     length = 2.0 * arm
-    p0 = np.array([x, y, np.deg2rad(theta1_deg), np.deg2rad(theta2_deg), length, length,
-                   max(width, 0.8), blur, a0, b0, 0.0, 0.0])
-    lo = np.array([x - 3, y - 3, p0[2] - ANGLE_RANGE, p0[3] - ANGLE_RANGE, 2.0, 2.0, 0.3, 0.25, 0.0, -np.inf, -np.inf, -np.inf])
-    hi = np.array([x + 3, y + 3, p0[2] + ANGLE_RANGE, p0[3] + ANGLE_RANGE, 4.0 * arm + 8, 4.0 * arm + 8, 8.0, 4.0, np.inf,
-                   np.inf, np.inf, np.inf])
-    p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
+    t1, t2 = np.deg2rad(thetas_deg[0]), np.deg2rad(thetas_deg[1])
+    p0 = np.array([x, y, t1, t2, length, length, max(width, 0.8), blur, a0, b0, 0.0, 0.0])
+    inf = np.inf
+    lo = np.array([x - 3, y - 3, t1 - ANGLE_RANGE, t2 - ANGLE_RANGE, 2.0, 2.0, 0.3, 0.25, 0.0, -inf, -inf, -inf])
+    hi = np.array([x + 3, y + 3, t1 + ANGLE_RANGE, t2 + ANGLE_RANGE, 4.0 * arm + 8, 4.0 * arm + 8, 8.0, 4.0,
+                   inf, inf, inf, inf])
+    return np.clip(p0, lo + 1e-9, hi - 1e-9), lo, hi
 
-    weights = np.ones_like(g)
 
-    def residuals(p):
-        return weights * (cross_model(p, px, py, x, y) - g)
+def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> Any:
+    """One weighted least-squares pass from ``start``: Levenberg-Marquardt (MINPACK) without bounds, several
+    times faster than the bounded trust-region solver (a solution that leaves the plausible region is reported
+    via ``at_bound``); when LM wanders off into an implausible shape (a hair-thin, very bright stroke on
+    textured ground) and runs out of evaluations, the bounded trust-region solver once from the same start."""
 
-    def jac(p):
-        return weights[:, None] * cross_model(p, px, py, x, y, jacobian=True)[1]
+    def residuals(p: np.ndarray) -> np.ndarray:
+        return weights * (cross_model(p, pt.px, pt.py, pt.x, pt.y) - pt.g)
 
-    # Levenberg-Marquardt (MINPACK) without bounds is several times faster than the bounded trust-region
-    # solver; a solution that leaves the plausible region is reported via ``at_bound``. Then iteratively
-    # reweighted: pixels hit by dust, scratches or impulse noise (|v| > HUBER_K robust sigmas) get Huber
-    # weights, so that they neither pull the centre nor inflate the misfit.
-    # When LM wanders off into an implausible shape (a hair-thin, very bright stroke on textured ground)
-    # and runs out of evaluations, the bounded trust-region solver is tried once from the same start.
-    sol = None
+    def jac(p: np.ndarray) -> np.ndarray:
+        return weights[:, None] * cross_model(p, pt.px, pt.py, pt.x, pt.y, jacobian=True)[1]
+
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
+        sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac", max_nfev=MAX_EVALUATIONS)
+        if not (np.all(np.isfinite(sol.x)) and (sol.success or sol.status > 0)):
+            inside = np.array(start, float)
+            inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
+            inside = np.clip(inside, lo + 1e-9, hi - 1e-9)
+            sol = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi), x_scale="jac",
+                                max_nfev=MAX_EVALUATIONS)
+    return sol
+
+
+def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray,
+                  hi: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The least-squares solution, iteratively reweighted: pixels hit by dust, scratches or impulse noise
+    (|v| > HUBER_K robust sigmas) get Huber weights, so that they neither pull the centre nor inflate the
+    misfit. Returns (parameters, final weights) or None when a pass fails."""
+    weights = np.ones_like(pt.g)
+    x: np.ndarray | None = None
     for _ in range(1 + ROBUST_PASSES):
-        start = p0 if sol is None else sol.x
         try:
-            with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
-                sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
-                                    max_nfev=MAX_EVALUATIONS)
-                if not (np.all(np.isfinite(sol.x)) and (sol.success or sol.status > 0)):
-                    inside = np.array(start, float)
-                    inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
-                    inside = np.clip(inside, lo + 1e-9, hi - 1e-9)
-                    sol = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi),
-                                        x_scale="jac", max_nfev=MAX_EVALUATIONS)
+            sol = _least_squares(pt, p0 if x is None else x, weights, lo, hi)
         except (ValueError, np.linalg.LinAlgError):
             return None
-        if not np.all(np.isfinite(sol.x)):
+        if not np.all(np.isfinite(sol.x)) or (not sol.success and sol.status <= 0):
             return None
-        if not sol.success and sol.status <= 0:
-            return None
-        v_raw = cross_model(sol.x, px, py, x, y) - g
+        x = np.asarray(sol.x, np.float64)
+        v_raw = cross_model(x, pt.px, pt.py, pt.x, pt.y) - pt.g
         scale = max(robust_std(v_raw), 1e-6)
         a = np.abs(v_raw) / (HUBER_K * scale)
         new_weights = np.sqrt(np.where(a > 1.0, 1.0 / np.maximum(a, 1e-12), 1.0))
         if np.allclose(new_weights, weights):
             break
         weights = new_weights
-    sol.fun = cross_model(sol.x, px, py, x, y) - g
-    sol.jac = jac(sol.x)
-    n, u = g.size, p0.size
-    v = sol.fun
-    sigma0 = float(np.sqrt((weights * v) @ (weights * v) / max(n - u, 1)))
-    J = sol.jac
-    # pseudo-inverse: when the arms run out of the patch their lengths are not determined, but the
-    # centre still is
+    return (x, weights) if x is not None else None
+
+
+def _centre_covariance(pt: _Patch, sol: np.ndarray, weights: np.ndarray) -> tuple[float, np.ndarray] | None:
+    """sigma0 = sqrt(v'Pv / (n - u)) and the covariance sigma0^2 (J'J)^+ of the parameters (pseudo-inverse:
+    when the arms run out of the patch their lengths are not determined, but the centre still is)."""
+    v = cross_model(sol, pt.px, pt.py, pt.x, pt.y) - pt.g
+    J = weights[:, None] * cross_model(sol, pt.px, pt.py, pt.x, pt.y, jacobian=True)[1]
+    sigma0 = float(np.sqrt((weights * v) @ (weights * v) / max(pt.g.size - sol.size, 1)))
     try:
         Q = np.linalg.pinv(J.T @ J, rcond=1e-12, hermitian=True)
     except np.linalg.LinAlgError:
@@ -237,39 +261,93 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     cov = sigma0 ** 2 * Q
     if not (np.isfinite(cov[0, 0]) and np.isfinite(cov[1, 1]) and cov[0, 0] >= 0 and cov[1, 1] >= 0):
         return None
-    sol.x[4:8] = np.abs(sol.x[4:8])  # the model uses their magnitudes (cross_model)
-    xc, yc, t1, t2, l1, l2, wd, s, a, b0, bx, by = sol.x
-    background = b0 + bx * (px - x) + by * (py - y)
-    # noise: residual spread of the pixels the model calls background (far from both bars)
-    shape = cross_model(np.r_[sol.x[:8], 1.0, 0.0, 0.0, 0.0], px, py, x, y)
+    return sigma0, cov
+
+
+def _noise_and_misfit(pt: _Patch, sol: np.ndarray, sigma0: float) -> tuple[float, float]:
+    """Noise: residual spread of the pixels the model calls background (far from both bars); misfit: robust
+    spread of the residuals on the bars over the larger of the noise and ``MODEL_TOLERANCE`` x amplitude."""
+    v = cross_model(sol, pt.px, pt.py, pt.x, pt.y) - pt.g
+    shape = cross_model(np.r_[sol[:8], 1.0, 0.0, 0.0, 0.0], pt.px, pt.py, pt.x, pt.y)
     # a thin, blurred stroke never reaches full coverage: "on the bars" is relative to the model's peak
     peak = float(shape.max())
     far, on = shape < 0.05 * peak, shape > 0.5 * peak
     noise = robust_std(v[far]) if far.sum() >= 8 else sigma0
-    tolerance = max(noise, MODEL_TOLERANCE * abs(float(sol.x[8])), 1e-9)
+    tolerance = max(noise, MODEL_TOLERANCE * abs(float(sol[8])), 1e-9)
     misfit = robust_std(v[on]) / tolerance if on.sum() >= 8 else float("inf")
+    return float(noise), float(misfit)
+
+
+def _arm_contrast(pt: _Patch, sol: np.ndarray) -> tuple[float, float, float, float]:
+    """Mean data minus fitted background along the core of each of the four half-arms."""
+    xc, yc, t1, t2, l1, l2, wd = sol[:7]
+    b0, bx, by = sol[9:12]
+    background = b0 + bx * (pt.px - pt.x) + by * (pt.py - pt.y)
     contrast = []
-    for k, (t, length) in enumerate(((t1, l1), (t2, l2))):
+    for t, length in ((t1, l1), (t2, l2)):
         c, sn = np.cos(t), np.sin(t)
-        r = (px - xc) * c + (py - yc) * sn
-        along = -(px - xc) * sn + (py - yc) * c
+        r = (pt.px - xc) * c + (pt.py - yc) * sn
+        along = -(pt.px - xc) * sn + (pt.py - yc) * c
         core = np.abs(r) <= max(wd / 2.0, 0.5)
         gap = max(wd / 2.0, 0.5) + 1.0
         for side in (1.0, -1.0):
             sel = core & (side * along >= gap) & (side * along <= length / 2.0)
-            contrast.append(float((g[sel] - background[sel]).mean()) if sel.any() else 0.0)
-    # the shape must stay in its plausible region; blur and a thin stroke may go to their lower limits
-    # (a sharp scan) and arms may be longer than the patch, but a stroke as wide as the upper bound is a
-    # blob and a bar shorter than 2 px is no arm
+            contrast.append(float((pt.g[sel] - background[sel]).mean()) if sel.any() else 0.0)
+    return contrast[0], contrast[1], contrast[2], contrast[3]
+
+
+def _at_bound(sol: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
+    """The first shape parameter that ended on its bound, or empty. Blur and a thin stroke may go to their
+    lower limits (a sharp scan) and arms may be longer than the patch, but a stroke as wide as the upper bound
+    is a blob and a bar shorter than 2 px is no arm."""
     names = ("centre x", "centre y", "angle 1", "angle 2", "length 1", "length 2", "stroke width")
     span = hi[:7] - lo[:7]
-    on_bound = (sol.x[:7] - lo[:7] < 1e-3 * span) | (hi[:7] - sol.x[:7] < 1e-3 * span)
-    on_bound[6] = hi[6] - sol.x[6] < 1e-3 * span[6]
-    on_bound[4:6] = sol.x[4:6] - lo[4:6] < 1e-3 * span[4:6]   # arms running out of the patch are fine
-    if not np.all(np.isfinite(sol.x)):
+    on_bound = (sol[:7] - lo[:7] < 1e-3 * span) | (hi[:7] - sol[:7] < 1e-3 * span)
+    on_bound[6] = hi[6] - sol[6] < 1e-3 * span[6]
+    on_bound[4:6] = sol[4:6] - lo[4:6] < 1e-3 * span[4:6]   # arms running out of the patch are fine
+    return next((nm for nm, b in zip(names, on_bound) if b), "")
+
+
+def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float,
+              arm: float, width: float = 2.0, blur: float = 0.8,
+              margin: float = PATCH_MARGIN, max_patch: int = MAX_PATCH) -> CrossFit | None:
+    """Fit the blurred-cross model around the start (x, y) with arms of half-length ``arm`` px.
+
+    Parameters
+    ----------
+    window : ndarray
+        Grey levels, the mark bright.
+    x, y, theta1_deg, theta2_deg, arm : float
+        Start: centre (window pixels), the two bars' normal angles (degrees) and their half-length (px).
+    width, blur : float
+        Start stroke width and Gaussian blur (px).
+    margin, max_patch : float, int
+        The patch reaches ``margin`` px beyond the arms, at most ``max_patch`` px wide.
+
+    Returns
+    -------
+    CrossFit or None
+        None when the patch is too small, the fit does not converge, or its normal matrix is singular.
+    """
+    thetas = (theta1_deg, theta2_deg)
+    pt = _patch(window, x, y, thetas, arm, width, margin, max_patch)
+    if pt is None:
         return None
-    at_bound = next((nm for nm, b in zip(names, on_bound) if b), "")
-    return CrossFit(at_bound=at_bound, misfit=float(misfit), patch_half=float(half), x=float(xc), y=float(yc), sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
-                    theta1=float(np.rad2deg(t1)), theta2=float(np.rad2deg(t2)), length1=float(l1),
-                    length2=float(l2), width=float(wd), blur=float(s), amplitude=float(a), sigma0=sigma0,
-                    noise=noise, arm_contrast=tuple(contrast))
+    p0, lo, hi = _start(pt, thetas, arm, width, blur)
+    solved = _robust_solve(pt, p0, lo, hi)
+    if solved is None:
+        return None
+    sol, weights = solved
+    got = _centre_covariance(pt, sol, weights)
+    if got is None:
+        return None
+    sigma0, cov = got
+    sol = sol.copy()
+    sol[4:8] = np.abs(sol[4:8])  # the model uses their magnitudes (cross_model)
+    noise, misfit = _noise_and_misfit(pt, sol, sigma0)
+    xc, yc, t1, t2, l1, l2, wd, s, a = (float(v) for v in sol[:9])
+    return CrossFit(x=xc, y=yc, sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
+                    theta1=float(np.rad2deg(t1)), theta2=float(np.rad2deg(t2)), length1=l1, length2=l2,
+                    width=wd, blur=s, amplitude=a, sigma0=sigma0, noise=noise,
+                    arm_contrast=_arm_contrast(pt, sol), at_bound=_at_bound(sol, lo, hi), patch_half=float(pt.half),
+                    misfit=misfit)

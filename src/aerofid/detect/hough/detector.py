@@ -3,14 +3,20 @@ refined to sub-pixel by the cross fit (:mod:`.cross_fit`) and verified as a '+' 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aerofid.detect.hough.analysis import MARK_MODELS, METHOD, HoughParams, WindowAnalysis, analyse_window
+from aerofid.conventions import FOUND
+from aerofid.detect.hough.analysis import METHOD, WindowAnalysis, analyse_window
 from aerofid.detect.hough.cross_fit import CrossFit, fit_cross
-from aerofid.detect.hough.search import SearchParams, extract_window, search_box
-from aerofid.detect.result import FOUND, Detection, not_found
+from aerofid.detect.hough.params import DEFAULT, HoughParams
+from aerofid.detect.hough.search import Candidate, extract_window, search_box
+from aerofid.detect.result import Detection, unusable_window
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 # --- sub-pixel refinement and verification (beyond the seed) ---------------------------------------------
 
@@ -47,11 +53,6 @@ def arm_half_length(analysis: WindowAnalysis, max_gap: int = 1) -> float:
     return max(2.0, float(np.mean(out)))
 
 
-MIN_ARM_BALANCE = 0.35
-"""Verification (beyond the seed): the weakest of the four half-arms must carry at least this fraction of
-the strongest's contrast, else the candidate is an L, a T, a bar or a corner of a roof, not a '+'."""
-MIN_ARM_SNR = 3.0
-"""Verification: the weakest half-arm's contrast must be at least this many times the grey-level noise."""
 MAX_MISFIT = 1.8
 """Verification: the robust spread of the fit's residuals on the mark must stay within this factor of the
 grey-level noise of its surroundings (measured: synthetic crosses up to 1.36, panels on real aerial
@@ -82,34 +83,35 @@ class Verified:
     refinement: CrossFit
 
 
-def verify_candidate(image: np.ndarray, cand, refine_size: int, params: HoughParams = HoughParams(),
-                     min_arm_balance: float = MIN_ARM_BALANCE, min_arm_snr: float = MIN_ARM_SNR,
-                     max_shift: float = MAX_REFINE_SHIFT) -> Verified | str:
-    """Refine a search candidate to sub-pixel and check that it is a '+' (four balanced, visible arms,
-    refined centre within ``max_shift`` of the Hough centre). Returns :class:`Verified` or the reason."""
+def refine_window(image: np.ndarray, cand: Candidate, refine_size: int,
+                  params: HoughParams = DEFAULT) -> tuple[WindowAnalysis, np.ndarray, tuple[int, int]]:
+    """The window the sub-pixel fit sees: the first-stage window re-centred on the candidate, enlarged once
+    (x ``REFINE_WINDOW_FACTOR``) if the arms reach its edge; the candidate's own window when the re-centred
+    one cannot be analysed or moves the centre more than ``MAX_REFINE_SHIFT``. (analysis, window, origin)."""
     analysis, window, origin = cand.analysis, cand.window, cand.origin
     size = refine_size
-    for _ in range(2):  # the first-stage window, enlarged once if the arms reach its edge
+    for _ in range(2):
         got = extract_window(image, cand.x, cand.y, size)
         if got is None:
             break
         a = analyse_window(got[0], params)
-        if isinstance(a, str) or np.hypot(a.x + got[1][0] - cand.x, a.y + got[1][1] - cand.y) > max_shift:
+        if isinstance(a, str) or np.hypot(a.x + got[1][0] - cand.x, a.y + got[1][1] - cand.y) > MAX_REFINE_SHIFT:
             break
         analysis, window, origin = a, got[0], got[1]
         if arm_half_length(a) + 2.0 < min(window.shape) / 2.0:
             break
         size = int(round(REFINE_WINDOW_FACTOR * refine_size))
-    ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
-    if ref is None:
-        return "sub-pixel fit failed"
-    x, y = ref.x + origin[0], ref.y + origin[1]
-    if np.hypot(x - cand.x, y - cand.y) > max_shift:
-        return f"sub-pixel fit moved more than {max_shift} px from the Hough centre"
+    return analysis, window, origin
+
+
+def shape_refusal(ref: CrossFit) -> str | None:
+    """Why the fitted shape is no '+' (a bound reached, a blob, an unresolved stroke, arms that do not stick
+    out of the blurred crossing), or None."""
     if ref.at_bound:
         return f"the '+' model does not fit (its {ref.at_bound} ended on a bound)"
     if ref.width > MAX_WIDTH_RATIO * min(ref.length1, ref.length2):
-        return f"fitted shape is a blob, not a '+' (stroke {ref.width:.1f} px, bars {ref.length1:.1f}/{ref.length2:.1f} px)"
+        return (f"fitted shape is a blob, not a '+' (stroke {ref.width:.1f} px, bars {ref.length1:.1f}/"
+                f"{ref.length2:.1f} px)")
     if ref.width < MIN_RESOLVED_WIDTH and ref.blur > ref.width + 0.5:
         return (f"the stroke is not resolved (width {ref.width:.2f} px under a blur of {ref.blur:.2f} px): a "
                 "blurred line in texture, not a '+'")
@@ -117,59 +119,173 @@ def verify_candidate(image: np.ndarray, cand, refine_size: int, params: HoughPar
     if protrusion < MIN_ARM_PROTRUSION:
         return (f"the arms do not stick out of the blurred crossing ({protrusion:.1f} px beyond it): a blob, "
                 "not a '+'")
+    return None
+
+
+def quality_refusal(ref: CrossFit, params: HoughParams = DEFAULT) -> str | None:
+    """Why the fitted '+' is not trusted (uncertain centre, misfit, unbalanced or faint arms), or None."""
     if ref.sigma > MAX_CENTRE_SIGMA:
         return (f"the centre is too uncertain (sigma {ref.sigma:.2f} px > {MAX_CENTRE_SIGMA} px): a faint or "
                 "blurred '+', or texture")
     if ref.misfit > MAX_MISFIT:
         return f"the '+' model does not explain the grey values (misfit {ref.misfit:.1f} x noise)"
-    if ref.arm_balance < min_arm_balance:
-        return f"arms unbalanced ({ref.arm_balance:.2f} < {min_arm_balance}): not a '+'"
-    if ref.arm_snr < min_arm_snr:
-        return f"arms too faint (SNR {ref.arm_snr:.1f} < {min_arm_snr})"
+    if ref.arm_balance < params.min_arm_balance:
+        return f"arms unbalanced ({ref.arm_balance:.2f} < {params.min_arm_balance}): not a '+'"
+    if ref.arm_snr < params.min_arm_snr:
+        return f"arms too faint (SNR {ref.arm_snr:.1f} < {params.min_arm_snr})"
+    return None
+
+
+def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
+                     params: HoughParams = DEFAULT) -> Verified | str:
+    """Refine a search candidate to sub-pixel (:func:`refine_window`, :func:`fit_cross`) and check that it is a
+    '+' (:func:`shape_refusal`, :func:`quality_refusal`) within ``MAX_REFINE_SHIFT`` of the Hough centre.
+    Returns :class:`Verified` or the reason."""
+    analysis, window, origin = refine_window(image, cand, refine_size, params)
+    ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
+    if ref is None:
+        return "sub-pixel fit failed"
+    x, y = ref.x + origin[0], ref.y + origin[1]
+    if np.hypot(x - cand.x, y - cand.y) > MAX_REFINE_SHIFT:
+        return f"sub-pixel fit moved more than {MAX_REFINE_SHIFT} px from the Hough centre"
+    reason = shape_refusal(ref) or quality_refusal(ref, params)
+    if reason is not None:
+        return reason
     return Verified(x=float(x), y=float(y), refinement=ref)
 
 
-def detect(window: np.ndarray, mark: str = "auto", **params) -> Detection:
-    """Locate a '+' mark in ``window`` by the complete seed algorithm (spiral, two tiers, recursion,
-    similarity metric; :func:`aerofid.detect.hough.search.search_box`), each accepted candidate refined to sub-pixel and
-    verified (:func:`verify_candidate`).
+@dataclass(frozen=True)
+class HoughResult(Detection):
+    """The answer of the ``hough`` method with its intermediate results (window pixels of the window searched).
 
-    ``mark``: "external" (sharp-peak model), "panel" (raised-cosine model) or "auto" (the better of both).
-    Keyword parameters: those of :class:`HoughParams` and :class:`aerofid.detect.hough.search.SearchParams`, and
-    ``min_arm_balance``, ``min_arm_snr`` (verification; ``verify=False`` switches it off, as in the seed).
+    Attributes
+    ----------
+    candidates : tuple of Candidate
+        Every candidate of the search, both stages, in the order seen.
+    rejected : tuple of (Candidate, str)
+        Candidates refused by the verification, with the reason.
+    analysis : WindowAnalysis or None
+        The best candidate's window analysis (thresholded window, accumulators, projection); None when
+        nothing was found.
+    window_origin : tuple of int
+        Where that window lies in the window searched.
+    model, model_name, metric : ndarray or None, str, float
+        The similarity model the projection was compared with, its name and the similarity metric.
+    stage : int
+        The search stage (1 or 2) of the best candidate; 0 when nothing was found.
+    refinement : CrossFit or None
+        The sub-pixel cross fit (None with ``verify=False``, or when nothing was found).
     """
-    if mark not in MARK_MODELS:
-        raise ValueError(f"mark must be one of {', '.join(MARK_MODELS)}")
-    params = dict(params)
-    do_verify = bool(params.pop("verify", True))
-    checks = {k: params.pop(k) for k in ("min_arm_balance", "min_arm_snr") if k in params}
-    hough_keys = set(HoughParams.__dataclass_fields__)
-    search_keys = set(SearchParams.__dataclass_fields__)
-    unknown = set(params) - hough_keys - search_keys
-    if unknown:
-        raise TypeError(f"unknown parameter(s) for method 'hough': {', '.join(sorted(unknown))}")
-    hp = HoughParams(**{k: v for k, v in params.items() if k in hough_keys})
-    sp = SearchParams(**{k: v for k, v in params.items() if k in search_keys})
 
-    def verify(cand, stage1_size):
-        return verify_candidate(window, cand, stage1_size, hp, **checks)
+    candidates: tuple[Candidate, ...] = field(default=(), compare=False, repr=False)
+    rejected: tuple[tuple[Candidate, str], ...] = field(default=(), compare=False, repr=False)
+    analysis: WindowAnalysis | None = field(default=None, compare=False, repr=False)
+    window_origin: tuple[int, int] = (0, 0)
+    model: np.ndarray | None = field(default=None, compare=False, repr=False)
+    model_name: str = ""
+    stage: int = 0
+    metric: float = float("nan")
+    refinement: CrossFit | None = field(default=None, compare=False, repr=False)
 
-    result = search_box(window, mark, hp, sp, verify if do_verify else None)
-    if result.best is None:
-        return not_found(METHOD, result.reason, candidates=result.candidates)
+    @property
+    def extent(self) -> float | None:
+        """The mark's radius (px) by the fitted cross: half the longer bar (at most the half-size of the patch
+        fitted: arms running out of it are as long as the patch shows them) plus half the stroke and the blur;
+        None without a refinement."""
+        f = self.refinement
+        if f is None:
+            return None
+        return float(min(max(f.length1, f.length2) / 2.0, f.patch_half) + f.width / 2.0 + f.blur)
+
+    def plot(self, fig: Figure, window: np.ndarray) -> None:
+        """Thesis figures 5.2-5.5 of the best candidate's window: the optimally thresholded window, the Hough
+        accumulator before and after thresholding, the theta projection with the similarity model; without
+        an analysis, ``window`` with the reason (:meth:`Detection.plot`)."""
+        a = self.analysis
+        if a is None:
+            super().plot(fig, window)
+            return
+        axes = [fig.add_subplot(2, 2, k) for k in (1, 2, 3, 4)]
+        ox, oy = self.window_origin
+        axes[0].imshow(a.binary, cmap="gray", interpolation="nearest")
+        axes[0].plot([a.x], [a.y], "+", color="orange", ms=14, mew=2)
+        axes[0].set_title(f"Optimally thresholded window (stage {self.stage}, origin {ox},{oy} in box)", fontsize=9)
+        for ax, acc, title in ((axes[1], a.accumulator, "Hough accumulator"),
+                               (axes[2], a.accumulator_thresholded, "Thresholded accumulator")):
+            theta_step = 180.0 / len(a.thetas)
+            ax.imshow(acc, aspect="auto", cmap="magma", interpolation="nearest", origin="lower",
+                      extent=(a.rho_min, a.rho_min + acc.shape[1] * a.rho_step, 0.0, 180.0))
+            ax.set_ylim(0.0, 180.0 - theta_step)
+            ax.set_xlabel("rho (px)")
+            ax.set_ylabel("theta (deg)")
+            ax.set_title(title, fontsize=9)
+        proj = a.projection / (a.projection.max() or 1.0)
+        model = np.asarray(self.model if self.model is not None else np.zeros_like(a.thetas), float)
+        model = model / (model.max() or 1.0)
+        axes[3].plot(a.thetas, proj, "o-", label="projection (eq. 5)")
+        axes[3].plot(a.thetas, model, "--", label=f"{self.model_name} model")
+        axes[3].set_xlabel("theta (deg)")
+        axes[3].set_title(f"Theta projection, similarity {self.metric:.2f}", fontsize=9)
+        axes[3].legend(fontsize=8)
+        fig.suptitle(f"{self.status}: x={self.x:.3f} y={self.y:.3f} sigma={self.sigma:.3f} px", fontsize=10)
+        fig.tight_layout()
+
+
+def detect(window: np.ndarray, params: HoughParams = DEFAULT, **overrides: object) -> HoughResult:
+    """Locate a '+' mark in ``window`` by the complete seed algorithm, each accepted candidate refined to
+    sub-pixel and verified (beyond the seed).
+
+    The search (:func:`aerofid.detect.hough.search.search_box`: spiral, two tiers, recursion, similarity
+    metric) proposes candidates; with ``params.verify`` each one that would be accepted is refined by the
+    blurred-cross fit and must pass :func:`verify_candidate`, else the search goes on.
+
+    Parameters
+    ----------
+    window : ndarray
+        2-D grey levels on [0, 1], the mark brighter than its ground.
+    params : HoughParams
+        Every parameter of the method, including ``mark`` (the similarity model).
+
+    Returns
+    -------
+    HoughResult
+        Centre in window pixels; ``score`` = the similarity metric (clipped to [0, 1]); ``sigma`` = the cross
+        fit's standard deviation of the centre, or the rho cell's rho_step / sqrt(12) with ``verify=False``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("cross", 30, width=2.0, window=60, rng=np.random.default_rng(2))
+    >>> r = detect(scene.image, HoughParams(mark="external"))
+    >>> r.found, bool(np.hypot(r.x - scene.marks[0].x, r.y - scene.marks[0].y) < 0.1), r.refinement is not None
+    (True, True, True)
+    """
+    if overrides:  # TRANSITIONAL (issue 8): old callers' keywords, until they pass a HoughParams
+        params = params.replace(**overrides)
+    image = np.asarray(window)
+    bad = unusable_window(image, min_side=4)
+    if bad is not None:
+        return HoughResult.not_found(METHOD, bad)
+
+    def verify(cand: Candidate, stage1_size: int) -> Verified | str:
+        return verify_candidate(image, cand, stage1_size, params)
+
+    result = search_box(image, params, verify if params.verify else None)
     best = result.best
-    diagnostics = {"candidates": result.candidates, "analysis": best.analysis, "window": best.window,
-                   "window_origin": best.origin, "model": best.model, "model_name": best.model_name,
-                   "stage": best.stage, "metric": best.metric}
+    if best is None:
+        return HoughResult.not_found(METHOD, result.reason, candidates=result.candidates, rejected=result.rejected)
     if isinstance(result.verified, Verified):
         v = result.verified
-        diagnostics["refinement"] = v.refinement
-        sigma = v.refinement.sigma
-        x, y = v.x, v.y
+        x, y, sigma, refinement = v.x, v.y, v.refinement.sigma, v.refinement
     else:  # verification off: the Hough centre, quantised by the rho cells
-        x, y, sigma = best.x, best.y, hp.rho_step / np.sqrt(12.0)
-    return Detection(status=FOUND, x=float(x), y=float(y), score=float(np.clip(best.metric, 0.0, 1.0)),
-                     sigma=float(sigma), method=METHOD, diagnostics=diagnostics)
+        x, y, sigma, refinement = best.x, best.y, params.rho_step / np.sqrt(12.0), None
+    return HoughResult(status=FOUND, x=float(x), y=float(y), score=float(np.clip(best.metric, 0.0, 1.0)),
+                       sigma=float(sigma), method=METHOD, candidates=result.candidates, rejected=result.rejected,
+                       analysis=best.analysis, window_origin=best.origin, model=best.model,
+                       model_name=best.model_name, stage=best.stage, metric=float(best.metric),
+                       refinement=refinement)
 
 
-__all__ = ["MIN_ARM_BALANCE", "MIN_ARM_SNR", "Verified", "arm_half_length", "detect", "verify_candidate"]
+__all__ = ["HoughResult", "Verified", "arm_half_length", "detect", "quality_refusal", "refine_window",
+           "shape_refusal", "verify_candidate"]

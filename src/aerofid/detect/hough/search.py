@@ -16,68 +16,24 @@ otherwise the answer is "no mark identified".
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from aerofid.detect.hough.analysis import HoughParams, WindowAnalysis, analyse_window, similarity
+from aerofid.detect.hough.analysis import WindowAnalysis, analyse_window, similarity
+from aerofid.detect.hough.params import DEFAULT, HoughParams
 
 WINDOW_EXTERNAL = 40
 """First-stage window for external fiducials, px (Appendix C: ``WNDSZ1 = 40`` for ``alg_flag == 1``)."""
 WINDOW_PANEL = 16
 """First-stage window for cloth panels, px: the first setting of seed 001's Table 1 (16; the C code's
 ``WNDSZ1 = 12`` is the second, and Table 5.2 shows 16-24 scoring higher for an 8 px panel)."""
-OVERLAP = 0.30
-"""Overlap of neighbouring first-stage windows (seed 001: "overlap, e.g., 30 percent"; C: step 0.7 W)."""
-STAGE1_ACCEPT = 0.6
-"""A first-stage metric above this is accepted at once (Appendix C ``pthl``)."""
-STAGE2_ENTER = 0.3
-"""A first-stage metric below this moves on to the next window (Appendix C ``pm``)."""
-STAGE2_ACCEPT = 0.4
-"""A second-stage metric above this is accepted at once (Appendix C ``pth``)."""
-MIN_METRIC = 0.2
-"""The best metric must exceed this, else "no mark identified" (Appendix C ``pmin``)."""
-MAX_RECURSION = 5
-"""Re-centrings of one window before its answer is taken as it is (Appendix C: ``loop > 5``)."""
-CONVERGENCE = 1.0
-"""The recursion has converged when the centre moves by less than this (L1 distance, px). The C code's
-integer test ``error < 3`` allows up to 2 px; sub-pixel answers allow a tighter test."""
 
-MAX_REJECTIONS = 8
-"""Candidates refused by the verification before the search gives up. Measured (hough on 15 marks per style
-and condition, tests and benchmarks/bench_marks.py scenes): a true '+' or panel was always the first candidate
-verified, while windows without a '+' (JPEG bull's-eyes and dots) had 13-37 refused candidates and took 1.0-1.2 s."""
-
-
-@dataclass(frozen=True)
-class SearchParams:
-    """Parameters of the box search, with the seed's values as defaults."""
-
-    window_size: int | None = None
-    overlap: float = OVERLAP
-    stage1_accept: float = STAGE1_ACCEPT
-    stage2_enter: float = STAGE2_ENTER
-    stage2_accept: float = STAGE2_ACCEPT
-    min_metric: float = MIN_METRIC
-    max_recursion: int = MAX_RECURSION
-    convergence: float = CONVERGENCE
-    exhaustive: bool = False
-    """Analyse every spiral position even after a mark is accepted (to list every candidate, table 5.1)."""
-    max_rejections: int | None = MAX_REJECTIONS
-    """Beyond the seed: once this many candidates have failed verification, no further candidate is verified
-    and the search ends (``None``: no limit). See :data:`MAX_REJECTIONS`."""
-    stage2_fallback: bool = True
-    """When the second-stage window cannot be analysed at all (too small for the mark: more than 30 %
-    bright, or no pair of lines), let the first-stage candidate compete with its first-stage metric. The
-    seed drops such a candidate; with marks wider than the seed's 1 px strokes the half-size window is
-    often more than 30 % bright. ``False`` reproduces the seed."""
-
-    def __post_init__(self):
-        if self.window_size is not None and not (4 <= self.window_size <= 4096):
-            raise ValueError("window_size must be between 4 and 4096 px")
-        if not (0 <= self.overlap < 1):
-            raise ValueError("overlap must be a fraction in [0, 1)")
+Verifier = Callable[["Candidate", int], object]
+"""``verify(candidate, stage1_window_size)``: a string (the reason) rejects the candidate, anything else keeps
+it (and is returned as :attr:`SearchResult.verified`)."""
 
 
 @dataclass(frozen=True)
@@ -95,7 +51,8 @@ class Candidate:
     window: np.ndarray = field(repr=False, compare=False)
     model: np.ndarray = field(repr=False, compare=False)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
+        """Scalars of the candidate (stage, centre, metric, model name, window size)."""
         return {"stage": self.stage, "x": self.x, "y": self.y, "metric": self.metric,
                 "model": self.model_name, "window_size": self.window_size}
 
@@ -108,11 +65,11 @@ class SearchResult:
     best: Candidate | None
     candidates: tuple[Candidate, ...]
     reason: str = ""
-    verified: Any = None
+    verified: object = None
     rejected: tuple[tuple[Candidate, str], ...] = ()
 
 
-def spiral_coordinates(height: int, width: int, window_size: int, overlap: float = OVERLAP) -> np.ndarray:
+def spiral_coordinates(height: int, width: int, window_size: int, overlap: float = 0.3) -> np.ndarray:
     """Window centres (x, y) in an outward square spiral from the box centre, ``(1 - overlap) * window``
     apart, keeping those whose windows cover the box (C ``estcoor``: steps of .7 * blk_sz1, directions
     alternating)."""
@@ -130,7 +87,8 @@ def spiral_coordinates(height: int, width: int, window_size: int, overlap: float
     # keep every centre whose window's central square (side ``step``) reaches into the box, so the windows
     # cover the box to its edges
     m = step / 2.0
-    inside = (p[:, 0] > -0.5 - m) & (p[:, 0] < width - 0.5 + m) & (p[:, 1] > -0.5 - m) & (p[:, 1] < height - 0.5 + m)
+    inside = ((p[:, 0] > -0.5 - m) & (p[:, 0] < width - 0.5 + m) & (p[:, 1] > -0.5 - m)
+              & (p[:, 1] < height - 0.5 + m))
     return p[inside]
 
 
@@ -147,39 +105,151 @@ def extract_window(image: np.ndarray, x: float, y: float, size: int) -> tuple[np
     return image[ya:yb, xa:xb], (xa, ya)
 
 
-def recursive_analysis(image: np.ndarray, x: float, y: float, size: int, hp: HoughParams,
-                       sp: SearchParams) -> tuple[WindowAnalysis, np.ndarray, tuple[int, int]] | str:
+Analysed = tuple[WindowAnalysis, np.ndarray, tuple[int, int]]
+"""A converged window: its analysis, the window and its origin in the box."""
+
+
+def recursive_analysis(image: np.ndarray, x: float, y: float, size: int,
+                       params: HoughParams = DEFAULT) -> Analysed | str:
     """Analyse the window at (x, y) and re-centre it on the answer until the answer stops changing
     (seed 001, Recursion; C ``fid``). Returns (analysis, window, origin) or the reason for failure."""
-    for loop in range(sp.max_recursion + 1):
+    for loop in range(params.max_recursion + 1):
         got = extract_window(image, x, y, size)
         if got is None:
             return "window outside the box"
         window, (x0, y0) = got
-        a = analyse_window(window, hp)
+        a = analyse_window(window, params)
         if isinstance(a, str):
             return a
         nx, ny = a.x + x0, a.y + y0
         if not (-0.5 <= nx < image.shape[1] - 0.5 and -0.5 <= ny < image.shape[0] - 0.5):
             return "decoded centre outside the box"
-        if abs(nx - x) + abs(ny - y) < sp.convergence or loop == sp.max_recursion:
+        if abs(nx - x) + abs(ny - y) < params.convergence or loop == params.max_recursion:
             return a, window, (x0, y0)
         x, y = nx, ny
     raise AssertionError("unreachable")
 
 
-def _candidate(stage, got, size, mark, hp) -> Candidate | None:
+def make_candidate(stage: int, got: Analysed, size: int, params: HoughParams = DEFAULT) -> Candidate | None:
+    """The candidate of a converged window with its similarity metric (None: a projection with no variance)."""
     a, window, origin = got
-    metric, model_name, model = similarity(a.projection, a.thetas, a.theta1, mark, hp.pair_separation)
+    metric, model_name, model = similarity(a.projection, a.thetas, a.theta1, params.mark, params.pair_separation)
     if metric is None:
         return None
     return Candidate(stage=stage, x=a.x + origin[0], y=a.y + origin[1], metric=metric, model_name=model_name,
                      window_size=size, origin=origin, analysis=a, window=window, model=model)
 
 
-def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughParams(),
-               sp: SearchParams = SearchParams(),
-               verify: Callable[[Candidate, int], Any] | None = None) -> SearchResult:
+def window_sizes(params: HoughParams) -> list[int]:
+    """First-stage window sizes to search: ``window_size``, else by ``mark`` (both for ``"auto"``)."""
+    if params.window_size is not None:
+        return [params.window_size]
+    return {"external": [WINDOW_EXTERNAL], "panel": [WINDOW_PANEL]}.get(params.mark, [WINDOW_EXTERNAL, WINDOW_PANEL])
+
+
+class _Search:
+    """The state of one box search: every candidate, the refused ones, the best so far."""
+
+    def __init__(self, image: np.ndarray, params: HoughParams, verify: Verifier | None):
+        self.image, self.params, self.verify = image, params, verify
+        self.candidates: list[Candidate] = []
+        self.rejected: list[tuple[Candidate, str]] = []
+        self.best: Candidate | None = None
+        self.best_check: object = None
+        self.seen: set[tuple[int, int, int]] = set()
+
+    def refused_enough(self) -> bool:
+        """Verification has refused ``max_rejections`` candidates: nothing more is fitted."""
+        limit = self.params.max_rejections
+        return self.verify is not None and limit is not None and len(self.rejected) >= limit
+
+    def capped(self) -> bool:
+        """... and the search ends (an exhaustive listing goes on)."""
+        return self.refused_enough() and not self.params.exhaustive
+
+    def admit(self, c: Candidate, size1: int) -> bool:
+        """Make ``c`` the best if it beats the best so far and passes verification."""
+        if self.best is not None and c.metric <= self.best.metric:
+            return False
+        conv = self.params.convergence
+        if any(abs(r.x - c.x) + abs(r.y - c.y) < conv for r, _ in self.rejected):
+            return False  # the same feature, already refused: do not fit it again
+        if self.refused_enough():
+            return False
+        check = self.verify(c, size1) if self.verify is not None else None
+        if isinstance(check, str):
+            self.rejected.append((c, check))
+            return False
+        self.best, self.best_check = c, check
+        return True
+
+    def stage1(self, x: float, y: float, size: int) -> Candidate | None:
+        """The first-stage candidate of the window at (x, y), recorded; None if none or already seen."""
+        got = recursive_analysis(self.image, x, y, size, self.params)
+        c1 = None if isinstance(got, str) else make_candidate(1, got, size, self.params)
+        if c1 is None:
+            return None
+        key = (int(round(c1.x)), int(round(c1.y)), size)
+        if key in self.seen:
+            return None
+        self.seen.add(key)
+        self.candidates.append(c1)
+        return c1
+
+    def stage2(self, c1: Candidate, size: int) -> Candidate | None:
+        """The second-stage candidate (window of half the size on ``c1``), or ``c1`` itself when that window
+        cannot be analysed and ``stage2_fallback`` is on; None: drop the candidate (the seed)."""
+        size2 = max(4, size // 2)
+        got2 = recursive_analysis(self.image, c1.x, c1.y, size2, self.params)
+        c2 = None if isinstance(got2, str) else make_candidate(2, got2, size2, self.params)
+        if c2 is None:
+            return c1 if self.params.stage2_fallback else None
+        self.candidates.append(c2)
+        return c2
+
+    def visit(self, x: float, y: float, size: int) -> bool:
+        """Both tiers at one spiral position (C ``fiducial``); True when a candidate was accepted at once."""
+        p = self.params
+        c1 = self.stage1(x, y, size)
+        if c1 is None or c1.metric < p.stage2_enter:
+            return False
+        if c1.metric > p.stage1_accept:
+            return self.admit(c1, size)
+        c2 = self.stage2(c1, size)
+        if c2 is None:
+            return False
+        return c2.metric > p.min_metric and self.admit(c2, size) and c2.metric > p.stage2_accept
+
+    def spiral(self, size: int) -> bool:
+        """Every spiral position of one window size; True when a candidate was accepted."""
+        h, w = self.image.shape
+        accepted = False
+        for x, y in spiral_coordinates(h, w, size, self.params.overlap):
+            if self.capped():
+                break
+            if self.visit(x, y, size):
+                accepted = True
+                if not self.params.exhaustive:
+                    break
+        return accepted
+
+    def result(self) -> SearchResult:
+        """The best candidate, or why there is none."""
+        cands, rejected = tuple(self.candidates), tuple(self.rejected)
+        if self.best is not None and self.best.metric > self.params.min_metric:
+            return SearchResult(self.best, cands, "", self.best_check, rejected)
+        if rejected:
+            reason = "no mark identified: the best candidates failed verification (" + rejected[0][1] + ")"
+            if self.refused_enough():
+                reason += f"; search stopped after {len(rejected)} refused candidates"
+        elif cands:
+            reason = "no mark identified"
+        else:
+            reason = "no candidate: every window was homogeneous, too bright or lacked a pair of lines"
+        return SearchResult(None, cands, reason, None, rejected)
+
+
+def search_box(image: np.ndarray, params: HoughParams = DEFAULT, verify: Verifier | None = None) -> SearchResult:
     """The whole search of seed 001 over ``image`` (the operator's box), both tiers, every window size.
 
     With ``mark="auto"`` and no ``window_size``, the search runs with the external-fiducial window (40 px)
@@ -189,94 +259,18 @@ def search_box(image: np.ndarray, mark: str = "auto", hp: HoughParams = HoughPar
     accepted or retained as the best; it returns a string (the reason) to reject it, anything else to keep
     it. A rejected candidate is recorded and the search goes on.
     """
-    if sp.window_size is not None:
-        sizes = [sp.window_size]
-    else:
-        sizes = {"external": [WINDOW_EXTERNAL], "panel": [WINDOW_PANEL]}.get(mark, [WINDOW_EXTERNAL, WINDOW_PANEL])
+    search = _Search(image, params, verify)
     h, w = image.shape
-    candidates: list[Candidate] = []
-    rejected: list[tuple[Candidate, str]] = []
-    best: Candidate | None = None
-    best_check: Any = None
-    seen: set[tuple[int, int, int]] = set()
-
-    def refused_enough() -> bool:
-        """Verification has refused ``max_rejections`` candidates: nothing more is fitted."""
-        return verify is not None and sp.max_rejections is not None and len(rejected) >= sp.max_rejections
-
-    def capped() -> bool:
-        """... and the search ends (an exhaustive listing goes on)."""
-        return refused_enough() and not sp.exhaustive
-
-    def admit(c: Candidate, size1: int) -> bool:
-        """Make ``c`` the best if it beats the best so far and passes verification."""
-        nonlocal best, best_check
-        if best is not None and c.metric <= best.metric:
-            return False
-        near = next((r for r in rejected if abs(r[0].x - c.x) + abs(r[0].y - c.y) < sp.convergence), None)
-        if near is not None:  # the same feature, already refused: do not fit it again
-            return False
-        if refused_enough():
-            return False
-        check = verify(c, size1) if verify is not None else None
-        if isinstance(check, str):
-            rejected.append((c, check))
-            return False
-        best, best_check = c, check
-        return True
-
-    for size in sizes:
+    for size in window_sizes(params):
         size = int(min(size, h, w))
         if size < 4:
             continue
-        accepted = False
-        for x, y in spiral_coordinates(h, w, size, sp.overlap):
-            if capped():
-                break
-            got = recursive_analysis(image, x, y, size, hp, sp)
-            if isinstance(got, str):
-                continue
-            c1 = _candidate(1, got, size, mark, hp)
-            if c1 is None:
-                continue
-            key = (int(round(c1.x)), int(round(c1.y)), size)
-            if key in seen:
-                continue
-            seen.add(key)
-            candidates.append(c1)
-            if c1.metric < sp.stage2_enter:
-                continue
-            if c1.metric > sp.stage1_accept:
-                if admit(c1, size):
-                    accepted = True
-                    if not sp.exhaustive:
-                        break
-                continue
-            size2 = max(4, size // 2)
-            got2 = recursive_analysis(image, c1.x, c1.y, size2, hp, sp)
-            c2 = None if isinstance(got2, str) else _candidate(2, got2, size2, mark, hp)
-            if c2 is None:
-                if not sp.stage2_fallback:
-                    continue
-                c2 = c1
-            else:
-                candidates.append(c2)
-            if c2.metric > sp.min_metric and admit(c2, size) and c2.metric > sp.stage2_accept:
-                accepted = True
-                if not sp.exhaustive:
-                    break
-        if accepted and not sp.exhaustive:
+        if search.spiral(size) and not params.exhaustive:
             break
-        if capped():
+        if search.capped():
             break
-    if best is None or best.metric <= sp.min_metric:
-        if rejected:
-            reason = "no mark identified: the best candidates failed verification (" + rejected[0][1] + ")"
-            if refused_enough():
-                reason += f"; search stopped after {len(rejected)} refused candidates"
-        elif candidates:
-            reason = "no mark identified"
-        else:
-            reason = "no candidate: every window was homogeneous, too bright or lacked a pair of lines"
-        return SearchResult(None, tuple(candidates), reason, None, tuple(rejected))
-    return SearchResult(best, tuple(candidates), "", best_check, tuple(rejected))
+    return search.result()
+
+
+__all__ = ["WINDOW_EXTERNAL", "WINDOW_PANEL", "Candidate", "SearchResult", "Verifier", "extract_window",
+           "make_candidate", "recursive_analysis", "search_box", "spiral_coordinates", "window_sizes"]

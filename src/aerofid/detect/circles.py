@@ -32,13 +32,21 @@ too: JPEG blocks hide from the grey-level estimate).
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 
+from aerofid.conventions import FOUND
 from aerofid.detect.noise import difference_noise_sigma
-from aerofid.detect.result import FOUND, Detection, not_found, unusable_window
+from aerofid.detect.params import MethodParams, check
+from aerofid.detect.result import Detection, unusable_window
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 METHOD = "circles"
 
@@ -472,188 +480,412 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray, radi
                      np.column_stack([ex, ey]), r, it, converged)
 
 
+# --- parameters and result ------------------------------------------------------------------------------
+
+def _is_num(v: Any) -> bool:
+    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool) and not math.isnan(v)
+
+
+def _finite(v: Any) -> bool:
+    return _is_num(v) and math.isfinite(v)
+
+
+@dataclass(frozen=True)
+class CirclesParams(MethodParams):
+    """Parameters of the concentric-circles detector (Seedahmed, seed 003).
+
+    The seed gives the model (two concentric circles, eq. 2) and the steps (section 5), not the tuning values:
+    the defaults are ours, documented with the module constants they come from.
+
+    Examples
+    --------
+    >>> CirclesParams(radii=[9, 10]).radii
+    (9.0, 10.0)
+    >>> CirclesParams(radii=(5.0,))
+    Traceback (most recent call last):
+    ...
+    ValueError: radii must be None or two or more positive numbers (px), not (5.0,)
+    """
+
+    radii: tuple[float, ...] | None = None
+    """The circles' radii in px (``(R_1, R_2)``, seed eq. 2, e.g. the inner and outer edge of a Wild RC10
+    ring), or None to estimate them from the mark (the ``n_circles`` best-supported circles)."""
+    n_circles: int = N_CIRCLES
+    """Circles to adjust when estimating the radii (the seed's model, eq. 2, has two)."""
+    canny_sigma: float = CANNY_SIGMA
+    """Canny's operator (seed 5), see :data:`CANNY_SIGMA` and :func:`edges`."""
+    canny_high: float = CANNY_HIGH
+    """See :data:`CANNY_HIGH`."""
+    canny_low_ratio: float = CANNY_LOW_RATIO
+    """Canny's low hysteresis threshold as a fraction of the high one."""
+    min_radius: float = MIN_RADIUS
+    """Smallest radius (px) when estimating the radii (:data:`MIN_RADIUS`)."""
+    max_radius: float | None = None
+    """Largest radius (px) when estimating the radii; None: half the window's smaller side."""
+    dehough_tol: float = DEHOUGH_TOL
+    """De-Houghing (seed 5), see :data:`DEHOUGH_TOL` and :func:`de_hough`."""
+    radial_cos: float = RADIAL_COS
+    """See :data:`RADIAL_COS`."""
+    min_coverage: float = MIN_COVERAGE
+    """Fraction of each circle's circumference that must carry edge points (:data:`MIN_COVERAGE`)."""
+    concentric_tol: float = CONCENTRIC_TOL
+    """Px (plus 3 sigma) by which the circles' separately fitted centres may differ (:data:`CONCENTRIC_TOL`)."""
+    competitor_ratio: float = COMPETITOR_RATIO
+    """A second centre peak this strong relative to the chosen one makes it ambiguous (:data:`COMPETITOR_RATIO`)."""
+    radius_tol: float = RADIUS_TOL
+    """Given radii are searched over +/- this many px (:data:`RADIUS_TOL`)."""
+    max_rms_ratio: float = MAX_RMS_RATIO
+    """Largest edge residual RMS, in multiples of what the noise explains (:data:`MAX_RMS_RATIO`)."""
+    fix_radii: bool = False
+    """Adjust with the radii fixed to ``radii`` (the seed's "known radius" model, section 3) instead of free.
+    Free is the default because scanned radii differ from the nominal ones by the scan scale and the edge
+    operator's blur."""
+
+    def __post_init__(self) -> None:
+        if self.radii is not None and isinstance(self.radii, list | tuple | np.ndarray):
+            object.__setattr__(self, "radii", tuple(float(r) for r in self.radii))
+        super().__post_init__()
+
+    def validate(self) -> None:
+        """One-line ``ValueError`` for a value no later step could use."""
+        r = self.radii
+        check(r is None or (isinstance(r, tuple) and len(r) >= 2 and all(_finite(v) and v > 0 for v in r)),
+              f"radii must be None or two or more positive numbers (px), not {r!r}")
+        check(isinstance(self.n_circles, int | np.integer) and not isinstance(self.n_circles, bool)
+              and self.n_circles >= 2, f"n_circles must be an integer >= 2, not {self.n_circles!r}")
+        for name in ("canny_sigma", "radius_tol", "concentric_tol"):
+            v = getattr(self, name)
+            check(_finite(v) and v >= 0, f"{name} must be a finite number >= 0, not {v!r}")
+        for name in ("canny_high", "min_radius", "dehough_tol", "competitor_ratio", "max_rms_ratio"):
+            v = getattr(self, name)
+            check(_finite(v) and v > 0, f"{name} must be a finite number > 0, not {v!r}")
+        for name in ("canny_low_ratio", "radial_cos", "min_coverage"):
+            v = getattr(self, name)
+            check(_finite(v) and 0 <= v <= 1, f"{name} must be in [0, 1], not {v!r}")
+        check(self.max_radius is None or (_finite(self.max_radius) and self.max_radius > self.min_radius),
+              f"max_radius must be None or a number > min_radius ({self.min_radius}), not {self.max_radius!r}")
+        check(isinstance(self.fix_radii, bool | np.bool_), f"fix_radii must be True or False, not {self.fix_radii!r}")
+        check(not self.fix_radii or r is not None, "fix_radii=True needs the radii")
+
+
+DEFAULT = CirclesParams()
+
+
+def _diag(default: Any = None) -> Any:
+    """A diagnostic field of a result: not compared (it may hold arrays), not in the repr."""
+    return field(default=default, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class CirclesResult(Detection):
+    """The circles detector's answer with its intermediate results (window pixels); a field stays at its
+    default when the detector stopped before that step."""
+
+    noise: float = _diag(float("nan"))
+    """The window's effective grey-level noise (:func:`edges`)."""
+    edge_points: EdgePoints | None = _diag()
+    """Canny's edges with sub-pixel positions (step 1)."""
+    accumulator: np.ndarray | None = _diag()
+    """The Hough space of the given radii, added (step 2), or the radius-free centre votes."""
+    centre_votes: np.ndarray | None = _diag()
+    """The radius-free centre votes (:func:`hough_centres`), smoothed."""
+    peaks: tuple[tuple[float, float, float], ...] = _diag(())
+    """Given radii: each radius's Hough peak (x, y, votes)."""
+    circles: tuple[tuple[float, float, float], ...] = _diag(())
+    """The adjusted circles (x0, y0, R) (step 4)."""
+    points: np.ndarray | None = _diag()
+    """The de-Houghed edge points (n, 2) as (x, y) (step 3) ..."""
+    labels: np.ndarray | None = _diag()
+    """... and the circle each belongs to."""
+    fit: CircleFit | None = _diag()
+    """The Gauss-Helmert adjustment of the concentric circles (step 4)."""
+    coverage: tuple[float, ...] = _diag(())
+    """Fraction of each circle's circumference holding edge points."""
+    concentricity: tuple[float, float] | None = _diag()
+    """Largest distance between the circles' separately fitted centres, and its standard deviation."""
+    competitor: tuple[float, float, float, float] | None = _diag()
+    """A competing circle (x, y, R, coverage), if any."""
+    expected_rms: float = _diag(float("nan"))
+    """The edge scatter the noise explains (:func:`_expected_edge_rms`)."""
+    score_parts: Mapping[str, float] | None = _diag()
+    """The score's parts: ``coverage``, ``fit``, ``concentric``."""
+
+    @property
+    def extent(self) -> float | None:
+        """The mark's radius: the largest adjusted circle's, plus one pixel."""
+        return float(max(r for _, _, r in self.circles) + 1.0) if self.circles else None
+
+    def plot(self, fig: Figure, window: np.ndarray) -> None:
+        """The window with the edge points (those on the circles coloured by circle), the adjusted circles and
+        the centre."""
+        ax = fig.add_subplot(1, 1, 1)
+        ax.imshow(window, cmap="gray", interpolation="nearest")
+        if self.edge_points is not None:
+            ax.plot(self.edge_points.x, self.edge_points.y, ",", color="tab:blue")
+        if self.points is not None and self.labels is not None:
+            ax.scatter(self.points[:, 0], self.points[:, 1], s=2, c=self.labels, cmap="autumn")
+        t = np.linspace(0, 2 * np.pi, 181)
+        for x0, y0, r in self.circles:
+            ax.plot(x0 + r * np.cos(t), y0 + r * np.sin(t), color="tab:green", lw=0.8)
+        if self.found:
+            ax.plot([self.x - self.origin[0]], [self.y - self.origin[1]], "+", color="orange", ms=14, mew=2)
+            ax.set_title(f"circles: ({self.x:.3f}, {self.y:.3f}) sigma {self.sigma:.3f} px", fontsize=9)
+        else:
+            ax.set_title(f"circles: {self.reason}"[:90], fontsize=8)
+
+
+class _Failure(Exception):
+    """Internal: a step could not go on; carries the reason for ``not_found``."""
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
+@dataclass
+class _Trace:
+    """Internal: the intermediate results gathered so far (the diagnostic fields of :class:`CirclesResult`)."""
+
+    noise: float = float("nan")
+    edge_points: EdgePoints | None = None
+    accumulator: np.ndarray | None = None
+    centre_votes: np.ndarray | None = None
+    peaks: tuple[tuple[float, float, float], ...] = ()
+    circles: tuple[tuple[float, float, float], ...] = ()
+    points: np.ndarray | None = None
+    labels: np.ndarray | None = None
+    fit: CircleFit | None = None
+    coverage: tuple[float, ...] = ()
+    concentricity: tuple[float, float] | None = None
+    competitor: tuple[float, float, float, float] | None = None
+    expected_rms: float = float("nan")
+    score_parts: Mapping[str, float] | None = None
+
+    def fields(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
 # --- the detector ---------------------------------------------------------------------------------------
 
-def detect(window: np.ndarray, radii: tuple[float, float] | None = None, *, n_circles: int = N_CIRCLES,
-           canny_sigma: float = CANNY_SIGMA, canny_high: float = CANNY_HIGH,
-           canny_low_ratio: float = CANNY_LOW_RATIO, min_radius: float = MIN_RADIUS,
-           max_radius: float | None = None, dehough_tol: float = DEHOUGH_TOL, radial_cos: float = RADIAL_COS,
-           min_coverage: float = MIN_COVERAGE, concentric_tol: float = CONCENTRIC_TOL,
-           competitor_ratio: float = COMPETITOR_RATIO, radius_tol: float = RADIUS_TOL,
-           max_rms_ratio: float = MAX_RMS_RATIO,
-           fix_radii: bool = False) -> Detection:
+def detect(window: np.ndarray, params: CirclesParams = DEFAULT, **overrides: Any) -> CirclesResult:
     """Centre of a mark made of concentric circles (Seedahmed, seed 003), in window pixels.
 
-    Args:
-        window: 2-D float32 grey levels on [0, 1], the mark brighter than its ground.
-        radii: the circles' radii in px (``(R_1, R_2)``, seed eq. 2, e.g. the inner and outer edge of a Wild
-            RC10 ring), or None to estimate them from the mark (the ``n_circles`` best-supported circles).
-        n_circles: circles to adjust when estimating the radii (the seed's model has two).
-        canny_sigma, canny_high, canny_low_ratio: Canny's operator, see :func:`edges`.
-        min_radius, max_radius: radius search range when estimating (default max: half the window).
-        dehough_tol, radial_cos: de-Houghing, see :func:`de_hough`.
-        min_coverage: fraction of each circle's circumference that must carry edge points.
-        concentric_tol: px (plus 3 sigma) by which the circles' separately fitted centres may differ.
-        competitor_ratio: a second centre peak this strong relative to the chosen one makes it ambiguous.
-        radius_tol: given radii are searched over +/- this many px.
-        max_rms_ratio: largest edge residual RMS, in multiples of what the noise explains.
-        fix_radii: adjust with the radii fixed to ``radii`` (the seed's "known radius" model) instead of free.
-            Free is the default because scanned radii differ from the nominal ones by the scan scale and
-            the edge operator's blur.
+    Parameters
+    ----------
+    window : ndarray
+        2-D float32 grey levels on [0, 1], the mark brighter than its ground.
+    params : CirclesParams
+        The method's parameters.
+    **overrides
+        TRANSITIONAL (issue 8): parameter overrides, ``params.replace(**overrides)``; to be removed once every
+        caller passes ``params``.
 
-    Returns:
-        Detection with ``method="circles"``: the adjusted common centre, ``sigma`` = mean of its two standard
-        deviations from the adjustment (times sqrt(``EDGE_CORRELATION``)), and ``score`` = min(circumference support / 0.9, fit quality,
-        concentricity); diagnostics ``edges``, ``accumulator``, ``centre_votes``, ``circles``
-        [(x0, y0, R)], ``points``, ``labels``, ``fit``.
+    Returns
+    -------
+    CirclesResult
+        The adjusted common centre, ``sigma`` = mean of its two standard deviations from the adjustment (times
+        sqrt(``EDGE_CORRELATION``)), ``score`` = min(circumference support / 0.9, fit quality, concentricity),
+        and the intermediate results as typed fields; ``extent`` is the largest circle's radius + 1 px. A window
+        without two concentric circles gives ``status="not_found"`` with the reason.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("bullseye", 30, window=60, rng=np.random.default_rng(1))
+    >>> d = detect(scene.image)
+    >>> d.found, bool(np.hypot(d.x - scene.marks[0].x, d.y - scene.marks[0].y) < 0.05), len(d.circles)
+    (True, True, 2)
     """
+    p = params.replace(**overrides) if overrides else params
     w = np.asarray(window, np.float32)
     bad = unusable_window(w)
     if bad is not None:
-        return not_found(METHOD, bad)
+        return CirclesResult.not_found(METHOD, bad)
+    t = _Trace()
+    try:
+        cx, cy, sigma, score = _run(w, p, t)
+    except _Failure as f:
+        return CirclesResult.not_found(METHOD, f.reason, **t.fields())
+    return CirclesResult(status=FOUND, x=cx, y=cy, score=score, sigma=sigma, method=METHOD, **t.fields())
+
+
+def _run(w: np.ndarray, p: CirclesParams, t: _Trace) -> tuple[float, float, float, float]:
+    """The steps of seed 003 section 5 and the checks; fills ``t``; returns (x, y, sigma, score)."""
     h, wd = w.shape
-    ep = edges(w, canny_sigma, canny_high, canny_low_ratio)
-    diag: dict = {"edges": ep.edge_map, "noise": ep.noise}
+    ep = edges(w, p.canny_sigma, p.canny_high, p.canny_low_ratio)
+    t.edge_points, t.noise = ep, ep.noise
     if ep.x.size < 12:
-        return not_found(METHOD, f"too few edge pixels ({ep.x.size}) for circles", **diag)
-    r_max = float(max_radius) if max_radius is not None else 0.5 * min(h, wd)
-    if radii is not None:
-        radii = tuple(float(r) for r in radii)
-        if len(radii) < 2 or min(radii) <= 0:
-            return not_found(METHOD, "radii must be two or more positive numbers (px)", **diag)
+        raise _Failure(f"too few edge pixels ({ep.x.size}) for circles")
+    r_max = float(p.max_radius) if p.max_radius is not None else 0.5 * min(h, wd)
+    cx, cy, radii, votes = _hough_start(ep, p, r_max, (h, wd), t)
+    fit, lab = _adjust(ep, cx, cy, radii, p, t)
+    if not (0 <= fit.x0 <= wd - 1 and 0 <= fit.y0 <= h - 1):
+        raise _Failure("the adjusted centre lies outside the window")
+    if max(fit.radii) > 0.5 * max(h, wd) * 1.5:
+        raise _Failure("the adjusted circles are larger than the window")
+    cx, cy, radii = fit.x0, fit.y0, list(fit.radii)
+    cover = _check_coverage(ep, lab, cx, cy, radii, p, t)
+    sep, s_sep = _check_concentric(ep, lab, cx, cy, radii, p, t)
+    _check_other_circles(ep, lab, fit, r_max, p)
+    t.competitor = comp = _competitor(w, ep, votes, cx, cy, radii, lab, p.min_radius, r_max, p.competitor_ratio,
+                                      p.min_coverage, p.radial_cos)
+    if comp is not None:
+        ox, oy, rr, cov_o = comp
+        raise _Failure(f"another circle (radius {rr:.1f} px, {cov_o:.0%} of it) centred at ({ox:.1f}, {oy:.1f}) "
+                       f"competes with ({cx:.1f}, {cy:.1f}): circles not concentric or more than one mark")
+    t.expected_rms = expected = _expected_edge_rms(ep, lab, p.canny_sigma)
+    if fit.sigma0 > p.max_rms_ratio * expected:
+        raise _Failure(f"the edge points scatter {fit.sigma0:.2f} px about the adjusted circles, "
+                       f"{fit.sigma0 / expected:.1f} times what the noise explains: not a clean pair of "
+                       f"concentric circles")
+    sx, sy = fit.sigma_xy
+    # score: circumference support, fit quality (edge residual RMS vs what the noise explains), concentricity
+    t.score_parts = parts = {"coverage": min(1.0, min(cover) / 0.9),
+                             "fit": float(min(1.0, 2.0 * expected / max(fit.sigma0, 1e-9))),
+                             "concentric": float(np.exp(-0.5 * (sep / (p.concentric_tol / 2 + 3 * s_sep)) ** 2))}
+    score = float(np.clip(min(parts.values()), 0.0, 1.0))
+    return float(cx), float(cy), float(0.5 * (sx + sy) * np.sqrt(EDGE_CORRELATION)), score
+
+
+def _hough_start(ep: EdgePoints, p: CirclesParams, r_max: float, shape: tuple[int, int],
+                 t: _Trace) -> tuple[float, float, list[float], np.ndarray]:
+    """Step 2: the approximate centre and radii. Given radii: the peak of their Hough spaces added
+    (:func:`hough_circles`, each over +/- ``p.radius_tol``), which must agree with each radius's own peak
+    (concentric circles share the centre); else the peak of the radius-free votes (:func:`hough_centres`) and
+    the radii from the edge distances to it (:func:`estimate_radii`). Returns (x, y, radii, smoothed votes)."""
+    h, wd = shape
+    if p.radii is not None:
+        radii = p.radii
         # the Hough space of each known radius, over radius_tol px around it (scan scale, the edge operator's
         # blur moves the edges of a thin ring apart); the concentric circles' spaces are added
         per_acc = [sum(hough_circles(ep.x, ep.y, q, (h, wd))
-                       for q in np.arange(max(1.0, r - radius_tol), r + radius_tol + 0.01, 0.5)) for r in radii]
-        acc = sum(per_acc)
+                       for q in np.arange(max(1.0, r - p.radius_tol), r + p.radius_tol + 0.01, 0.5)) for r in radii]
+        t.accumulator = acc = sum(per_acc)
         cx, cy, _ = _peak(_smooth(acc))
-        # separate peaks of each radius: concentric circles share the centre
-        per = [_peak(_smooth(a)) for a in per_acc]
-        diag["peaks"] = per
-        diag["accumulator"] = acc
+        t.peaks = per = tuple(_peak(_smooth(a)) for a in per_acc)
         vote_range = (max(1.5, min(radii) - 2.0), max(radii) + 2.0)
     else:
-        vote_range = (min_radius, r_max)
-    votes = _smooth(hough_centres(ep, vote_range[0], vote_range[1], (h, wd)))
-    diag["centre_votes"] = votes
-    if radii is None:
+        vote_range = (p.min_radius, r_max)
+    t.centre_votes = votes = _smooth(hough_centres(ep, vote_range[0], vote_range[1], (h, wd)))
+    if p.radii is None:
         cx, cy, _ = _peak(votes)
-        diag["accumulator"] = votes
-        found = estimate_radii(ep, cx, cy, min_radius, r_max, n_circles, radial_cos=radial_cos,
-                               min_coverage=min_coverage)
+        t.accumulator = votes
+        found = estimate_radii(ep, cx, cy, p.min_radius, r_max, p.n_circles, radial_cos=p.radial_cos,
+                               min_coverage=p.min_coverage)
         if len(found) < 2:
-            return not_found(METHOD, f"fewer than two circles centred at the Hough peak ({cx:.0f}, {cy:.0f})",
-                             **diag)
-        use_radii = [r for r, _ in found]
+            raise _Failure(f"fewer than two circles centred at the Hough peak ({cx:.0f}, {cy:.0f})")
     else:
         spread = max(np.hypot(px - cx, py - cy) for px, py, _ in per)
         if spread > max(4.0, 0.2 * min(radii)):
-            return not_found(METHOD, f"the circles of radii {radii} peak {spread:.1f} px apart: not concentric",
-                             **diag)
-        found = estimate_radii(ep, cx, cy, 1.0, max(radii) + 3, near=radii, radial_cos=radial_cos)
-        use_radii = [r for r, _ in found]
+            raise _Failure(f"the circles of radii {radii} peak {spread:.1f} px apart: not concentric")
+        found = estimate_radii(ep, cx, cy, 1.0, max(radii) + 3, near=radii, radial_cos=p.radial_cos)
+    return cx, cy, [r for r, _ in found], votes
 
-    # de-Houghing and adjustment, twice (the second time with the adjusted centre and radii)
+
+def _adjust(ep: EdgePoints, cx: float, cy: float, radii: list[float], p: CirclesParams,
+            t: _Trace) -> tuple[CircleFit, np.ndarray]:
+    """Steps 3-4: de-Houghing (:func:`de_hough`) and the Gauss-Helmert adjustment
+    (:func:`fit_concentric_circles`), twice (the second time about the adjusted centre and radii, with a
+    tolerance of at most 1 px); returns the fit and the circle of each edge point about its centre (-1: none)."""
     fit = None
-    for tol_i in (dehough_tol, min(dehough_tol, 1.0)):
-        lab = de_hough(ep, cx, cy, use_radii, tol_i, radial_cos)
+    for tol_i in (p.dehough_tol, min(p.dehough_tol, 1.0)):
+        lab = de_hough(ep, cx, cy, radii, tol_i, p.radial_cos)
         sel = lab >= 0
-        if any((lab == j).sum() < 5 for j in range(len(use_radii))):
-            return not_found(METHOD, "a circle has fewer than 5 edge points after de-Houghing", **diag)
-        fit = fit_concentric_circles(ep.x[sel], ep.y[sel], lab[sel], tuple(radii) if fix_radii else tuple(use_radii),
-                                     (cx, cy), fix_radii=fix_radii)
+        if any((lab == j).sum() < 5 for j in range(len(radii))):
+            raise _Failure("a circle has fewer than 5 edge points after de-Houghing")
+        start = tuple(p.radii) if p.fix_radii and p.radii is not None else tuple(radii)
+        fit = fit_concentric_circles(ep.x[sel], ep.y[sel], lab[sel], start, (cx, cy), fix_radii=p.fix_radii)
         if fit is None or not np.isfinite([fit.x0, fit.y0]).all():
-            return not_found(METHOD, "the concentric-circles adjustment did not converge", **diag)
+            raise _Failure("the concentric-circles adjustment did not converge")
         cx, cy = fit.x0, fit.y0
-        use_radii = list(fit.radii)
-    lab = de_hough(ep, cx, cy, use_radii, min(dehough_tol, 1.0), radial_cos)
+        radii = list(fit.radii)
+    assert fit is not None
+    lab = de_hough(ep, cx, cy, radii, min(p.dehough_tol, 1.0), p.radial_cos)
     sel = lab >= 0
-    diag.update(points=np.column_stack([ep.x[sel], ep.y[sel]]), labels=lab[sel], fit=fit,
-                circles=[(fit.x0, fit.y0, r) for r in fit.radii])
-    if not (0 <= fit.x0 <= wd - 1 and 0 <= fit.y0 <= h - 1):
-        return not_found(METHOD, "the adjusted centre lies outside the window", **diag)
-    if max(fit.radii) > 0.5 * max(h, wd) * 1.5:
-        return not_found(METHOD, "the adjusted circles are larger than the window", **diag)
+    t.points, t.labels, t.fit = np.column_stack([ep.x[sel], ep.y[sel]]), lab[sel], fit
+    t.circles = tuple((fit.x0, fit.y0, r) for r in fit.radii)
+    return fit, lab
 
-    # support on the circumference (also catches circles cut by the window edge)
-    cover = [_coverage(ep.x[lab == j], ep.y[lab == j], cx, cy) for j in range(len(use_radii))]
-    diag["coverage"] = cover
-    if min(cover) < min_coverage:
+
+def _check_coverage(ep: EdgePoints, lab: np.ndarray, cx: float, cy: float, radii: list[float], p: CirclesParams,
+                    t: _Trace) -> list[float]:
+    """Support on the circumference: each circle must hold edge points in ``p.min_coverage`` of its
+    :data:`N_SECTORS` sectors (this also catches circles cut by the window edge)."""
+    cover = [_coverage(ep.x[lab == j], ep.y[lab == j], cx, cy) for j in range(len(radii))]
+    t.coverage = tuple(cover)
+    if min(cover) < p.min_coverage:
         j = int(np.argmin(cover))
-        return not_found(METHOD, f"circle of radius {use_radii[j]:.1f} px has edges on only {cover[j]:.0%} of "
-                                 f"its circumference (cut by the window edge, or not a circle)", **diag)
-    # concentricity: each circle fitted on its own
-    # (each circle's edge points are taken in a band of up to SINGLE_BAND px about it, short of the other
-    # circles, and selected again about its own adjusted centre, SINGLE_PASSES times: a thin ring offset by a
-    # pixel or two, whose edges the narrow de-Houghing about the common centre only half selects, moves to
-    # its own centre)
-    singles = []
-    for j in range(len(use_radii)):
-        gap = min((abs(use_radii[j] - r) for k, r in enumerate(use_radii) if k != j), default=2 * SINGLE_BAND)
-        band = max(min(dehough_tol, 1.0), min(SINGLE_BAND, 0.5 * gap - 0.25))
-        m = lab == j
-        fj = None
-        for _ in range(SINGLE_PASSES):
-            fj = fit_concentric_circles(ep.x[m], ep.y[m], np.zeros(int(m.sum()), int),
-                                        (use_radii[j] if fj is None else fj.radii[0],),
-                                        (cx, cy) if fj is None else (fj.x0, fj.y0))
-            if fj is None or not np.isfinite([fj.x0, fj.y0]).all():
-                return not_found(METHOD, f"circle {j} could not be adjusted on its own", **diag)
-            m = de_hough(ep, fj.x0, fj.y0, [fj.radii[0]], band, radial_cos) == 0
-            if m.sum() < 5:
-                return not_found(METHOD, f"circle {j} could not be adjusted on its own", **diag)
-        singles.append(fj)
-    sep = max(np.hypot(a.x0 - b.x0, a.y0 - b.y0) for i, a in enumerate(singles) for b in singles[i + 1:])
-    s_sep = max(np.sqrt(a.cov[0, 0] + a.cov[1, 1] + b.cov[0, 0] + b.cov[1, 1])
-                for i, a in enumerate(singles) for b in singles[i + 1:])
-    diag["concentricity"] = (sep, s_sep)
-    if sep > concentric_tol + 3 * s_sep:
-        return not_found(METHOD, f"the circles' centres differ by {sep:.2f} px: not concentric", **diag)
-    # every other well-supported circle around the centre must share it (a pair of rings offset by a pixel
-    # or two passes the Hough and coverage tests)
-    rest_idx = np.nonzero(lab < 0)[0]
-    if rest_idx.size >= 8:
-        rest = EdgePoints(ep.x[rest_idx], ep.y[rest_idx], ep.nx[rest_idx], ep.ny[rest_idx], ep.mag[rest_idx],
-                          ep.col[rest_idx], ep.row[rest_idx], ep.edge_map, ep.noise)
-        for r_o, cov_o in estimate_radii(rest, cx, cy, min_radius, r_max, 3, radial_cos=radial_cos,
-                                         min_coverage=min_coverage):
-            if cov_o < min_coverage:
-                continue
-            lo = de_hough(rest, cx, cy, [r_o], dehough_tol, radial_cos) == 0
-            fo = fit_concentric_circles(rest.x[lo], rest.y[lo], np.zeros(int(lo.sum()), int), (r_o,), (cx, cy))
-            if fo is None:
-                continue
-            d_o = float(np.hypot(fo.x0 - cx, fo.y0 - cy))
-            s_o = float(np.sqrt(fo.cov[0, 0] + fo.cov[1, 1] + fit.cov[0, 0] + fit.cov[1, 1]))
-            if d_o > concentric_tol + 3 * s_o:
-                return not_found(METHOD, f"another circle (radius {fo.radii[0]:.1f} px) is centred {d_o:.2f} px "
-                                         f"away: circles not concentric", **diag)
-    # competing circular structure elsewhere in the window: a strong centre peak away from ours around which
-    # edge points that are not on our circles form a well-supported circle (e.g. two non-concentric rings)
-    comp = _competitor(w, ep, votes, cx, cy, use_radii, lab, min_radius, r_max, competitor_ratio, min_coverage,
-                       radial_cos)
-    diag["competitor"] = comp
-    if comp is not None:
-        ox, oy, rr, cov_o = comp
-        return not_found(METHOD, f"another circle (radius {rr:.1f} px, {cov_o:.0%} of it) centred at ({ox:.1f}, "
-                                 f"{oy:.1f}) competes with ({cx:.1f}, {cy:.1f}): circles not concentric or more "
-                                 f"than one mark", **diag)
+        raise _Failure(f"circle of radius {radii[j]:.1f} px has edges on only {cover[j]:.0%} of "
+                       f"its circumference (cut by the window edge, or not a circle)")
+    return cover
 
-    expected = _expected_edge_rms(ep, lab, canny_sigma)
-    if fit.sigma0 > max_rms_ratio * expected:
-        return not_found(METHOD, f"the edge points scatter {fit.sigma0:.2f} px about the adjusted circles, "
-                                 f"{fit.sigma0 / expected:.1f} times what the noise explains: not a clean pair of "
-                                 f"concentric circles", **diag)
-    sx, sy = fit.sigma_xy
-    sigma = 0.5 * (sx + sy) * np.sqrt(EDGE_CORRELATION)
-    # score: circumference support, fit quality (edge residual RMS vs what the noise explains), concentricity
-    s_cover = min(1.0, min(cover) / 0.9)
-    s_fit = float(min(1.0, 2.0 * expected / max(fit.sigma0, 1e-9)))
-    s_conc = float(np.exp(-0.5 * (sep / (concentric_tol / 2 + 3 * s_sep)) ** 2))
-    score = float(np.clip(min(s_cover, s_fit, s_conc), 0.0, 1.0))
-    diag.update(score_parts={"coverage": s_cover, "fit": s_fit, "concentric": s_conc}, expected_rms=expected)
-    return Detection(status=FOUND, x=float(cx), y=float(cy), score=score, sigma=float(sigma), method=METHOD,
-                     diagnostics=diag)
+
+def _check_concentric(ep: EdgePoints, lab: np.ndarray, cx: float, cy: float, radii: list[float],
+                      p: CirclesParams, t: _Trace) -> tuple[float, float]:
+    """Concentricity: each circle adjusted on its own (:func:`fit_single_circle`); their centres may differ by
+    at most ``p.concentric_tol`` px plus three standard deviations. Returns (largest distance, its sigma)."""
+    singles = [fit_single_circle(ep, lab == j, cx, cy, j, radii, p) for j in range(len(radii))]
+    pairs = [(a, b) for i, a in enumerate(singles) for b in singles[i + 1:]]
+    sep = max(float(np.hypot(a.x0 - b.x0, a.y0 - b.y0)) for a, b in pairs)
+    s_sep = max(float(np.sqrt(a.cov[0, 0] + a.cov[1, 1] + b.cov[0, 0] + b.cov[1, 1])) for a, b in pairs)
+    t.concentricity = (sep, s_sep)
+    if sep > p.concentric_tol + 3 * s_sep:
+        raise _Failure(f"the circles' centres differ by {sep:.2f} px: not concentric")
+    return sep, s_sep
+
+
+def fit_single_circle(ep: EdgePoints, members: np.ndarray, cx: float, cy: float, j: int, radii: list[float],
+                      p: CirclesParams = DEFAULT) -> CircleFit:
+    """Circle ``j`` of ``radii`` adjusted on its own, from its de-Houghed edge points ``members`` about the
+    common centre (cx, cy): its edge points are selected again about its own adjusted centre
+    :data:`SINGLE_PASSES` times, in a band of up to :data:`SINGLE_BAND` px about it, short of the other circles
+    (a thin ring offset by a pixel or two, whose edges the narrow de-Houghing about the common centre only half
+    selects, moves to its own centre)."""
+    gap = min((abs(radii[j] - r) for k, r in enumerate(radii) if k != j), default=2 * SINGLE_BAND)
+    band = max(min(p.dehough_tol, 1.0), min(SINGLE_BAND, 0.5 * gap - 0.25))
+    m = members
+    fj = None
+    for _ in range(SINGLE_PASSES):
+        fj = fit_concentric_circles(ep.x[m], ep.y[m], np.zeros(int(m.sum()), int),
+                                    (radii[j] if fj is None else fj.radii[0],),
+                                    (cx, cy) if fj is None else (fj.x0, fj.y0))
+        if fj is None or not np.isfinite([fj.x0, fj.y0]).all():
+            raise _Failure(f"circle {j} could not be adjusted on its own")
+        m = de_hough(ep, fj.x0, fj.y0, [fj.radii[0]], band, p.radial_cos) == 0
+        if m.sum() < 5:
+            raise _Failure(f"circle {j} could not be adjusted on its own")
+    assert fj is not None
+    return fj
+
+
+def _subset(ep: EdgePoints, sel: np.ndarray) -> EdgePoints:
+    """The edge points ``sel`` (the edge map and noise of all)."""
+    return EdgePoints(ep.x[sel], ep.y[sel], ep.nx[sel], ep.ny[sel], ep.mag[sel], ep.col[sel], ep.row[sel],
+                      ep.edge_map, ep.noise)
+
+
+def _check_other_circles(ep: EdgePoints, lab: np.ndarray, fit: CircleFit, r_max: float, p: CirclesParams) -> None:
+    """Every other well-supported circle around the centre, among the edge points on none of ours, must share
+    it (a pair of rings offset by a pixel or two passes the Hough and coverage tests)."""
+    rest_idx = np.nonzero(lab < 0)[0]
+    if rest_idx.size < 8:
+        return
+    cx, cy = fit.x0, fit.y0
+    rest = _subset(ep, rest_idx)
+    for r_o, cov_o in estimate_radii(rest, cx, cy, p.min_radius, r_max, 3, radial_cos=p.radial_cos,
+                                     min_coverage=p.min_coverage):
+        if cov_o < p.min_coverage:
+            continue
+        lo = de_hough(rest, cx, cy, [r_o], p.dehough_tol, p.radial_cos) == 0
+        fo = fit_concentric_circles(rest.x[lo], rest.y[lo], np.zeros(int(lo.sum()), int), (r_o,), (cx, cy))
+        if fo is None:
+            continue
+        d_o = float(np.hypot(fo.x0 - cx, fo.y0 - cy))
+        s_o = float(np.sqrt(fo.cov[0, 0] + fo.cov[1, 1] + fit.cov[0, 0] + fit.cov[1, 1]))
+        if d_o > p.concentric_tol + 3 * s_o:
+            raise _Failure(f"another circle (radius {fo.radii[0]:.1f} px) is centred {d_o:.2f} px "
+                           f"away: circles not concentric")
 
 
 def _competitor(window: np.ndarray, ep: EdgePoints, votes: np.ndarray, cx: float, cy: float, radii: list[float],
@@ -678,8 +910,7 @@ def _competitor(window: np.ndarray, ep: EdgePoints, votes: np.ndarray, cx: float
     others = lab < 0
     if others.sum() < 8:
         return None
-    rest = EdgePoints(ep.x[others], ep.y[others], ep.nx[others], ep.ny[others], ep.mag[others],
-                      ep.col[others], ep.row[others], ep.edge_map, ep.noise)
+    rest = _subset(ep, others)
     for i in order:
         oy, ox = float(pk[0][i]), float(pk[1][i])
         found = estimate_radii(rest, ox, oy, r_min, r_max, 1, radial_cos=radial_cos)

@@ -5,11 +5,13 @@ The procedure of seed 004 (section 2, figure 2, and section 4) on one window:
 1. **Binary image by local dynamic thresholding** -- a bimodal threshold per local 8 x 8 region
    (:func:`aerofid.detect.threshold.local_dynamic_threshold`), "two classes (foreground and background)".
 2. **Hough transform of the foreground pixels** in the polar form ``rho = x cos(theta) + y sin(theta)``
-   (seed eq. 3), ``0 <= theta < 180`` degrees (eq. 5) (:func:`hough_lines`).
+   (seed eq. 3), ``0 <= theta < 180`` degrees (eq. 5) (:func:`hough_transform`, the package's one accumulator
+   :func:`aerofid.detect.hough_lines.accumulate`).
 3. **Two peaks**, one per direction of the mark: the strongest cell, and the strongest cell whose direction
    differs from it by at least ``min_angle`` ("with proper selection of theta, the noise element was able to be
    removed") -- "two peaks represented in accumulator array are mapped into two straight lines".
-4. **Intersection of the lines** = the centre ("we calculated the intersection of the lines").
+4. **Intersection of the lines** = the centre ("we calculated the intersection of the lines";
+   :func:`aerofid.detect.hough_lines.intersection`).
 
 The seed stops at the Hough cell (its centres in Table 2 are on a half-pixel grid). To reach a fraction of a
 pixel, each line is then refined (:func:`fit_line`) by a grey-value weighted least-squares fit of the pixels in
@@ -21,71 +23,127 @@ two fitted lines is the centre, its covariance propagated from the two fitted of
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 
+from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import point_asymmetry
+from aerofid.detect.hough.params import is_int, number_in
+from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
 from aerofid.detect.noise import difference_noise_sigma
-from aerofid.detect.result import FOUND, Detection, not_found, unusable_window
+from aerofid.detect.params import MethodParams, check
+from aerofid.detect.result import Detection, unusable_window
 from aerofid.detect.threshold import local_dynamic_threshold
 from aerofid.robust import robust_std
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 METHOD = "lines"
 
-REGION = 8
-"""Local region (px) of the bimodal threshold (seed 004 section 4: "the size of local region to estimate
-bimodal approximation was 8x8")."""
+MIN_FOREGROUND = 10
+"""Fewest foreground pixels of the binary image for a Hough transform."""
+MAX_HOUGH_SHIFT = 3.0
+"""The least-squares lines may move the intersection at most this far (px, per axis) from the Hough lines'."""
+CONVERGED = 1e-3
+"""The refinement stops when the intersection moves less than this (px)."""
+SLICE_LENGTH = 8.0
+"""Length (px) along the line of each stretch whose background plane is fitted separately."""
 
-THETA_STEP = 0.5
-"""Hough angle step in degrees over 0 <= theta < 180 (seed 004 eq. 5)."""
 
-RHO_STEP = 1.0
-"""Hough distance step in px (seed 004 eq. 4: 0 < rho < sqrt(M1^2 + M2^2), here signed)."""
+@dataclass(frozen=True)
+class LinesParams(MethodParams):
+    """Parameters of the ``lines`` method (Sohn et al., seed 004, section 4; the sub-pixel refinement and the
+    checks beyond the seed).
 
-MIN_ANGLE = 45.0
-"""Smallest angle (degrees) between the two lines; the second peak is searched this far from the first.
-Fiducial crosses cross at 60-90 degrees; a band (the frame under a blurred Zeiss notch) is centrally symmetric
-about any point of its midline, and its edges with the notch's corners gave 36-degree crossings that passed
-every other check (5 of 20 strongly blurred notch marks, 13-16 px off)."""
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("cross", 30, width=2.0, window=56, rng=np.random.default_rng(3))
+    >>> r = detect(scene.image, LinesParams())
+    >>> r.found, bool(np.hypot(r.x - scene.marks[0].x, r.y - scene.marks[0].y) < 0.1), len(r.lines)
+    (True, True, 2)
+    >>> LinesParams(theta_step=0)
+    Traceback (most recent call last):
+    ...
+    ValueError: theta_step must be in [0.1, 45] degrees, not 0
+    """
 
-MIN_PEAK_RATIO = 0.3
-"""The second Hough peak must hold at least this fraction of the first one's votes."""
+    region: int = 8
+    """Local region (px) of the bimodal threshold (seed 004 section 4: "the size of local region to estimate
+    bimodal approximation was 8x8")."""
+    theta_step: float = 0.5
+    """Hough angle step in degrees over 0 <= theta < 180 (seed 004 eq. 5)."""
+    rho_step: float = 1.0
+    """Hough distance step in px (seed 004 eq. 4: 0 < rho < sqrt(M1^2 + M2^2), here signed)."""
+    min_angle: float = 45.0
+    """Smallest angle (degrees) between the two lines; the second peak is searched this far from the first.
+    Fiducial crosses cross at 60-90 degrees; a band (the frame under a blurred Zeiss notch) is centrally
+    symmetric about any point of its midline, and its edges with the notch's corners gave 36-degree crossings
+    that passed every other check (5 of 20 strongly blurred notch marks, 13-16 px off)."""
+    min_peak_ratio: float = 0.3
+    """The second Hough peak must hold at least this fraction of the first one's votes."""
+    band_margin: float = 2.0
+    """Half-width of the fitting band beyond the bar's half-width (px): the blurred flanks of the bar."""
+    min_arm: int = 3
+    """Each line needs at least this many supported 1 px slices on each side of the intersection."""
+    min_arm_ratio: float = 0.25
+    """... and its shorter side at least this fraction of its longer side (a mark cut by the window edge, or two
+    lines meeting in a 'T' or 'L', has one side missing)."""
+    iterations: int = 12
+    """Band / background / fit iterations of the sub-pixel refinement (at most; they stop when the centre moves
+    less than 0.001 px)."""
+    taper: float = 1.0
+    """Standard deviation of the Gaussian taper across the line, in bar half-widths (0: a plain centroid)."""
+    offset_floor: float = 0.03
+    """Model error (px) added in quadrature to each line's fitted offset: the grey-weighted centroid of a thin
+    bar whose edges were integrated over the pixel area (and not blurred before sampling) is aliased by up to a
+    few hundredths of a pixel (measured: 0.02-0.05 px RMS per axis on axis-aligned 1-3 px bars of
+    aerofid.synth); the fit's scatter cannot see it when every slice has the same sub-pixel phase. Applied to
+    every line: on tilted lines (where the phases average out) it makes sigma somewhat pessimistic, never
+    optimistic."""
+    min_contrast: float = 5.0
+    """Each line's median slice weight must be this many times its noise standard deviation (a bar, not an
+    edge)."""
+    max_side_foreground: float = 0.4
+    """A bar has ground beside it: at most this fraction of the strips beside a line's band may be foreground
+    (the ring of a Wild mark crossing them takes a little)."""
+    max_asymmetry: float = 0.1
+    """Beyond the seed: the largest share of the structure within the longest arm's reach (+2 px, so that a
+    blob's edge is inside) that may change under a half turn about the intersection
+    (:func:`aerofid.detect.asymmetry.point_asymmetry`). A '+' is centrally symmetric about its crossing; chords
+    through a dot or a bull's-eye cross off its centre (answers 1.5-4.5 px off in docs/benchmarks_marks.md
+    before this check; at 0.2 a dot's chords still crossed 1-1.3 px off its centre): half the limit ``auto``
+    applies to every answer, as for ``symmetry``'s own check."""
 
-BAND_MARGIN = 2.0
-"""Half-width of the fitting band beyond the bar's half-width (px): the blurred flanks of the bar."""
+    def validate(self) -> None:
+        """Refuse, in one line, any value that would fail or exhaust memory later."""
+        check(is_int(self.region) and 2 <= self.region <= 256, f"region must be an integer in [2, 256] px, "
+              f"not {self.region!r}")
+        check(number_in(self.theta_step, 0.1, 45.0),
+              f"theta_step must be in [0.1, 45] degrees, not {self.theta_step!r}")
+        check(number_in(self.rho_step, 0.25, 20.0), f"rho_step must be in [0.25, 20] px, not {self.rho_step!r}")
+        check(number_in(self.min_angle, 0.0, 90.0, lo_open=True),
+              f"min_angle must be in (0, 90] degrees, not {self.min_angle!r}")
+        for name in ("min_peak_ratio", "min_arm_ratio", "max_side_foreground"):
+            value = getattr(self, name)
+            check(number_in(value, 0.0, 1.0), f"{name} must be a fraction in [0, 1], not {value!r}")
+        for name in ("band_margin", "taper", "offset_floor", "min_contrast"):
+            value = getattr(self, name)
+            check(number_in(value, 0.0, 1e6), f"{name} must be a finite number >= 0, not {value!r}")
+        check(is_int(self.min_arm) and self.min_arm >= 0, f"min_arm must be an integer >= 0, not {self.min_arm!r}")
+        check(is_int(self.iterations) and 1 <= self.iterations <= 1000,
+              f"iterations must be an integer in [1, 1000], not {self.iterations!r}")
+        check(number_in(self.max_asymmetry, 0.0, math.inf) or self.max_asymmetry == math.inf,
+              f"max_asymmetry must be a number >= 0, not {self.max_asymmetry!r}")
 
-MAX_ASYMMETRY = 0.1
-"""Largest share of the structure about the intersection that may change under a half turn: half the limit
-``auto`` applies to every answer (:data:`aerofid.detect.auto.MAX_ASYMMETRY`), as for ``symmetry``'s own check; at 0.2
-a dot's chords still crossed 1-1.3 px off its centre."""
 
-MIN_ARM = 3
-"""Each line needs at least this many supported 1 px slices on each side of the intersection."""
-
-MIN_ARM_RATIO = 0.25
-"""... and its shorter side at least this fraction of its longer side (a mark cut by the window edge, or two
-lines meeting in a 'T' or 'L', has one side missing)."""
-
-ITERATIONS = 12
-MIN_CONTRAST = 5.0
-"""Each line's median slice weight must be this many times its noise standard deviation."""
-
-MAX_SIDE_FOREGROUND = 0.4
-"""A bar has ground beside it: at most this fraction of the strips beside a line's band may be foreground (the
-ring of a Wild mark crossing them takes a little)."""
-
-TAPER = 1.0
-"""Standard deviation of the Gaussian taper across the line, in bar half-widths (0: a plain centroid)."""
-
-OFFSET_FLOOR = 0.03
-"""Model error (px) added in quadrature to each line's fitted offset: the grey-weighted centroid of a thin bar
-whose edges were integrated over the pixel area (and not blurred before sampling) is aliased by up to a few
-hundredths of a pixel (measured: 0.02-0.05 px RMS per axis on axis-aligned 1-3 px bars of aerofid.synth); the
-fit's scatter cannot see it when every slice has the same sub-pixel phase. Applied to every line: on tilted
-lines (where the phases average out) it makes sigma somewhat pessimistic, never optimistic."""
-"""Band / background / fit iterations of the sub-pixel refinement."""
+DEFAULT = LinesParams()
 
 
 @dataclass(frozen=True)
@@ -105,37 +163,139 @@ class LineFit:
     side_foreground: float      # fraction of the strips beside the band that is foreground
 
 
-def hough_lines(binary: np.ndarray, theta_step: float = THETA_STEP, rho_step: float = RHO_STEP):
-    """Hough accumulator of the foreground pixels of ``binary`` (seed 004 eq. 3-5).
+@dataclass(frozen=True)
+class ScoreParts:
+    """The parts of the score (each in [0, 1]; the score is the smallest)."""
+
+    arms: float
+    angle: float
+    peaks: float
+    fit: float
+
+
+@dataclass(frozen=True)
+class HoughPeaks:
+    """The Hough transform of the binary image and its two peaks (seed 004, figure 5)."""
+
+    accumulator: np.ndarray = field(repr=False)
+    smoothed: np.ndarray = field(repr=False)
+    thetas: np.ndarray = field(repr=False)   # radians
+    rhos: np.ndarray = field(repr=False)     # cell centres, px
+    first: tuple[int, int, float]            # (theta index, rho index, smoothed votes)
+    second: tuple[int, int, float]
+
+    @property
+    def lines(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The two peaks as lines (theta in radians, rho in px)."""
+        (i1, j1, _), (i2, j2, _) = self.first, self.second
+        return ((float(self.thetas[i1]), float(self.rhos[j1])), (float(self.thetas[i2]), float(self.rhos[j2])))
+
+
+@dataclass(frozen=True)
+class LinesResult(Detection):
+    """The answer of the ``lines`` method with its intermediate results (window pixels).
+
+    Attributes
+    ----------
+    binary, thresholds : ndarray or None
+        The binary image of local dynamic thresholding and its per-pixel threshold surface.
+    peaks : HoughPeaks or None
+        The Hough accumulator of the binary image with its two peaks.
+    hough_centre : tuple of float or None
+        The intersection of the two Hough lines (the seed's answer, to a Hough cell).
+    lines : tuple of LineFit
+        The two refined lines (empty before the refinement).
+    asymmetry : float
+        Share of the structure about the intersection that changes under a half turn (NaN if not measured).
+    covariance : ndarray or None
+        2 x 2 covariance of the centre (px^2).
+    score_parts : ScoreParts or None
+        The parts of the score.
+    """
+
+    binary: np.ndarray | None = field(default=None, compare=False, repr=False)
+    thresholds: np.ndarray | None = field(default=None, compare=False, repr=False)
+    peaks: HoughPeaks | None = field(default=None, compare=False, repr=False)
+    hough_centre: tuple[float, float] | None = None
+    lines: tuple[LineFit, ...] = field(default=(), compare=False, repr=False)
+    asymmetry: float = float("nan")
+    covariance: np.ndarray | None = field(default=None, compare=False, repr=False)
+    score_parts: ScoreParts | None = None
+
+    @property
+    def fitted_lines(self) -> tuple[tuple[float, float], ...]:
+        """The refined lines as (theta in radians, rho in px)."""
+        return tuple((f.theta, f.rho) for f in self.lines)
+
+    @property
+    def extent(self) -> float | None:
+        """The mark's radius (px): the longest supported arm of the refined lines plus 1 px; None without them."""
+        if not self.lines:
+            return None
+        return float(max(max(f.arms) for f in self.lines) + 1.0)
+
+    def plot(self, fig: Figure, window: np.ndarray) -> None:
+        """The binary image of local dynamic thresholding with the Hough lines (dashed), the refined lines and
+        the centre; without a binary image, ``window`` with the reason (:meth:`Detection.plot`)."""
+        if self.binary is None:
+            super().plot(fig, window)
+            return
+        ax = fig.add_subplot(1, 1, 1)
+        h, w = self.binary.shape
+        ax.imshow(self.binary, cmap="gray", interpolation="nearest")
+        hough = self.peaks.lines if self.peaks is not None else ()
+        for lines, style in ((hough, "--"), (self.fitted_lines, "-")):
+            for theta, rho in lines:
+                _draw_line(ax, theta, rho, w, h, style)
+        if self.found:
+            ax.plot([self.x - self.origin[0]], [self.y - self.origin[1]], "+", color="orange", ms=14, mew=2)
+            title = f"lines: ({self.x:.3f}, {self.y:.3f}) sigma {self.sigma:.3f} px"
+        else:
+            title = f"lines: not found: {self.reason}"
+        ax.set_xlim(-0.5, w - 0.5)
+        ax.set_ylim(h - 0.5, -0.5)
+        ax.set_title(title[:90], fontsize=9)
+
+
+def _draw_line(ax: Any, theta: float, rho: float, w: int, h: int, style: str) -> None:
+    """Draw x cos(theta) + y sin(theta) = rho across a w x h image."""
+    c, s = np.cos(theta), np.sin(theta)
+    p0 = np.array([c * rho, s * rho])
+    d = np.array([-s, c]) * float(np.hypot(w, h))
+    ax.plot([p0[0] - d[0], p0[0] + d[0]], [p0[1] - d[1], p0[1] + d[1]], style, color="deepskyblue", lw=1)
+
+
+# --- the seed's steps: binary image, Hough transform, two peaks ------------------------------------------
+
+def hough_transform(binary: np.ndarray, theta_step: float = 0.5,
+                    rho_step: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Hough accumulator of the foreground pixels of ``binary`` (seed 004 eq. 3-5;
+    :func:`aerofid.detect.hough_lines.accumulate`).
 
     Returns ``(acc, thetas, rhos)``: ``acc[i, j]`` counts pixels with ``x cos(thetas[i]) + y sin(thetas[i])``
     in the ``rho_step`` cell centred on ``rhos[j]``; thetas in radians on [0, pi)."""
     h, w = binary.shape
     ys, xs = np.nonzero(binary)
-    thetas = np.deg2rad(np.arange(0.0, 180.0, theta_step))
+    thetas = np.deg2rad(theta_grid(theta_step))
     r_max = float(np.ceil(np.hypot(h, w) / rho_step) * rho_step)  # rho cells centred on multiples of rho_step
     n_rho = int(np.ceil(2 * r_max / rho_step)) + 1
     rhos = -r_max + rho_step * np.arange(n_rho)
-    if xs.size == 0:
-        return np.zeros((thetas.size, n_rho)), thetas, rhos
-    rho = xs[:, None] * np.cos(thetas)[None, :] + ys[:, None] * np.sin(thetas)[None, :]
-    j = np.rint((rho + r_max) / rho_step).astype(np.int64)
-    idx = (np.arange(thetas.size)[None, :] * n_rho + j).ravel()
-    acc = np.bincount(idx, minlength=thetas.size * n_rho).reshape(thetas.size, n_rho).astype(np.float64)
+    acc = accumulate(xs, ys, thetas, -r_max - rho_step / 2.0, rho_step, n_rho)
     return acc, thetas, rhos
 
 
-def _angle_diff(a: np.ndarray | float, b: float) -> np.ndarray | float:
+def _angle_diff(a: np.ndarray | float, b: float) -> np.ndarray:
     """Smallest difference between line directions (radians, modulo pi)."""
     d = np.abs(np.asarray(a) - b) % np.pi
     return np.minimum(d, np.pi - d)
 
 
-def two_peaks(acc: np.ndarray, thetas: np.ndarray, min_angle_deg: float = MIN_ANGLE):
+def two_peaks(acc: np.ndarray, thetas: np.ndarray,
+              min_angle_deg: float = 45.0) -> tuple[tuple[int, int, float], tuple[int, int, float], np.ndarray]:
     """The strongest Hough cell and the strongest cell at least ``min_angle_deg`` away in direction.
 
-    The accumulator is smoothed with (1, 2, 1) / 4 over rho first (a bar 2 px wide, or a diagonal one, spreads over
-    neighbouring cells).
+    The accumulator is smoothed with (1, 2, 1) / 4 over rho first (a bar 2 px wide, or a diagonal one, spreads
+    over neighbouring cells).
     Returns ``((i1, j1, v1), (i2, j2, v2), smoothed)`` with i = theta index, j = rho index, v = smoothed votes.
     """
     a = acc.copy()
@@ -149,7 +309,14 @@ def two_peaks(acc: np.ndarray, thetas: np.ndarray, min_angle_deg: float = MIN_AN
     return (int(i1), int(j1), float(a[i1, j1])), (int(i2), int(j2), float(b[i2, j2])), a
 
 
-def _bar_half_width(acc: np.ndarray, i: int, j: int, rho_step: float, reach: int = 10) -> float:
+def hough_peaks(binary: np.ndarray, params: LinesParams = DEFAULT) -> HoughPeaks:
+    """Steps 2 and 3 of seed 004: the Hough transform of ``binary`` and its two peaks."""
+    acc, thetas, rhos = hough_transform(binary, params.theta_step, params.rho_step)
+    first, second, smoothed = two_peaks(acc, thetas, params.min_angle)
+    return HoughPeaks(acc, smoothed, thetas, rhos, first, second)
+
+
+def bar_half_width(acc: np.ndarray, i: int, j: int, rho_step: float, reach: int = 10) -> float:
     """Half the width (px) of the ridge across rho at theta index ``i``: the run of cells around ``j`` above
     half-way between the peak and the local base (25th percentile of the cells within ``reach`` px), so the
     plateau a ring adds under the bar does not count as bar."""
@@ -168,132 +335,63 @@ def _bar_half_width(acc: np.ndarray, i: int, j: int, rho_step: float, reach: int
     return 0.5 * (hi - lo + 1) * rho_step
 
 
-def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, centre: np.ndarray,
-             other: tuple[float, float, float] | None, noise: float, band_margin: float = BAND_MARGIN,
-             exclude: np.ndarray | None = None, background_mask: np.ndarray | None = None,
-             taper: float = TAPER) -> LineFit | None:
-    """One refinement step of a line (seed 004's Hough line, refined to sub-pixel).
+# --- beyond the seed: each line refined to sub-pixel -----------------------------------------------------
 
-    Pixels within ``half_width + band_margin`` px of the line (and not in the ``other`` line's band
-    ``(theta, rho, half_band)`` nor in ``exclude``) are weighted by their grey level minus the local
-    background (median of the pixels just outside the band), grouped into 1 px slices along the line, and
-    each slice's weighted centroid across the line is one observation ``v_b``; ``v_b = a + b (u_b - u_c)``
-    is fitted by least squares (``u_c`` = the current intersection ``centre`` projected on the line), and
-    ``a`` and ``b`` move and turn the line. The offset's standard deviation is the a-posteriori one of the
-    fit, but never below what the window's ``noise`` alone gives the centroids.
-    """
+@dataclass(frozen=True)
+class _Frame:
+    """Every pixel of the window in the line's frame: grey value, offset v across and position u along it."""
+
+    g: np.ndarray
+    v: np.ndarray
+    u: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    xs: np.ndarray
+    ys: np.ndarray
+
+
+def _frame(window: np.ndarray, theta: float, rho: float) -> _Frame:
+    """The window's pixels in the frame of the line ``x cos(theta) + y sin(theta) = rho``."""
     h, w = window.shape
     n = np.array([np.cos(theta), np.sin(theta)])
     t = np.array([-np.sin(theta), np.cos(theta)])
     yy, xx = np.mgrid[0:h, 0:w]
     xs, ys = xx.ravel().astype(np.float64), yy.ravel().astype(np.float64)
-    g = window.ravel().astype(np.float64)
-    v = xs * n[0] + ys * n[1] - rho
-    u = xs * t[0] + ys * t[1]
-    band = half_width + band_margin
-    in_band = np.abs(v) <= band
-    outer = (np.abs(v) > band) & (np.abs(v) <= band + 3.0)
-    keep = np.ones_like(in_band)
+    return _Frame(window.ravel().astype(np.float64), xs * n[0] + ys * n[1] - rho, xs * t[0] + ys * t[1], n, t,
+                  xs, ys)
+
+
+def _ground_ring(fr: _Frame, band: float, other: tuple[float, float, float] | None,
+                 background_mask: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The pixels to use: ``keep`` (not in the ``other`` line's band), and the ``ring`` of strips up to 3 px
+    beside the band that measures the local background (without ``background_mask`` pixels), with the
+    fraction of that ring the mask covers."""
+    keep = np.ones(fr.v.shape, bool)
     if other is not None:
         th2, rho2, band2 = other
-        v2 = xs * np.cos(th2) + ys * np.sin(th2) - rho2
-        keep &= np.abs(v2) > band2
-    if exclude is not None:
-        keep &= ~exclude.ravel()
-    ring = outer & keep
+        keep &= np.abs(fr.xs * np.cos(th2) + fr.ys * np.sin(th2) - rho2) > band2
+    ring = (np.abs(fr.v) > band) & (np.abs(fr.v) <= band + 3.0) & keep
     side_fg = 0.0
     if background_mask is not None:
         bm = background_mask.ravel()
         side_fg = float(bm[ring].mean()) if ring.any() else 1.0
         ring &= ~bm
-    if ring.sum() < 6:
-        return None
-    uc = float(centre @ t)
-    # local background: a plane g = c0 + c1 v + c2 u fitted to the strips just outside the band, per 8 px
-    # stretch of the line (a ramp of the film density across the band would otherwise move the centroids)
-    seg = np.floor((u - uc) / 8.0).astype(np.int64)
-    bg = _plane(g[ring], v[ring], u[ring] - uc, v, u - uc)
+    return keep, ring, side_fg
+
+
+def _local_background(fr: _Frame, ring: np.ndarray, uc: float, band: float) -> np.ndarray:
+    """Local background at every pixel: a plane g = c0 + c1 v + c2 u fitted to the strips just outside the band,
+    per ``SLICE_LENGTH`` px stretch of the line (a ramp of the film density across the band would otherwise
+    move the centroids); one plane for the whole ring where a stretch does not have both sides."""
+    u = fr.u - uc
+    seg = np.floor(u / SLICE_LENGTH).astype(np.int64)
+    bg = _plane(fr.g[ring], fr.v[ring], u[ring], fr.v, u)
     for sgi in np.unique(seg[ring]):
         m = ring & (seg == sgi)
-        if m.sum() >= 8 and np.ptp(v[m]) > band:   # both sides of the band
+        if m.sum() >= 8 and np.ptp(fr.v[m]) > band:   # both sides of the band
             on = seg == sgi
-            bg[on] = _plane(g[m], v[m], u[m] - uc, v[on], u[on] - uc)
-    sel = in_band & keep
-    if sel.sum() < 10:
-        return None
-    us, vs = u[sel] - uc, v[sel]
-    # Gaussian taper across the line (a matched filter): the slice centroid converges, over the iterations, to
-    # the peak of the profile smoothed by the taper, and the noise of the pixels far from the bar is damped
-    q = np.exp(-0.5 * (vs / max(taper * half_width, 0.5)) ** 2) if taper > 0 else np.ones_like(vs)
-    wgt = (g[sel] - bg[sel]) * q
-    k = np.rint(us).astype(np.int64)
-    k0 = k.min()
-    kk = k - k0
-    nb = int(kk.max()) + 1
-    W = np.bincount(kk, weights=wgt, minlength=nb)
-    Wv = np.bincount(kk, weights=wgt * vs, minlength=nb)
-    Wv2 = np.bincount(kk, weights=q * q * vs * vs, minlength=nb)
-    Wv1 = np.bincount(kk, weights=q * q * vs, minlength=nb)
-    Wq2 = np.bincount(kk, weights=q * q, minlength=nb)
-    cnt = np.bincount(kk, minlength=nb)
-    ub = np.arange(nb) + k0
-    pos = W > 0
-    if pos.sum() < 4:
-        return None
-    # slices of the bar itself: weight near the typical one (a ring crossing the band, or the centre dot,
-    # makes a slice much heavier; the bar's end or a gap much lighter)
-    ref = float(np.percentile(W[pos], 90))
-    good = (W >= 0.3 * ref) & (cnt >= 2)
-    if good.sum() < 4:
-        return None
-    med = float(np.median(W[good]))
-    good &= (W >= 0.5 * med) & (W <= 1.6 * med)
-    if good.sum() < 4:
-        return None
-    V = Wv[good] / W[good]
-    U = ub[good].astype(np.float64)
-    # noise-only variance of each centroid: noise^2 * sum_i q_i^2 (v_i - V)^2 / W^2
-    var_noise = noise * noise * (Wv2[good] - 2 * V * Wv1[good] + Wq2[good] * V * V) / W[good] ** 2
-    # one round of outlier rejection: residuals beyond 3.5 robust sigma (and 0.1 px) of a first fit
-    # the bar must stand out of its sides: the slice weights against the noise of a weight
-    w_noise = noise * float(np.sqrt(np.median(Wq2[good])))
-    contrast = float(np.median(W[good])) / max(w_noise, 1e-9)
-    X = np.column_stack([np.ones_like(U), U])
-    c0, *_ = np.linalg.lstsq(X, V, rcond=None)
-    r0 = V - X @ c0
-    mad = robust_std(r0)
-    inl = np.abs(r0) <= max(3.5 * mad, 0.1)
-    if inl.sum() < 4:
-        return None
-    V, U, var_noise = V[inl], U[inl], var_noise[inl]
-    X = np.column_stack([np.ones_like(U), U])
-    XtX = X.T @ X
-    try:
-        Qx = np.linalg.inv(XtX)
-    except np.linalg.LinAlgError:
-        return None
-    coef = Qx @ (X.T @ V)
-    res = V - X @ coef
-    dof = max(1, U.size - 2)
-    s0 = float(np.sqrt(res @ res / dof))
-    expected = float(np.sqrt(np.mean(var_noise)))
-    s = max(s0, expected)
-    a, b = float(coef[0]), float(coef[1])
-    # move the line: points with v = a + b (u - uc) -> p.(n - b t) = rho + a - b uc
-    nn = n - b * t
-    norm = float(np.hypot(*nn))
-    new_theta = float(np.arctan2(nn[1], nn[0]))
-    new_rho = (rho + a - b * uc) / norm
-    if new_theta < 0:
-        new_theta += np.pi
-        new_rho = -new_rho
-    if new_theta >= np.pi:
-        new_theta -= np.pi
-        new_rho = -new_rho
-    excl = half_width + band_margin
-    arms = (int(((U < -excl)).sum()), int(((U > excl)).sum()))
-    return LineFit(new_theta, float(new_rho), s * float(np.sqrt(Qx[0, 0])), s * float(np.sqrt(Qx[1, 1])),
-                   s0, expected, int(U.size), arms, half_width, contrast, side_fg)
+            bg[on] = _plane(fr.g[m], fr.v[m], u[m], fr.v[on], u[on])
+    return bg
 
 
 def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: np.ndarray) -> np.ndarray:
@@ -307,141 +405,328 @@ def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: 
     return np.full(np.shape(v_at), float(np.median(g)) if g.size else 0.0)
 
 
-def intersection(t1: float, r1: float, t2: float, r2: float) -> np.ndarray | None:
-    """Intersection (x, y) of ``x cos t + y sin t = r`` for the two lines, None if (nearly) parallel."""
-    A = np.array([[np.cos(t1), np.sin(t1)], [np.cos(t2), np.sin(t2)]])
-    if abs(np.linalg.det(A)) < 1e-6:
+@dataclass(frozen=True)
+class _Slices:
+    """The 1 px slices across the line kept as bar: centroid offsets V at positions U (relative to the
+    intersection), the noise-only variance of each centroid, and the bar's contrast over the noise."""
+
+    U: np.ndarray
+    V: np.ndarray
+    var_noise: np.ndarray
+    contrast: float
+
+
+def _slice_centroids(us: np.ndarray, vs: np.ndarray, wgt: np.ndarray, q: np.ndarray,
+                     noise: float) -> _Slices | None:
+    """Group the band's pixels into 1 px slices along the line; each slice of the bar itself (weight near the
+    typical one: a ring crossing the band, or the centre dot, makes a slice much heavier; the bar's end or a gap
+    much lighter) gives its weighted centroid across the line. None with fewer than 4 such slices."""
+    k = np.rint(us).astype(np.int64)
+    k0 = k.min()
+    kk = k - k0
+    nb = int(kk.max()) + 1
+    W = np.bincount(kk, weights=wgt, minlength=nb)
+    Wv = np.bincount(kk, weights=wgt * vs, minlength=nb)
+    Wv2 = np.bincount(kk, weights=q * q * vs * vs, minlength=nb)
+    Wv1 = np.bincount(kk, weights=q * q * vs, minlength=nb)
+    Wq2 = np.bincount(kk, weights=q * q, minlength=nb)
+    cnt = np.bincount(kk, minlength=nb)
+    pos = W > 0
+    if pos.sum() < 4:
         return None
-    return np.linalg.solve(A, np.array([r1, r2]))
+    good = (W >= 0.3 * float(np.percentile(W[pos], 90))) & (cnt >= 2)
+    if good.sum() < 4:
+        return None
+    med = float(np.median(W[good]))
+    good &= (W >= 0.5 * med) & (W <= 1.6 * med)
+    if good.sum() < 4:
+        return None
+    V = Wv[good] / W[good]
+    # noise-only variance of each centroid: noise^2 * sum_i q_i^2 (v_i - V)^2 / W^2
+    var_noise = noise * noise * (Wv2[good] - 2 * V * Wv1[good] + Wq2[good] * V * V) / W[good] ** 2
+    # the bar must stand out of its sides: the slice weights against the noise of a weight
+    w_noise = noise * float(np.sqrt(np.median(Wq2[good])))
+    contrast = float(np.median(W[good])) / max(w_noise, 1e-9)
+    U = (np.arange(nb) + k0)[good].astype(np.float64)
+    return _Slices(U, V, var_noise, contrast)
 
 
-def detect(window: np.ndarray, *, region: int = REGION, theta_step: float = THETA_STEP,
-           rho_step: float = RHO_STEP, min_angle: float = MIN_ANGLE, min_peak_ratio: float = MIN_PEAK_RATIO,
-           band_margin: float = BAND_MARGIN, min_arm: int = MIN_ARM, min_arm_ratio: float = MIN_ARM_RATIO,
-           iterations: int = ITERATIONS, taper: float = TAPER, offset_floor: float = OFFSET_FLOOR,
-           min_contrast: float = MIN_CONTRAST, max_side_foreground: float = MAX_SIDE_FOREGROUND,
-           max_asymmetry: float = MAX_ASYMMETRY) -> Detection:
-    """Centre of a mark made of two crossing lines (Sohn et al., seed 004), in window pixels.
+def _fit_offsets(sl: _Slices) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray] | None:
+    """Least-squares line V = a + b U through the centroids after one round of outlier rejection (residuals
+    beyond 3.5 robust sigma, and 0.1 px, of a first fit). Returns (coef, Qx, rms, expected rms, U inliers)."""
+    X = np.column_stack([np.ones_like(sl.U), sl.U])
+    c0, *_ = np.linalg.lstsq(X, sl.V, rcond=None)
+    r0 = sl.V - X @ c0
+    inl = np.abs(r0) <= max(3.5 * robust_std(r0), 0.1)
+    if inl.sum() < 4:
+        return None
+    V, U, var_noise = sl.V[inl], sl.U[inl], sl.var_noise[inl]
+    X = np.column_stack([np.ones_like(U), U])
+    try:
+        Qx = np.linalg.inv(X.T @ X)
+    except np.linalg.LinAlgError:
+        return None
+    coef = Qx @ (X.T @ V)
+    res = V - X @ coef
+    s0 = float(np.sqrt(res @ res / max(1, U.size - 2)))
+    return coef, Qx, s0, float(np.sqrt(np.mean(var_noise))), U
 
-    Args:
-        window: 2-D float32 grey levels on [0, 1], the mark brighter than its ground.
-        region: local region of the dynamic threshold (seed: 8 x 8).
-        theta_step, rho_step: Hough cell (degrees, px).
-        min_angle: smallest angle (degrees) between the two lines.
-        min_peak_ratio: the second peak's votes relative to the first.
-        band_margin: fitting band beyond the bar's half-width (px).
-        min_arm, min_arm_ratio: support each line needs on both sides of the intersection.
-        iterations: refinement iterations (at most; they stop when the centre moves less than 0.001 px).
-        taper: Gaussian taper across each line in bar half-widths, see :func:`fit_line`.
-        max_side_foreground: largest foreground fraction of the strips beside each line (a bar has ground there).
-        min_contrast: each line's slices must weigh this many noise standard deviations (a bar, not an edge).
-        offset_floor: model error (px) of each line's offset added to its fitted standard deviation.
-        max_asymmetry: beyond the seed: the largest share of the structure within the longest arm's reach (+2
-            px, so that a blob's edge is inside) that may change under a half turn about the intersection (:func:`aerofid.detect.asymmetry.point_asymmetry`).
-            A '+' is centrally symmetric about its crossing; chords through a dot or a bull's-eye cross off its
-            centre (answers 1.5-4.5 px off in docs/benchmarks_marks.md before this check).
 
-    Returns:
-        Detection with ``method="lines"``: the intersection of the two refined lines; ``sigma`` = mean of its
-        two standard deviations propagated from the lines' fitted offsets (each with ``offset_floor``); ``score`` = min(arm balance,
-        angle, peak balance, fit quality); diagnostics ``binary``, ``thresholds``, ``accumulator``
-        (with ``thetas``, ``rhos``), ``hough_lines`` [(theta, rho)], ``lines`` [LineFit], ``hough_centre``.
+def _moved_line(fr: _Frame, rho: float, a: float, b: float, uc: float) -> tuple[float, float]:
+    """The line through the points v = a + b (u - uc): p.(n - b t) = rho + a - b uc, normalised, theta on
+    [0, pi)."""
+    nn = fr.normal - b * fr.tangent
+    norm = float(np.hypot(*nn))
+    new_theta = float(np.arctan2(nn[1], nn[0]))
+    new_rho = (rho + a - b * uc) / norm
+    if new_theta < 0:
+        new_theta += np.pi
+        new_rho = -new_rho
+    if new_theta >= np.pi:
+        new_theta -= np.pi
+        new_rho = -new_rho
+    return new_theta, float(new_rho)
+
+
+def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, centre: np.ndarray,
+             other: tuple[float, float, float] | None, noise: float, band_margin: float = 2.0,
+             background_mask: np.ndarray | None = None, taper: float = 1.0) -> LineFit | None:
+    """One refinement step of a line (seed 004's Hough line, refined to sub-pixel).
+
+    Pixels within ``half_width + band_margin`` px of the line (and not in the ``other`` line's band
+    ``(theta, rho, half_band)``) are weighted by their grey level minus the local background
+    (:func:`_local_background`), tapered across the line by a Gaussian of ``taper`` half-widths, grouped into
+    1 px slices along the line, and each slice's weighted centroid across the line is one observation ``v_b``
+    (:func:`_slice_centroids`); ``v_b = a + b (u_b - u_c)`` is fitted by least squares (``u_c`` = the current
+    intersection ``centre`` projected on the line), and ``a`` and ``b`` move and turn the line. The offset's
+    standard deviation is the a-posteriori one of the fit, but never below what the window's ``noise`` alone
+    gives the centroids. None when the line has too little support.
     """
-    w = np.asarray(window, np.float32)
-    bad = unusable_window(w)
-    if bad is not None:
-        return not_found(METHOD, bad)
-    h, wd = w.shape
-    binary, surface = local_dynamic_threshold(w, region, return_thresholds=True)
-    diag: dict = {"binary": binary, "thresholds": surface}
+    fr = _frame(window, theta, rho)
+    band = half_width + band_margin
+    keep, ring, side_fg = _ground_ring(fr, band, other, background_mask)
+    if ring.sum() < 6:
+        return None
+    uc = float(centre @ fr.tangent)
+    bg = _local_background(fr, ring, uc, band)
+    sel = (np.abs(fr.v) <= band) & keep
+    if sel.sum() < 10:
+        return None
+    us, vs = fr.u[sel] - uc, fr.v[sel]
+    # Gaussian taper across the line (a matched filter): the slice centroid converges, over the iterations, to
+    # the peak of the profile smoothed by the taper, and the noise of the pixels far from the bar is damped
+    q = np.exp(-0.5 * (vs / max(taper * half_width, 0.5)) ** 2) if taper > 0 else np.ones_like(vs)
+    slices = _slice_centroids(us, vs, (fr.g[sel] - bg[sel]) * q, q, noise)
+    fit = None if slices is None else _fit_offsets(slices)
+    if slices is None or fit is None:
+        return None
+    coef, Qx, s0, expected, U = fit
+    s = max(s0, expected)
+    new_theta, new_rho = _moved_line(fr, rho, float(coef[0]), float(coef[1]), uc)
+    arms = (int((U < -band).sum()), int((U > band).sum()))
+    return LineFit(new_theta, new_rho, s * float(np.sqrt(Qx[0, 0])), s * float(np.sqrt(Qx[1, 1])), s0, expected,
+                   int(U.size), arms, half_width, slices.contrast, side_fg)
+
+
+# --- the pipeline ----------------------------------------------------------------------------------------
+
+class _Refused(Exception):
+    """A step's reason why there is no mark (ends :func:`detect` with a not-found answer)."""
+
+
+def _seed_lines(binary: np.ndarray, params: LinesParams, fields: dict[str, Any]) -> tuple[HoughPeaks, np.ndarray]:
+    """Seed 004's answer: the two Hough peaks (:func:`hough_peaks`) and their intersection, checked (two
+    directions, not parallel, inside the window)."""
     n_fg = int(binary.sum())
-    if n_fg < 10:
-        return not_found(METHOD, f"local dynamic thresholding found no mark ({n_fg} foreground pixels)", **diag)
-    acc, thetas, rhos = hough_lines(binary, theta_step, rho_step)
-    diag.update(accumulator=acc, thetas=thetas, rhos=rhos)
-    (i1, j1, v1), (i2, j2, v2), acc_s = two_peaks(acc, thetas, min_angle)
-    if v2 <= 0 or v2 < min_peak_ratio * v1:
-        return not_found(METHOD, f"only one dominant direction in the Hough space (second peak {v2:.0f} votes "
-                                 f"vs {v1:.0f})", **diag)
-    lines0 = [(float(thetas[i1]), float(rhos[j1])), (float(thetas[i2]), float(rhos[j2]))]
-    diag["hough_lines"] = lines0
-    c = intersection(*lines0[0], *lines0[1])
+    if n_fg < MIN_FOREGROUND:
+        raise _Refused(f"local dynamic thresholding found no mark ({n_fg} foreground pixels)")
+    peaks = hough_peaks(binary, params)
+    fields["peaks"] = peaks
+    v1, v2 = peaks.first[2], peaks.second[2]
+    if v2 <= 0 or v2 < params.min_peak_ratio * v1:
+        raise _Refused(f"only one dominant direction in the Hough space (second peak {v2:.0f} votes vs {v1:.0f})")
+    (t1, r1), (t2, r2) = peaks.lines
+    c = intersection(t1, r1, t2, r2)
     if c is None:
-        return not_found(METHOD, "the two Hough lines are parallel", **diag)
-    diag["hough_centre"] = tuple(float(q) for q in c)
-    if not (-0.5 <= c[0] <= wd - 0.5 and -0.5 <= c[1] <= h - 0.5):
-        return not_found(METHOD, "the Hough lines intersect outside the window", **diag)
-    # bar half-widths from the smoothed ridges (a diagonal bar's raw rho profile alternates between cells)
-    hw = [max(1.0, _bar_half_width(acc_s, i1, j1, rho_step)), max(1.0, _bar_half_width(acc_s, i2, j2, rho_step))]
-    max_hw = max(3.0, 0.125 * min(h, wd))
-    if max(hw) > max_hw:
-        return not_found(METHOD, f"a Hough line is {2 * max(hw):.0f} px wide: an edge or a blob, not a bar",
-                         **diag)
-    noise = difference_noise_sigma(w)
+        raise _Refused("the two Hough lines are parallel")
+    fields["hough_centre"] = c
+    h, w = binary.shape
+    if not (-0.5 <= c[0] <= w - 0.5 and -0.5 <= c[1] <= h - 0.5):
+        raise _Refused("the Hough lines intersect outside the window")
+    return peaks, np.array(c)
+
+
+def _half_widths(peaks: HoughPeaks, shape: tuple[int, ...], rho_step: float) -> list[float]:
+    """Bar half-widths from the smoothed ridges of the two peaks (a diagonal bar's raw rho profile alternates
+    between cells); a line wider than 1/4 of the window (at least 6 px) is an edge or a blob."""
+    hw = [max(1.0, bar_half_width(peaks.smoothed, i, j, rho_step)) for i, j, _ in (peaks.first, peaks.second)]
+    if max(hw) > max(3.0, 0.125 * min(shape)):
+        raise _Refused(f"a Hough line is {2 * max(hw):.0f} px wide: an edge or a blob, not a bar")
+    return hw
+
+
+def refine_lines(w: np.ndarray, binary: np.ndarray, peaks: HoughPeaks, centre: np.ndarray, hw: list[float],
+                 noise: float, params: LinesParams = DEFAULT) -> tuple[list[LineFit], np.ndarray]:
+    """Refine both Hough lines (:func:`fit_line`), each with the other's band left out, until the intersection
+    moves less than ``CONVERGED`` or ``iterations`` are done (``noise``: the window's grey-level noise).
+    Returns the fits and their intersection."""
     # foreground (dilated by 1 px) is kept out of the background estimate: the ring of a Wild mark crosses
     # the strips beside the lines
     fg_near = cv2.dilate(binary.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    cur = list(lines0)
-    fits: list[LineFit | None] = [None, None]
-    for _ in range(max(1, iterations)):
-        new = []
+    cur = list(peaks.lines)
+    c = centre
+    fits: list[LineFit] = []
+    for _ in range(params.iterations):
+        fits = []
         for k in (0, 1):
             o = 1 - k
-            other = (cur[o][0], cur[o][1], hw[o] + band_margin)
-            f = fit_line(w, cur[k][0], cur[k][1], hw[k], c, other, noise, band_margin,
-                         background_mask=fg_near, taper=taper)
+            other = (cur[o][0], cur[o][1], hw[o] + params.band_margin)
+            f = fit_line(w, cur[k][0], cur[k][1], hw[k], c, other, noise, params.band_margin,
+                         background_mask=fg_near, taper=params.taper)
             if f is None:
-                return not_found(METHOD, f"line {k + 1} has too little support for a least-squares fit", **diag)
-            new.append(f)
-        fits = new
+                raise _Refused(f"line {k + 1} has too little support for a least-squares fit")
+            fits.append(f)
         cur = [(f.theta, f.rho) for f in fits]
         c_new = intersection(*cur[0], *cur[1])
         if c_new is None:
-            return not_found(METHOD, "the fitted lines are parallel", **diag)
-        moved = float(np.hypot(*(c_new - c)))
-        c = c_new
-        if moved < 1e-3:
+            raise _Refused("the fitted lines are parallel")
+        moved = float(np.hypot(*(np.array(c_new) - c)))
+        c = np.array(c_new)
+        if moved < CONVERGED:
             break
-    diag.update(lines=fits, fitted_lines=cur)
-    x, y = float(c[0]), float(c[1])
-    if not (0 <= x <= wd - 1 and 0 <= y <= h - 1):
-        return not_found(METHOD, "the fitted lines intersect outside the window", **diag)
-    if abs(x - diag["hough_centre"][0]) > 3 or abs(y - diag["hough_centre"][1]) > 3:
-        return not_found(METHOD, "the least-squares lines moved more than 3 px from the Hough lines", **diag)
-    angle = float(_angle_diff(cur[0][0], cur[1][0]))
-    if angle < np.deg2rad(min_angle):
-        return not_found(METHOD, f"the fitted lines cross at only {np.rad2deg(angle):.0f} degrees", **diag)
+    return fits, c
+
+
+def line_refusal(fits: list[LineFit], params: LinesParams = DEFAULT) -> str | None:
+    """Why the refined lines are not the bars of a '+' (an edge or a blob beside a line, a line hardly
+    standing out of its sides, a line supported on one side of the intersection only), or None."""
     for k, f in enumerate(fits):
-        if f.side_foreground > max_side_foreground:
-            return not_found(METHOD, f"line {k + 1} runs inside a bright area ({f.side_foreground:.0%} of its "
-                                     f"sides are foreground): an edge or a blob, not a bar", **diag)
-        if f.contrast < min_contrast:
-            return not_found(METHOD, f"line {k + 1} hardly stands out of its sides ({f.contrast:.1f} noise "
-                                     f"sigma): an edge, not a bar", **diag)
+        if f.side_foreground > params.max_side_foreground:
+            return (f"line {k + 1} runs inside a bright area ({f.side_foreground:.0%} of its sides are "
+                    "foreground): an edge or a blob, not a bar")
+        if f.contrast < params.min_contrast:
+            return f"line {k + 1} hardly stands out of its sides ({f.contrast:.1f} noise sigma): an edge, not a bar"
     for k, f in enumerate(fits):
         lo, hi = min(f.arms), max(f.arms)
-        if lo < min_arm or lo < min_arm_ratio * hi:
-            return not_found(METHOD, f"line {k + 1} is supported on one side of the intersection only "
-                                     f"({f.arms[0]} / {f.arms[1]} px): a 'T' or 'L', or a mark cut by the "
-                                     f"window edge", **diag)
+        if lo < params.min_arm or lo < params.min_arm_ratio * hi:
+            return (f"line {k + 1} is supported on one side of the intersection only ({f.arms[0]} / {f.arms[1]} "
+                    "px): a 'T' or 'L', or a mark cut by the window edge")
+    return None
+
+
+def _check_geometry(fits: list[LineFit], c: np.ndarray, shape: tuple[int, ...], hough_centre: tuple[float, float],
+                    params: LinesParams) -> float:
+    """The refined intersection lies in the window, near the Hough one, at an angle of at least ``min_angle``;
+    returns that angle (radians)."""
+    h, wd = shape
+    x, y = float(c[0]), float(c[1])
+    if not (0 <= x <= wd - 1 and 0 <= y <= h - 1):
+        raise _Refused("the fitted lines intersect outside the window")
+    if abs(x - hough_centre[0]) > MAX_HOUGH_SHIFT or abs(y - hough_centre[1]) > MAX_HOUGH_SHIFT:
+        raise _Refused(f"the least-squares lines moved more than {MAX_HOUGH_SHIFT:g} px from the Hough lines")
+    angle = float(_angle_diff(fits[0].theta, fits[1].theta))
+    if angle < np.deg2rad(params.min_angle):
+        raise _Refused(f"the fitted lines cross at only {np.rad2deg(angle):.0f} degrees")
+    return angle
+
+
+def _half_turn_asymmetry(w: np.ndarray, fits: list[LineFit], c: np.ndarray, noise: float, params: LinesParams,
+                         fields: dict[str, Any]) -> None:
+    """Beyond the seed: the window must be centrally symmetric about the intersection (``max_asymmetry``)."""
+    h, wd = w.shape
+    x, y = float(c[0]), float(c[1])
     reach = min(max(max(f.arms) for f in fits) + 2.0, x, y, wd - 1 - x, h - 1 - y)
     asym = point_asymmetry(w, x, y, max(reach, 3.0), noise)
-    diag["asymmetry"] = asym
-    if not asym <= max_asymmetry:
-        return not_found(METHOD, f"the window is not centrally symmetric about the intersection ({asym:.2f} of the "
-                                 f"structure within {reach:.0f} px changes under a half turn; limit {max_asymmetry}): "
-                                 "not the centre of a '+'", **diag)
-    # covariance of the intersection from the two offsets (rotation about the intersection does not move it)
-    N = np.array([[np.cos(cur[0][0]), np.sin(cur[0][0])], [np.cos(cur[1][0]), np.sin(cur[1][0])]])
+    fields["asymmetry"] = asym
+    if not asym <= params.max_asymmetry:
+        raise _Refused(f"the window is not centrally symmetric about the intersection ({asym:.2f} of the "
+                       f"structure within {reach:.0f} px changes under a half turn; limit {params.max_asymmetry}): "
+                       "not the centre of a '+'")
+
+
+def centre_covariance(fits: list[LineFit], offset_floor: float = 0.03) -> np.ndarray:
+    """Covariance of the intersection from the two lines' offsets, each with ``offset_floor`` added in
+    quadrature (rotation about the intersection does not move it)."""
+    N = np.array([[np.cos(f.theta), np.sin(f.theta)] for f in fits])
     Ni = np.linalg.inv(N)
-    cov = Ni @ np.diag([fits[0].sigma_offset ** 2 + offset_floor ** 2,
-                        fits[1].sigma_offset ** 2 + offset_floor ** 2]) @ Ni.T
-    sigma = 0.5 * (np.sqrt(cov[0, 0]) + np.sqrt(cov[1, 1]))
-    # score
-    s_arm = min(1.0, min(min(f.arms) / max(f.arms) for f in fits) / 0.5)
-    s_angle = min(1.0, np.sin(angle) / np.sin(np.deg2rad(60.0)))
-    s_peak = min(1.0, (v2 / v1) / 0.6)
-    s_fit = min(1.0, min(2.0 * (f.expected_rms + 0.05) / max(f.rms, 1e-9) for f in fits))
-    score = float(np.clip(min(s_arm, s_angle, s_peak, s_fit), 0.0, 1.0))
-    diag.update(covariance=cov, score_parts={"arms": s_arm, "angle": s_angle, "peaks": s_peak, "fit": s_fit})
-    return Detection(status=FOUND, x=x, y=y, score=score, sigma=float(sigma), method=METHOD, diagnostics=diag)
+    return Ni @ np.diag([f.sigma_offset ** 2 + offset_floor ** 2 for f in fits]) @ Ni.T
+
+
+def score_parts(fits: list[LineFit], angle: float, peaks: HoughPeaks) -> ScoreParts:
+    """Arm balance, angle, peak balance and fit quality, each scaled to [0, 1]."""
+    v1, v2 = peaks.first[2], peaks.second[2]
+    return ScoreParts(arms=min(1.0, min(min(f.arms) / max(f.arms) for f in fits) / 0.5),
+                      angle=float(min(1.0, np.sin(angle) / np.sin(np.deg2rad(60.0)))),
+                      peaks=min(1.0, (v2 / v1) / 0.6),
+                      fit=min(1.0, min(2.0 * (f.expected_rms + 0.05) / max(f.rms, 1e-9) for f in fits)))
+
+
+def _locate(w: np.ndarray, params: LinesParams, fields: dict[str, Any]) -> LinesResult:
+    """The whole pipeline on a usable window; every intermediate result goes into ``fields``; a step that finds
+    no mark raises :class:`_Refused`."""
+    binary, surface = local_dynamic_threshold(w, params.region, return_thresholds=True)
+    fields.update(binary=binary, thresholds=surface)
+    peaks, c = _seed_lines(binary, params, fields)
+    hw = _half_widths(peaks, w.shape, params.rho_step)
+    noise = difference_noise_sigma(w)
+    fits, c = refine_lines(w, binary, peaks, c, hw, noise, params)
+    fields["lines"] = tuple(fits)
+    angle = _check_geometry(fits, c, w.shape, fields["hough_centre"], params)
+    reason = line_refusal(fits, params)
+    if reason is not None:
+        raise _Refused(reason)
+    _half_turn_asymmetry(w, fits, c, noise, params, fields)
+    cov = centre_covariance(fits, params.offset_floor)
+    parts = score_parts(fits, angle, peaks)
+    score = float(np.clip(min(parts.arms, parts.angle, parts.peaks, parts.fit), 0.0, 1.0))
+    return LinesResult(status=FOUND, x=float(c[0]), y=float(c[1]), score=score,
+                       sigma=float(0.5 * (np.sqrt(cov[0, 0]) + np.sqrt(cov[1, 1]))), method=METHOD,
+                       covariance=cov, score_parts=parts, **fields)
+
+
+def detect(window: np.ndarray, params: LinesParams = DEFAULT, **overrides: Any) -> LinesResult:
+    """Centre of a mark made of two crossing lines (Sohn et al., seed 004), in window pixels.
+
+    The seed's steps (local dynamic thresholding, Hough transform, two peaks, their intersection), then each
+    line refined to sub-pixel (:func:`refine_lines`) and the answer checked (:func:`line_refusal`, the angle,
+    the half-turn symmetry about the intersection).
+
+    Parameters
+    ----------
+    window : ndarray
+        2-D grey levels on [0, 1], the mark brighter than its ground.
+    params : LinesParams
+        Every parameter of the method.
+
+    Returns
+    -------
+    LinesResult
+        The intersection of the two refined lines; ``sigma`` = mean of its two standard deviations propagated
+        from the lines' fitted offsets (each with ``offset_floor``); ``score`` = min(arm balance, angle, peak
+        balance, fit quality); the binary image, the Hough peaks and the refined lines as typed fields.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("ring_cross", 40, width=2.0, window=72, rng=np.random.default_rng(4))
+    >>> r = detect(scene.image)
+    >>> r.found, bool(np.hypot(r.x - scene.marks[0].x, r.y - scene.marks[0].y) < 0.1)
+    (True, True)
+    """
+    if overrides:  # TRANSITIONAL (issue 8): old callers' keywords, until they pass a LinesParams
+        params = params.replace(**overrides)
+    w = np.asarray(window, np.float32)
+    bad = unusable_window(w)
+    if bad is not None:
+        return LinesResult.not_found(METHOD, bad)
+    fields: dict[str, Any] = {}
+    try:
+        return _locate(w, params, fields)
+    except _Refused as refused:
+        return LinesResult.not_found(METHOD, str(refused), **fields)
+
+
+__all__ = ["METHOD", "HoughPeaks", "LineFit", "LinesParams", "LinesResult", "ScoreParts", "bar_half_width",
+           "centre_covariance", "detect", "fit_line", "hough_peaks", "hough_transform", "line_refusal",
+           "refine_lines", "score_parts", "two_peaks"]

@@ -8,7 +8,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import cv2
 import numpy as np
@@ -65,25 +67,35 @@ def optimum_threshold(window: np.ndarray, n_bins: int = N_BINS, max_iterations: 
         # bins 0 and n_bins - 1 hold the minimum and maximum, so both classes are populated for 1 <= k < n_bins
         return c1[k] / c0[k], (total1 - c1[k]) / (total0 - c0[k])
 
-    k, visited = n_bins // 2, {}
-    for it in range(1, max_iterations + 1):
-        m_dark, m_bright = class_means(k)
-        e = (m_dark + m_bright) / 2.0 + 0.5 - k   # +0.5: from bin centres to the edge between the classes
-        if abs(e) < 0.5:
-            break
-        visited[k] = abs(e)
-        k_next = int(np.clip(round(k + e), 1, n_bins - 1))
-        if k_next in visited:  # a cycle: keep the k that came closest to the condition (cthval's ikbest)
-            k = min(visited, key=visited.get)
-            break
-        k = k_next
-    else:
+    found = _reddi_iteration(class_means, n_bins, max_iterations)
+    if found is None:
         return None
+    k, iterations = found
     m_dark, m_bright = class_means(k)
     value = lo + k * width
     return Threshold(value=value, mean_dark=lo + (m_dark + 0.5) * width,
                      mean_bright=lo + (m_bright + 0.5) * width,
-                     bright_fraction=float((total0 - c0[k]) / total0), iterations=it)
+                     bright_fraction=float((total0 - c0[k]) / total0), iterations=iterations)
+
+
+def _reddi_iteration(class_means: Callable[[int], tuple[float, float]], n_bins: int,
+                     max_iterations: int) -> tuple[int, int] | None:
+    """Appendix B eq. 5 by iteration (C ``cthval``): from the middle bin, move k by
+    e = (m_dark(k) + m_bright(k)) / 2 - k until |e| < 0.5 bin; on a cycle keep the k that came closest.
+    Returns (k, iterations), or None after ``max_iterations``."""
+    k = n_bins // 2
+    visited: dict[int, float] = {}
+    for it in range(1, max_iterations + 1):
+        m_dark, m_bright = class_means(k)
+        e = (m_dark + m_bright) / 2.0 + 0.5 - k   # +0.5: from bin centres to the edge between the classes
+        if abs(e) < 0.5:
+            return k, it
+        visited[k] = abs(e)
+        k_next = int(np.clip(round(k + e), 1, n_bins - 1))
+        if k_next in visited:  # a cycle: keep the k that came closest to the condition (cthval's ikbest)
+            return min(visited, key=visited.__getitem__), it
+        k = k_next
+    return None
 
 
 def interclass_variance(window: np.ndarray, k: float) -> float:
@@ -97,9 +109,21 @@ def interclass_variance(window: np.ndarray, k: float) -> float:
     return float(p_d * (dark.mean() - m_o) ** 2 + p_b * (bright.mean() - m_o) ** 2)
 
 
+@overload
+def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float = 4.0,
+                            min_contrast: float = MIN_CONTRAST, min_class: int = 2, *,
+                            return_thresholds: Literal[True]) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@overload
 def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float = 4.0,
                             min_contrast: float = MIN_CONTRAST, min_class: int = 2,
-                            return_thresholds: bool = False):
+                            return_thresholds: Literal[False] = False) -> np.ndarray: ...
+
+
+def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float = 4.0,
+                            min_contrast: float = MIN_CONTRAST, min_class: int = 2,
+                            return_thresholds: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Binary image of ``window`` by local dynamic thresholding (Sohn et al., seed 004, section 4).
 
     "The local dynamic thresholding method obtains the local threshold values based on the relative local
@@ -108,10 +132,10 @@ def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float 
     and column of tiles may be smaller); in each tile the bimodal threshold is :func:`optimum_threshold`
     (Reddi). A tile counts as bimodal when both classes hold at least ``min_class`` pixels and their means
     differ by at least max(``min_contrast``, ``noise_k`` x the window's noise standard deviation, estimated
-    from the MAD of its first differences); pure-noise tiles split at about 1.6 noise sigma and fail. The
-    thresholds of the other tiles are interpolated from the bimodal ones (normalised Gaussian convolution on
-    the tile grid, widened until every tile has a value), and the tile thresholds are bilinearly interpolated
-    to every pixel between the tile centres.
+    from the MAD of its first differences); pure-noise tiles split at about 1.6 noise sigma and fail
+    (:func:`tile_thresholds`). The thresholds of the other tiles are interpolated from the bimodal ones
+    (:func:`fill_tiles`), and the tile thresholds are bilinearly interpolated to every pixel between the tile
+    centres.
 
     Returns the boolean image ``window > threshold`` (all False when no tile is bimodal) and, with
     ``return_thresholds``, also the per-pixel threshold surface (NaN when no tile is bimodal).
@@ -121,8 +145,23 @@ def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float 
         raise ValueError("window must be a non-empty 2-D array")
     h, wd = w.shape
     region = max(2, int(region))
-    noise = difference_noise_sigma(w)
-    min_sep = max(min_contrast, noise_k * noise)
+    min_sep = max(min_contrast, noise_k * difference_noise_sigma(w))
+    t = tile_thresholds(w, region, min_sep, min_contrast, min_class)
+    if not np.isfinite(t).any():
+        out = np.zeros((h, wd), bool)
+        return (out, np.full((h, wd), np.nan, np.float32)) if return_thresholds else out
+    ny, nx = t.shape
+    surface = cv2.resize(fill_tiles(t).astype(np.float32), (nx * region, ny * region),
+                         interpolation=cv2.INTER_LINEAR)[:h, :wd]
+    binary = w > surface
+    return (binary, surface) if return_thresholds else binary
+
+
+def tile_thresholds(w: np.ndarray, region: int, min_sep: float, min_contrast: float = MIN_CONTRAST,
+                    min_class: int = 2) -> np.ndarray:
+    """The optimum threshold of every ``region`` x ``region`` tile of ``w`` that is bimodal (both classes of
+    at least ``min_class`` pixels, means at least ``min_sep`` apart); NaN for the other tiles."""
+    h, wd = w.shape
     ny, nx = -(-h // region), -(-wd // region)
     t = np.full((ny, nx), np.nan)
     for i in range(ny):
@@ -137,10 +176,14 @@ def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float 
                 continue
             if float(tile[bright].mean() - tile[~bright].mean()) >= min_sep:
                 t[i, j] = th.value
+    return t
+
+
+def fill_tiles(t: np.ndarray) -> np.ndarray:
+    """The tile thresholds ``t`` with their NaN tiles interpolated from the known ones: normalised Gaussian
+    convolution on the tile grid, widened until every tile has a value (the median at the very last)."""
     known = np.isfinite(t)
-    if not known.any():
-        out = np.zeros((h, wd), bool)
-        return (out, np.full((h, wd), np.nan, np.float32)) if return_thresholds else out
+    ny, nx = t.shape
     filled = t.copy()
     s = 1.0
     while not np.isfinite(filled).all():
@@ -154,7 +197,4 @@ def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float 
         s *= 2.0
         if s > 4 * max(ny, nx):
             filled[~np.isfinite(filled)] = float(np.nanmedian(t))
-    surface = cv2.resize(filled.astype(np.float32), (nx * region, ny * region),
-                         interpolation=cv2.INTER_LINEAR)[:h, :wd]
-    binary = w > surface
-    return (binary, surface) if return_thresholds else binary
+    return filled

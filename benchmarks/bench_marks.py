@@ -26,9 +26,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
-from aerofid import synth  # noqa: E402
-from aerofid.detect import detector  # noqa: E402
-from aerofid.detect.auto import detect_auto  # noqa: E402
+from aerofid import synth, testing  # noqa: E402
+from aerofid.detect.params import MethodParams  # noqa: E402
+from aerofid.detect.registry import METHODS as REGISTRY  # noqa: E402
 
 cv2.setNumThreads(1)
 
@@ -37,17 +37,19 @@ STYLES = ("cross", "panel", "ring_x_dot", "ring_cross", "dot", "bullseye", "notc
 LABEL = {"cross": "cross", "panel": "cloth panel (aerial ground)", "ring_x_dot": "ring+X+dot (Wild corner)",
          "ring_cross": "ring+'+' (Wild midside)", "dot": "dot", "bullseye": "bull's-eye",
          "notch_dot": "Zeiss dot in a notch"}
-RADIUS = synth.MARK_RADIUS
+RADIUS = testing.MARK_RADIUS
+
+
+def method_params(method: str, mark: str) -> MethodParams:
+    """The method's default parameters, with ``mark`` for the methods that take one (``hough``, ``auto``)."""
+    p = REGISTRY[method].params_type()
+    return p.replace(mark=mark) if "mark" in p.names() else p
 
 
 def run_method(method: str, img: np.ndarray, mark: str):
+    params = method_params(method, mark)
     t = time.perf_counter()
-    if method == "auto":
-        d = detect_auto(img, mark)
-    elif method == "hough":
-        d = detector("hough")(img, mark=mark)
-    else:
-        d = detector(method)(img)
+    d = REGISTRY[method].detect(img, params)
     return d, time.perf_counter() - t
 
 
@@ -164,12 +166,8 @@ def bench_rejections(n, rng):
         for _ in range(n):
             if style is None:
                 img = synth.aerial_ground((120, 120), rng)
-            elif case == "two marks":
-                img = synth.two_marks(rng, style)
-            elif case == "half mark":
-                img = synth.half_mark(rng, style)
             else:
-                img = synth.border_edge(rng, style)
+                img = testing.TRAPS[case](rng, style)
             for m in METHODS:
                 d, _ = run_method(m, img, "auto")
                 found[m] += int(d.found)
@@ -224,7 +222,7 @@ def main() -> None:
              "Truth: `aerofid.synth` renders each mark by area coverage at a random sub-pixel centre. *found*: the "
              "method's status is found; *erroneous*: found but further than 1.5 px (or 0.5 px) from the truth; "
              "RMS and max over the found marks; time: median wall time of one call on the window. `auto` is "
-             "`aerofid.detect.auto.detect_auto` (what `locate(..., method=\"auto\")` runs), see its docstring for the "
+             "`aerofid.detect.auto.detect` (what `locate(..., method=\"auto\")` runs), see its docstring for the "
              "rule.\n", *targets(summary, n), *rej, *body]
     with open(args.out, "w") as f:
         f.write("\n".join(parts) + "\n")

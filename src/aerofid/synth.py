@@ -20,8 +20,8 @@ All functions are pure: they take a ``numpy.random.Generator`` where randomness 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 from scipy import ndimage
@@ -399,52 +399,3 @@ def demo_frame(rng: np.random.Generator, size: int = 1600, mark_size: float = 40
         marks.append(TruthMark(f"GCP{k + 1}", float(x), float(y), "panel", 9.0, box_around(x, y, 30, hw)))
     img = add_grain(blur(img, 0.7), 0.012, rng)
     return Scene(np.clip(img, 0, 1).astype(np.float32), tuple(marks))
-
-
-# --- trap scenes: a wrong centre here must come back as "not found" (tests and benchmarks of auto) -------
-
-MARK_RADIUS = {"notch_dot": 0.075}
-"""The visible mark's radius as a fraction of its size, by style (0.5 for the styles not listed)."""
-
-
-def _blur_noise(img, rng, noise=0.02):
-    """Blur 0.7 px, Gaussian noise, clip to [0, 1]."""
-    return np.clip(add_gaussian_noise(blur(img, 0.7), noise, rng), 0, 1).astype(np.float32)
-
-
-def two_marks(rng, style, n=120):
-    """Two marks of one style side by side, 1.1-1.6 sizes apart: an ambiguous box (trap scene)."""
-    img = film_border((n, n), rng)
-    size = rng.uniform(20, 30)
-    a = rng.uniform(0, np.pi)
-    sep = rng.uniform(1.1, 1.6) * size
-    c = np.array([n / 2, n / 2]) + rng.uniform(-3, 3, 2)
-    for s in (-1, 1):
-        p = c + s * 0.5 * sep * np.array([np.cos(a), np.sin(a)])
-        img = paint_shape(img, tuple(p), mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8,
-                                extent=size)
-    return _blur_noise(img, rng)
-
-
-def half_mark(rng, style, n=120):
-    """A mark whose centre lies 0..0.6 of its radius inside the box edge: part of it is cut off (trap)."""
-    size = rng.uniform(20, 40)
-    d = rng.uniform(0.0, 0.6) * MARK_RADIUS.get(style, 0.5) * size
-    big = mark_scene(style, size=size, window=n + 80, centre=(40 + d, n / 2 + 40 + rng.uniform(-3, 3)),
-                           rng=rng, angle_deg=0.0 if style == "notch_dot" else rng.uniform(0, 90))
-    w = np.ascontiguousarray(big.image[40:40 + n, 40:40 + n])
-    return [w, w[:, ::-1], w.T, w.T[::-1]][int(rng.integers(4))].copy()
-
-
-def border_edge(rng, style, n=120):
-    """A mark straddling the edge between the dark film border and the bright image area (trap)."""
-    size = rng.uniform(20, 40)
-    c = (n / 2 + rng.uniform(-3, 3), n / 2 + rng.uniform(-3, 3))
-    img = film_border((n, n), rng)
-    ground = aerial_ground((n, n), rng)
-    off = rng.uniform(-0.5, 0.5) * MARK_RADIUS.get(style, 0.5) * size
-    a = rng.uniform(0, 2 * np.pi)
-    yy, xx = np.mgrid[0:n, 0:n]
-    img = np.where((xx - c[0]) * np.cos(a) + (yy - c[1]) * np.sin(a) > off, ground, img).astype(np.float32)
-    img = paint_shape(img, c, mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8, extent=size)
-    return _blur_noise(img, rng, 0.015)

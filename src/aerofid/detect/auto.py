@@ -1,20 +1,20 @@
 """``method="auto"``: run the detectors that apply, cross-check them, and answer only when the answer is trusted.
 
 A confident wrong centre is the worst outcome for a user (Cho & Kim, seed 002, report 1 erroneous answer in
-284 marks; our goal is none), so :func:`detect_auto` prefers an explicit ``not_found`` to any centre it
+284 marks; our goal is none), so :func:`detect` prefers an explicit ``not_found`` to any centre it
 cannot corroborate. The rule, applied deterministically to one grey window (mark brighter than its ground):
 
 1. **Candidates.** ``circles`` (Seedahmed) and ``symmetry`` (Cho & Kim) run on the whole window (both are
    cheap). If neither found a mark, ``hough`` (Hunt, Ryan & Gifford) runs on the whole window too, when
    the user named the kind of mark (``mark="external"`` or ``"panel"``) or the ground is plain (film
-   border: at least ``MIN_PLAIN`` of the box within 4 noise sigma of its median; with ``mark="auto"`` on
+   border: at least ``min_plain`` of the box within 4 noise sigma of its median; with ``mark="auto"`` on
    textured ground a lone ``hough`` answer could not be accepted anyway, see below, and its search is slow
    there). With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+'). ``lines`` (Sohn et al.) is
    never run on the whole window (it returns confident wrong centres on dots and bull's-eyes); it is a
    corroborator only (step 2). Each detector must first pass its own self-diagnosis (status found).
-2. **Cross-check.** Found answers within ``max(0.5 px, 3 sqrt(s1^2 + s2^2))`` (capped at ``MAX_AGREE`` px) of
+2. **Cross-check.** Found answers within ``max(0.5 px, 3 sqrt(s1^2 + s2^2))`` (capped at ``max_agree`` px) of
    each other form a group. A group with a single member is re-examined on a crop of the window centred on
-   it (half-size = the mark's extent + ``CROP_MARGIN``): a '+' from ``hough`` by ``lines`` (not for cloth
+   it (half-size = the mark's extent + ``crop_margin``): a '+' from ``hough`` by ``lines`` (not for cloth
    panels, whose thin low-contrast strips on textured ground ``lines`` does not resolve), any answer by
    ``symmetry`` and, for rings, ``circles``. Two or more independent methods agreeing is strong evidence
    (*corroborated*). A lone answer is kept only when its method applies to what the window shows (and it
@@ -28,82 +28,53 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    mark's extent R (from the detectors' own models: the cross fit's arm lengths, the circles' radii; else a
    radial profile of the grey levels):
 
-   - *containment*: the disc of radius R + ``EDGE_MARGIN`` lies inside the window (half a mark cut by the
+   - *containment*: the disc of radius R + ``edge_margin`` lies inside the window (half a mark cut by the
      box edge fails here);
    - *point symmetry*: the share of the structure in that disc that changes under a 180-degree rotation
-     about the centre, net of noise, is at most ``MAX_ASYMMETRY`` (every supported mark style is
+     about the centre, net of noise, is at most ``max_disc_asymmetry`` (every supported mark style is
      centrally symmetric about its centre; a mark lying on the film border's edge, a wrong centre, a half
      mark fail here);
-   - *uniqueness*: the disc is blanked out with the ground's grey level and the group's methods, and
-     ``symmetry``, run again on the rest of the window; a second mark found there makes the box ambiguous.
+   - *uniqueness*: the disc is blanked out with the ground's grey level; a compact feature of the mark's
+     size left in the rest of the window (:func:`structure_left`), or a second answer there of the group's
+     methods, ``symmetry`` or ``circles`` (:func:`second_marks`), makes the box ambiguous.
 
 4. **Compact dots with no method** (the Zeiss dot in a notch, whose frame edge spoils the whole-window
    methods): when nothing was found, the single strongest compact blob (difference of Gaussians, not an
-   edge point) whose surroundings are flat (a moat of at least ``MIN_MOAT`` px) is isolated (everything
-   beyond its moat, at most ``ISOLATE_FACTOR`` x its radius + 2 px, replaced by the ground level) and
+   edge point) whose surroundings are flat (a moat of at least ``min_moat`` px) is isolated (everything
+   beyond its moat, at most ``isolate_factor`` x its radius + 2 px, replaced by the ground level) and
    ``symmetry`` runs on it; its answer must agree with an intensity-weighted centroid of
    the blob and pass step 3.
 
 **Score** (comparable across methods, in [0, 1]): with s_m the detectors' own scores, the group's evidence
-is ``1 - prod(1 - s_m)`` over its members (independent methods), times ``LONE_FACTOR`` for a lone answer,
-times the verification quality ``1 - asymmetry / (2 MAX_ASYMMETRY)``. The centre is that of the member with
-the first in ``PRIORITY`` (its ``method`` is reported), the ``sigma`` that member's.
+is ``1 - prod(1 - s_m)`` over its members (independent methods), times ``lone_factor`` for a lone answer,
+times the verification quality ``1 - asymmetry / (2 max_disc_asymmetry)``. The centre is that of the member with
+the first in :data:`PRIORITY` (its ``method`` is reported), the ``sigma`` that member's.
+
+The names in ``code`` are the fields of :class:`AutoParams`; each seed method runs with its own parameters
+(:func:`detect`'s ``methods``, e.g. from :func:`aerofid.detect.registry.route_params`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 
-from aerofid.detect import available_methods, detector
+from aerofid.conventions import FOUND, MARKS, Box
 from aerofid.detect.asymmetry import patch as _patch
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
-from aerofid.detect.result import FOUND, Detection, not_found
+from aerofid.detect.params import MethodParams, check
+from aerofid.detect.registry import METHODS, SEED_METHODS
+from aerofid.detect.result import Detection, unusable_window
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 METHOD = "auto"
-
-MAX_AGREE = 1.0
-"""Largest distance (px) at which two methods' centres count as agreeing, whatever their sigmas."""
-MIN_AGREE = 0.5
-"""Two centres within this distance (px) always agree."""
-CROP_MARGIN = 8
-"""A lone answer is re-examined on a crop of half-size extent + this many px."""
-EDGE_MARGIN = 3.0
-"""The mark's disc, this much beyond its extent (px), must lie inside the window."""
-MAX_ASYMMETRY = 0.2
-"""Largest share of the mark disc's structure that may change under a 180-degree rotation."""
-LONE_FACTOR = 0.8
-"""A lone (uncorroborated) answer's evidence is scaled by this."""
-MIN_SCORE = {"hough": 0.2, "circles": 0.5, "symmetry": 0.5}
-"""Detector score below which a lone answer is not accepted (``hough``: its own minimum metric, seed 001)."""
-SECOND_RATIO = 0.5
-"""Uniqueness: a second answer of a method counts when its score reaches this fraction of the mark's own
-score by that method (any score when the method did not answer for the mark)."""
-SECOND_SIZE = 2.0
-"""... and when its extent is within this factor of the mark's (:func:`_similar_size`)."""
-EXTENT_PERCENTILE = 75.0
-"""The mark's extent from the radial profile (:func:`profile_extent`) uses this percentile over each circle."""
-MIN_CORE_SNR = 8.0
-"""A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma off the ground."""
-ISOLATE_FACTOR = 2.0
-"""Step 4 isolates a blob within this many times its radius (plus 2 px)."""
-MIN_PLAIN = 0.5
-"""Step 4 runs only on plain ground (film border): at least this fraction of the box within 4 noise sigma
-of its median grey level (aerial ground, an image-area edge in the box: no isolated-dot search)."""
-PLAIN_FLOOR = 0.02
-"""... or within this many grey levels (of 1) of it: JPEG blocks make plain film exceed 4 noise sigma (the
-noise estimate sees the smoothed blocks), while aerial ground stays below 25 % of the box within 0.02."""
-EDGE_RATIO = (10.0 + 1.0) ** 2 / 10.0
-"""Step 4: a blob's DoG Hessian must have trace^2 / det below this (Lowe 2004, principal-curvature ratio 10):
-points on the frame's straight edges are not blobs."""
-MIN_BLOB_SNR = 10.0
-"""Step 4: a compact blob's peak must stand this many noise sigma above the ground."""
-MIN_MOAT = 2.5
-"""Step 4: flat ground must surround the blob from its radius out to at least this many px beyond it."""
 
 PRIORITY = ("hough", "symmetry", "circles", "lines", "centroid")
 """Whose centre a corroborated group returns: the first of its members in this order (docs/benchmarks_marks.md:
@@ -112,18 +83,113 @@ rings, dots and bull's-eyes: RMS 0.012 px against 0.019 px for ``circles`` on 20
 against 0.047 px with a speck on the ring; ``circles`` is better only under heavy noise, 0.024 against 0.032 px.
 Picking the member with the smallest sigma, or the sigma-weighted mean, did worse: 0.019 and 0.014 px)."""
 
+MIN_SIDE = 16
+"""Smallest window side (px) ``auto`` looks at."""
+MIN_CROP_SIDE = 17
+"""A lone answer is re-examined on its crop only when the crop is at least this many px on each side."""
+CROSS_CHECKERS = {"hough": ("lines", "symmetry"), "circles": ("symmetry", "hough"), "symmetry": ("circles", "hough")}
+"""Step 2: which methods re-examine a lone answer of each method on its crop (``symmetry`` for others; a cloth
+panel's lone ``hough`` answer only by ``symmetry``)."""
+SEED = 12345
+"""Seed of the noise that fills a blanked or isolated area (deterministic answers)."""
 
-def _hough_keys() -> frozenset[str]:
-    from aerofid.detect.hough.analysis import HoughParams
-    from aerofid.detect.hough.search import SearchParams
+Blob = tuple[int, int, int, int, int]
+"""A connected component (x0, y0, x1, y1, area) in window pixels, x1 and y1 exclusive."""
 
-    return frozenset(HoughParams.__dataclass_fields__) | frozenset(SearchParams.__dataclass_fields__) | {
-        "verify", "min_arm_balance", "min_arm_snr"}
+
+@dataclass(frozen=True)
+class AutoParams(MethodParams):
+    """``auto``'s own settings (the seed methods' parameters are passed separately, see :func:`detect`).
+
+    Every default is aerofid's (no seed has this rule); the module docstring names the step that uses each.
+
+    Examples
+    --------
+    >>> AutoParams().max_disc_asymmetry, AutoParams(mark="panel").mark
+    (0.2, 'panel')
+    >>> AutoParams(mark="ring")
+    Traceback (most recent call last):
+    ...
+    ValueError: mark must be one of auto, external, panel, not 'ring'
+    """
+
+    mark: str = "auto"
+    """Kind of mark: ``"auto"``, ``"external"`` (film fiducial) or ``"panel"`` (cloth ground panel); also
+    passed to every seed method that takes a ``mark`` (``hough``). Step 1."""
+    max_agree: float = 1.0
+    """Largest distance (px) at which two methods' centres count as agreeing, whatever their sigmas. Step 2."""
+    min_agree: float = 0.5
+    """Two centres within this distance (px) always agree. Step 2."""
+    crop_margin: int = 8
+    """A lone answer is re-examined on a crop of half-size extent + this many px. Step 2."""
+    edge_margin: float = 3.0
+    """The mark's disc, this much beyond its extent (px), must lie inside the window. Step 3."""
+    max_disc_asymmetry: float = 0.2
+    """Largest share of the mark disc's structure that may change under a 180-degree rotation (step 3; not
+    ``symmetry``'s own ``max_asymmetry``)."""
+    lone_factor: float = 0.8
+    """A lone (uncorroborated) answer's evidence is scaled by this. Score."""
+    min_lone_score_hough: float = 0.2
+    """A lone ``hough`` answer needs at least this score (its own minimum metric, seed 001); also the least
+    metric of a second '+' in the uniqueness check. Step 2."""
+    min_lone_score_circles: float = 0.5
+    """A lone ``circles`` answer needs at least this score. Step 2."""
+    min_lone_score_symmetry: float = 0.5
+    """A lone ``symmetry`` answer needs at least this score. Step 2."""
+    second_ratio: float = 0.5
+    """Uniqueness: a second answer of a method counts when its score reaches this fraction of the mark's own
+    score by that method (any score when the method did not answer for the mark). Step 3."""
+    second_size: float = 2.0
+    """... and when its extent is within this factor of the mark's (:func:`similar_size`). Step 3."""
+    extent_percentile: float = 75.0
+    """The mark's extent from the radial profile (:func:`profile_extent`) uses this percentile over each
+    circle. Step 3."""
+    min_core_snr: float = 8.0
+    """A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma off the ground
+    (:func:`core_contrast`). Step 2."""
+    isolate_factor: float = 2.0
+    """Step 4 isolates a blob within this many times its radius (plus 2 px)."""
+    min_plain: float = 0.5
+    """Step 4 runs only on plain ground (film border): at least this fraction of the box within 4 noise sigma
+    of its median grey level (aerial ground, an image-area edge in the box: no isolated-dot search); the
+    same share lets ``hough`` run in step 1 with ``mark="auto"``."""
+    plain_floor: float = 0.02
+    """... or within this many grey levels (of 1) of it: JPEG blocks make plain film exceed 4 noise sigma (the
+    noise estimate sees the smoothed blocks), while aerial ground stays below 25 % of the box within 0.02."""
+    blob_edge_ratio: float = (10.0 + 1.0) ** 2 / 10.0
+    """Step 4: a blob's DoG Hessian must have trace^2 / det below this (Lowe 2004, principal-curvature ratio
+    10): points on the frame's straight edges are not blobs."""
+    min_blob_snr: float = 10.0
+    """Step 4: a compact blob's peak must stand this many noise sigma above the ground."""
+    min_moat: float = 2.5
+    """Step 4: flat ground must surround the blob from its radius out to at least this many px beyond it."""
+
+    def validate(self) -> None:
+        """One line for a bad value: which parameter, which values are allowed."""
+        check(self.mark in MARKS, f"mark must be one of {', '.join(MARKS)}, not {self.mark!r}")
+        check(0 < self.min_agree <= self.max_agree,
+              f"need 0 < min_agree <= max_agree, not {self.min_agree} and {self.max_agree}")
+        check(isinstance(self.crop_margin, int) and self.crop_margin >= 0,
+              f"crop_margin must be a whole number of px >= 0, not {self.crop_margin!r}")
+        for name in ("edge_margin", "min_moat"):
+            check(getattr(self, name) >= 0, f"{name} must be >= 0 px, not {getattr(self, name)}")
+        for name in ("max_disc_asymmetry", "second_size", "min_core_snr", "isolate_factor", "blob_edge_ratio",
+                     "min_blob_snr"):
+            check(getattr(self, name) > 0, f"{name} must be > 0, not {getattr(self, name)}")
+        for name in ("lone_factor", "min_lone_score_hough", "min_lone_score_circles", "min_lone_score_symmetry",
+                     "second_ratio", "min_plain", "plain_floor"):
+            check(0 <= getattr(self, name) <= 1, f"{name} must be in [0, 1], not {getattr(self, name)}")
+        check(0 < self.extent_percentile <= 100,
+              f"extent_percentile must be in (0, 100], not {self.extent_percentile}")
+
+    def min_lone_score(self, method: str) -> float:
+        """The least score of a lone answer of ``method`` (0.5 for a method without its own)."""
+        return float(getattr(self, f"min_lone_score_{method}", 0.5))
 
 
 @dataclass(frozen=True)
 class Check:
-    """Outcome of :func:`verify_centre`."""
+    """Outcome of :func:`verify_centre`: passed or not, why not, the disc's asymmetry and the mark's extent."""
 
     ok: bool
     reason: str
@@ -131,23 +197,455 @@ class Check:
     extent: float
 
 
-Runner = Callable[..., Detection]
-"""``run(method, window, **overrides) -> Detection``; ``overrides`` are that method's keyword parameters."""
+@dataclass(frozen=True)
+class AutoResult(Detection):
+    """``auto``'s answer: the centre and ``sigma`` of the member whose centre is returned (its ``method``),
+    auto's own ``score``, and how the rule decided.
+
+    Attributes
+    ----------
+    answers : Mapping[str, Detection]
+        Every detector's answer, in window pixels: ``"circles"``, ``"symmetry"``, ``"hough"`` on the whole
+        window, ``"<method>@crop"`` (step 2), ``"symmetry@isolated"`` and ``"centroid"`` (step 4).
+    windows : Mapping[str, Box]
+        The part of the window (x0, y0, x1, y1) an answer's method saw, for the answers that saw a crop.
+    groups : tuple of tuple of Detection
+        The found answers grouped by agreement (step 2).
+    members : tuple of Detection
+        The group whose centre is returned (empty when nothing was found).
+    check : Check or None
+        The verification (step 3) of the group's centre.
+    rule : str
+        Which step decided (``"lone hough"``, ``"corroborated by symmetry, circles"``, ...).
+    mark_extent : float
+        The mark's radius (px) used in the verification (NaN before step 3).
+    noise, plain_ground, ground_level, core_snr : float
+        The window's noise sigma (Immerkaer), its share of plain ground and that ground's grey level, the
+        contrast of a lone ``symmetry`` answer's core in noise sigma (NaN unless measured).
+    structure_left : int or None
+        Significant pixels left once the mark is blanked out (None: not measured).
+    mark_like : tuple of Blob
+        The mark-like components among them.
+    second_marks : tuple of Detection
+        Answers found on the rest of the window (step 3, uniqueness).
+    """
+
+    answers: Mapping[str, Detection] = field(default_factory=dict, compare=False, repr=False)
+    windows: Mapping[str, Box] = field(default_factory=dict, compare=False, repr=False)
+    groups: tuple[tuple[Detection, ...], ...] = field(default=(), compare=False, repr=False)
+    members: tuple[Detection, ...] = field(default=(), compare=False, repr=False)
+    check: Check | None = field(default=None, compare=False, repr=False)
+    rule: str = ""
+    mark_extent: float = field(default=float("nan"), compare=False)
+    noise: float = field(default=float("nan"), compare=False, repr=False)
+    plain_ground: float = field(default=float("nan"), compare=False, repr=False)
+    ground_level: float = field(default=float("nan"), compare=False, repr=False)
+    core_snr: float = field(default=float("nan"), compare=False, repr=False)
+    structure_left: int | None = field(default=None, compare=False, repr=False)
+    mark_like: tuple[Blob, ...] = field(default=(), compare=False, repr=False)
+    second_marks: tuple[Detection, ...] = field(default=(), compare=False, repr=False)
+
+    @property
+    def extent(self) -> float | None:
+        """The mark's radius (px) that passed the verification (step 3), None when nothing was verified."""
+        return float(self.mark_extent) if self.found and np.isfinite(self.mark_extent) else None
+
+    @property
+    def member(self) -> Detection | None:
+        """The member whose centre is returned (None when nothing was found)."""
+        return _by_priority(self.members) if self.members else None
+
+    def plot(self, fig: Figure, window: np.ndarray) -> None:
+        """The returned member's own figure (on the part of ``window`` it saw) with auto's rule and score in
+        the title; when nothing was found, ``window`` with every method's answer marked and the reason."""
+        member = self.member
+        if member is None:
+            _plot_answers(fig, window, self)
+            return
+        key = next((k for k, d in self.answers.items() if d is member), member.method)
+        x0, y0, x1, y1 = self.windows.get(key, (0, 0, window.shape[1], window.shape[0]))
+        member.plot(fig, window[y0:y1, x0:x1])
+        line = f"auto: {self.rule}, score {self.score:.2f}"
+        old = fig.get_suptitle()
+        fig.suptitle(f"{old}\n{line}" if old else line, fontsize=10)
 
 
-def make_runner(mark: str = "auto", params: dict | None = None) -> Runner:
-    """A function ``run(method, window, **overrides) -> Detection`` that passes ``mark`` and the user's
-    parameters to ``hough`` (the only method whose parameters ``locate`` exposes today), and ``overrides``
-    (auto's own settings for one call) to the method."""
-    params = dict(params or {})
+def _plot_answers(fig: Figure, window: np.ndarray, res: AutoResult) -> None:
+    """``window`` with every found answer marked, and the reason nothing was answered."""
+    ax = fig.add_subplot(1, 1, 1)
+    ax.imshow(window, cmap="gray", interpolation="nearest")
+    for (key, d), marker in zip(res.answers.items(), "+x1234"):
+        if d.found:
+            ax.plot([d.x], [d.y], marker, ms=12, mew=2, label=f"{key} ({d.x:.1f}, {d.y:.1f})")
+    if any(d.found for d in res.answers.values()):
+        ax.legend(fontsize=7, loc="lower right")
+    ax.set_title(f"auto: not found: {res.reason}"[:110], fontsize=8, wrap=True)
 
-    def run(method: str, window: np.ndarray, **overrides) -> Detection:
-        fn = detector(method)
-        if method == "hough":
-            return fn(window, mark=mark, **{**params, **overrides})
-        return fn(window, **overrides)
 
-    return run
+@dataclass
+class _Trace:
+    """What the rule has learnt so far (becomes the :class:`AutoResult`'s typed fields)."""
+
+    noise: float
+    answers: dict[str, Detection] = field(default_factory=dict)
+    windows: dict[str, Box] = field(default_factory=dict)
+    plain_ground: float = float("nan")
+    ground_level: float = float("nan")
+    groups: list[list[Detection]] = field(default_factory=list)
+    core_snr: float = float("nan")
+    check: Check | None = None
+    rule: str = ""
+    mark_extent: float = float("nan")
+    structure_left: int | None = None
+    mark_like: list[Blob] = field(default_factory=list)
+    second_marks: list[Detection] = field(default_factory=list)
+
+    def fields(self) -> dict[str, Any]:
+        return {"answers": dict(self.answers), "windows": dict(self.windows),
+                "groups": tuple(tuple(g) for g in self.groups), "check": self.check, "rule": self.rule,
+                "mark_extent": self.mark_extent, "noise": self.noise, "plain_ground": self.plain_ground,
+                "ground_level": self.ground_level, "core_snr": self.core_snr,
+                "structure_left": self.structure_left, "mark_like": tuple(self.mark_like),
+                "second_marks": tuple(self.second_marks)}
+
+    def not_found(self, reason: str) -> AutoResult:
+        return AutoResult.not_found(METHOD, reason, **self.fields())
+
+    def found(self, best: Detection, score: float, members: list[Detection]) -> AutoResult:
+        return AutoResult(status=FOUND, x=best.x, y=best.y, score=score, sigma=best.sigma, method=best.method,
+                          members=tuple(members), **self.fields())
+
+
+@dataclass(frozen=True)
+class _Context:
+    """One call of :func:`detect`: the window, its noise, auto's parameters and each seed method's."""
+
+    img: np.ndarray
+    noise: float
+    params: AutoParams
+    seeds: Mapping[str, MethodParams]
+
+    def run(self, name: str, window: np.ndarray, **overrides: Any) -> Detection:
+        """Seed method ``name`` on ``window`` with its parameters, changed by ``overrides`` for this call."""
+        p = self.seeds[name]
+        return METHODS[name].detect(window, p.replace(**overrides) if overrides else p)
+
+
+def seed_params(params: AutoParams, methods: Mapping[str, MethodParams] | None) -> dict[str, MethodParams]:
+    """Each seed method's parameters: those given (defaults when absent), with auto's ``mark`` for the
+    methods that take one."""
+    out: dict[str, MethodParams] = {}
+    for name in SEED_METHODS:
+        ptype = METHODS[name].params_type
+        p = (methods or {}).get(name) or ptype()
+        if not isinstance(p, ptype):
+            raise TypeError(f"parameters of {name!r} must be {ptype.__name__}, not {type(p).__name__}")
+        out[name] = p.replace(mark=params.mark) if "mark" in p.names() else p
+    return out
+
+
+# --- the rule --------------------------------------------------------------------------------------------
+
+def detect(window: np.ndarray, params: AutoParams = AutoParams(),
+           methods: Mapping[str, MethodParams] | None = None) -> AutoResult:
+    """The most reliable centre in ``window`` by the rule of the module docstring, or ``not_found``.
+
+    Parameters
+    ----------
+    window : ndarray
+        2-D grey levels on [0, 1], the mark brighter than its ground (at least 16 x 16 px); not modified.
+    params : AutoParams
+        ``auto``'s own settings.
+    methods : Mapping[str, MethodParams], optional
+        Each seed method's parameters by name (e.g. from :func:`aerofid.detect.registry.route_params`);
+        a method not named runs with its defaults.
+
+    Returns
+    -------
+    AutoResult
+        In window pixels; ``method`` is the detector whose centre is returned, ``score`` auto's.
+
+    Examples
+    --------
+    >>> from aerofid import synth
+    >>> sc = synth.mark_scene("dot", size=24, window=64, rng=np.random.default_rng(1), noise_sigma=0.02)
+    >>> res = detect(sc.image)
+    >>> res.found, res.rule, bool(abs(res.x - sc.marks[0].x) < 0.1 and abs(res.y - sc.marks[0].y) < 0.1)
+    (True, 'lone symmetry', True)
+    >>> detect(np.zeros((64, 64), np.float32)).reason
+    'homogeneous window (grey range below 0.02): no mark'
+    """
+    img = np.asarray(window, np.float32)
+    bad = unusable_window(img, min_side=MIN_SIDE)
+    if bad is not None:
+        return AutoResult.not_found(METHOD, bad + (": no mark" if bad.startswith("homogeneous") else ""))
+    noise = max(laplacian_noise_sigma(img), 1e-4)
+    ctx = _Context(img, noise, params, seed_params(params, methods))
+    trace = _Trace(noise=noise)
+    run_candidates(ctx, trace)
+    groups = group_answers([d for d in trace.answers.values() if d.found], params)
+    trace.groups = groups
+    why = disagreement(img, groups, noise, params)
+    if why is not None:
+        return trace.not_found(why)
+    if not groups:
+        if params.mark == "panel":
+            return trace.not_found(_reasons(trace.answers))
+        return compact_dot(ctx, trace)
+    return _decide_group(ctx, trace, list(groups[0]))
+
+
+def _decide_group(ctx: _Context, trace: _Trace, group: list[Detection]) -> AutoResult:
+    """Steps 2 (a lone answer cross-checked, or accepted alone) and 3 for the one group of found answers."""
+    extent = group_extent(ctx.img, group, ctx.noise, ctx.params)
+    if len(group) == 1:
+        why = cross_check(ctx, trace, group, extent)
+        if why is not None:
+            return trace.not_found(why)
+    if len(group) == 1:
+        why = lone_answer_refused(ctx, trace, group[0], extent)
+        if why is not None:
+            return trace.not_found(why)
+        rule = f"lone {group[0].method}"
+    else:
+        rule = "corroborated by " + ", ".join(d.method for d in group)
+        extent = group_extent(ctx.img, group, ctx.noise, ctx.params)
+    return conclude(ctx, trace, group, extent, rule)
+
+
+def run_candidates(ctx: _Context, trace: _Trace) -> None:
+    """Step 1: run the whole-window methods into ``trace.answers`` (and measure the plain ground)."""
+    p = ctx.params
+    for m in ("hough", "symmetry") if p.mark == "panel" else ("circles", "symmetry"):
+        trace.answers[m] = ctx.run(m, ctx.img)
+    trace.plain_ground, trace.ground_level = plain_ground(ctx.img, ctx.noise, p)
+    nothing = not any(d.found for d in trace.answers.values())
+    if nothing and "hough" not in trace.answers and (p.mark != "auto" or trace.plain_ground >= p.min_plain):
+        trace.answers["hough"] = ctx.run("hough", ctx.img)
+
+
+def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams()) -> tuple[float, float]:
+    """(share, grey level) of the window's plain ground: the pixels within max(4 noise, ``plain_floor``)
+    of its median grey level, and their median (the window's when there are none).
+
+    Examples
+    --------
+    >>> img = np.full((20, 20), 0.1, np.float32); img[5:9, 5:9] = 0.9
+    >>> share, level = plain_ground(img, 0.01)
+    >>> share, round(level, 3)
+    (0.96, 0.1)
+    """
+    flat = np.abs(img - np.median(img)) <= max(4.0 * noise, params.plain_floor)
+    level = float(np.median(img[flat])) if flat.any() else float(np.median(img))
+    return float(flat.mean()), level
+
+
+def agree(a: Detection, b: Detection, params: AutoParams = AutoParams()) -> bool:
+    """Step 2: two centres agree within ``max(min_agree, 3 sqrt(sa^2 + sb^2))``, capped at ``max_agree``
+    (a sigma that is not finite counts as 0.1 px).
+
+    Examples
+    --------
+    >>> a = Detection(status="found", x=10.0, y=10.0, sigma=0.05)
+    >>> agree(a, Detection(status="found", x=10.4, y=10.0, sigma=0.05)), agree(a, Detection(x=11.2, y=10.0))
+    (True, False)
+    """
+    d = float(np.hypot(a.x - b.x, a.y - b.y))
+    sa = a.sigma if np.isfinite(a.sigma) else 0.1
+    sb = b.sigma if np.isfinite(b.sigma) else 0.1
+    return d <= min(params.max_agree, max(params.min_agree, 3.0 * np.hypot(sa, sb)))
+
+
+def group_answers(found: list[Detection], params: AutoParams = AutoParams()) -> list[list[Detection]]:
+    """Step 2: the found answers grouped by agreement (:func:`agree`) with each group's first member, taken
+    in order of increasing sigma."""
+    groups: list[list[Detection]] = []
+    for d in sorted(found, key=lambda d: d.sigma if np.isfinite(d.sigma) else 1e9):
+        for g in groups:
+            if agree(g[0], d, params):
+                g.append(d)
+                break
+        else:
+            groups.append([d])
+    return groups
+
+
+def disagreement(img: np.ndarray, groups: list[list[Detection]], noise: float,
+                 params: AutoParams = AutoParams()) -> str | None:
+    """Step 2: why the groups cannot be trusted (two of them on the same mark, closer than its extent, or
+    several marks in the box), or None for at most one group."""
+    for i, a in enumerate(groups):
+        for b in groups[i + 1:]:
+            dist = float(np.hypot(a[0].x - b[0].x, a[0].y - b[0].y))
+            reach = max(group_extent(img, a, noise, params), group_extent(img, b, noise, params))
+            if dist < reach:
+                return (f"methods disagree: {a[0].method} at ({a[0].x:.2f}, {a[0].y:.2f}) and {b[0].method} at "
+                        f"({b[0].x:.2f}, {b[0].y:.2f}), {dist:.2f} px apart on the same mark")
+    if len(groups) > 1:
+        return (f"{len(groups)} different marks answered in the box ("
+                + "; ".join(f"{g[0].method} at ({g[0].x:.1f}, {g[0].y:.1f})" for g in groups)
+                + "): ambiguous, draw a tighter box")
+    return None
+
+
+def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: float) -> str | None:
+    """Step 2 for a lone answer: the methods of :data:`CROSS_CHECKERS` run on a crop of half-size
+    ``extent + crop_margin`` around it; an agreeing answer joins ``group``, a disagreeing one is the reason
+    returned (None otherwise)."""
+    lone = group[0]
+    crop, x0, y0 = _crop(ctx.img, lone.x, lone.y, int(np.ceil(extent + ctx.params.crop_margin)))
+    if lone.method == "hough" and ctx.params.mark == "panel":
+        checkers: tuple[str, ...] = ("symmetry",)
+    else:
+        checkers = CROSS_CHECKERS.get(lone.method, ("symmetry",))
+    for m in checkers:
+        if min(crop.shape) < MIN_CROP_SIDE:
+            continue
+        d = ctx.run(m, crop)
+        if not d.found:
+            continue
+        d = d.shifted(x0, y0)
+        trace.answers[f"{m}@crop"] = d
+        trace.windows[f"{m}@crop"] = (x0, y0, x0 + crop.shape[1], y0 + crop.shape[0])
+        if not agree(lone, d, ctx.params):
+            dist = float(np.hypot(d.x - lone.x, d.y - lone.y))
+            return (f"methods disagree: {lone.method} at ({lone.x:.2f}, {lone.y:.2f}) and {m} on a crop around it "
+                    f"at ({d.x:.2f}, {d.y:.2f}), {dist:.2f} px apart")
+        group.append(d)
+    return None
+
+
+def lone_answer_refused(ctx: _Context, trace: _Trace, lone: Detection, extent: float) -> str | None:
+    """Step 2: why a lone (uncorroborated) answer is not kept - a score below its method's
+    ``min_lone_score_<method>``, or a ``symmetry`` answer without a compact core (:func:`core_contrast`) -
+    or None."""
+    if lone.score < ctx.params.min_lone_score(lone.method):
+        return f"lone {lone.method} answer with a low score ({lone.score:.2f})"
+    if lone.method == "symmetry":
+        c = core_contrast(ctx.img, lone.x, lone.y, extent, ctx.noise)
+        trace.core_snr = c
+        if not abs(c) >= ctx.params.min_core_snr:
+            return (f"a lone symmetry answer at ({lone.x:.1f}, {lone.y:.1f}) with no compact core ({c:.1f} noise "
+                    "sigma): not corroborated")
+    return None
+
+
+def conclude(ctx: _Context, trace: _Trace, group: list[Detection], extent: float, rule: str,
+             dot: float | None = None) -> AutoResult:
+    """Step 3 and the score for the accepted ``group``: the centre of its first member in :data:`PRIORITY`.
+    ``dot`` is the plain ground level around an isolated dot (step 4), which also fills its blank: the
+    annulus just outside a dot in a small notch holds the notch's walls."""
+    best = _by_priority(group)
+    chk = verify_centre(ctx.img, best.x, best.y, extent, ctx.noise, ctx.params)
+    trace.check, trace.rule, trace.mark_extent = chk, rule, extent
+    if not chk.ok:
+        return trace.not_found(chk.reason)
+    why = uniqueness(ctx, trace, group, best, extent, dot)
+    if why is not None:
+        return trace.not_found(why)
+    return trace.found(best, auto_score(group, chk, ctx.params), group)
+
+
+def auto_score(group: list[Detection], chk: Check, params: AutoParams = AutoParams()) -> float:
+    """The score (module docstring): ``1 - prod(1 - s_m)`` over the group, times ``lone_factor`` for a single
+    method, times ``1 - asymmetry / (2 max_disc_asymmetry)``, clipped to [0, 1].
+
+    Examples
+    --------
+    >>> two = [Detection(score=0.5, method="circles"), Detection(score=0.5, method="symmetry")]
+    >>> auto_score(two, Check(True, "", 0.1, 10.0))
+    0.5625
+    """
+    evidence = 1.0 - float(np.prod([1.0 - float(np.clip(d.score, 0, 1)) for d in group]))
+    if len({d.method for d in group}) < 2:
+        evidence *= params.lone_factor
+    quality = 1.0 - chk.asymmetry / (2.0 * params.max_disc_asymmetry)
+    return float(np.clip(evidence * quality, 0.0, 1.0))
+
+
+def _by_priority(group: list[Detection] | tuple[Detection, ...]) -> Detection:
+    return min(group, key=lambda d: PRIORITY.index(d.method) if d.method in PRIORITY else len(PRIORITY))
+
+
+# --- step 3: verification --------------------------------------------------------------------------------
+
+def verify_centre(img: np.ndarray, x: float, y: float, extent: float, noise: float,
+                  params: AutoParams = AutoParams()) -> Check:
+    """Containment and point symmetry (module docstring, step 3) of the mark of radius ``extent`` at (x, y).
+
+    Examples
+    --------
+    >>> img = np.full((40, 40), 0.1, np.float32); img[17:24, 17:24] = 0.9
+    >>> verify_centre(img, 20.0, 20.0, 5.0, 0.01).ok, verify_centre(img, 20.0, 20.0, 18.0, 0.01).ok
+    (True, False)
+    """
+    h, w = img.shape
+    r = extent + params.edge_margin
+    room = min(x, y, w - 1 - x, h - 1 - y)
+    if room < r:
+        return Check(False, f"the mark (radius {extent:.1f} px) at ({x:.1f}, {y:.1f}) is cut by the box edge "
+                            f"(only {room:.1f} px of room): enlarge or move the box", float("nan"), extent)
+    asym = point_asymmetry(img, x, y, r, noise)
+    if not asym <= params.max_disc_asymmetry:
+        return Check(False, f"the mark at ({x:.1f}, {y:.1f}) is not centrally symmetric ({asym:.2f} of its "
+                            f"disc's structure changes under a half turn; limit {params.max_disc_asymmetry}): "
+                            "partly hidden, on an edge or a wrong centre", asym, extent)
+    return Check(True, "", asym, extent)
+
+
+def uniqueness(ctx: _Context, trace: _Trace, group: list[Detection], best: Detection, extent: float,
+               dot: float | None = None) -> str | None:
+    """Step 3, uniqueness: why the box holds another mark besides the one at ``best`` (a mark-like feature
+    left once it is blanked out, :func:`structure_left`, or a method's second answer, :func:`second_marks`),
+    or None. A cloth panel (``mark="panel"``) on textured ground is judged by the second answers only."""
+    p = ctx.params
+    blanked = blank_disc(ctx.img, best.x, best.y, extent + p.edge_margin, ctx.noise, level=dot)
+    rest, blobs = structure_left(blanked, ctx.img, best.x, best.y, extent, ctx.noise, any_size=dot is not None,
+                                 edge_margin=p.edge_margin)
+    trace.structure_left, trace.mark_like = rest, blobs
+    if blobs and p.mark != "panel":
+        x0, y0, x1, y1, area = blobs[0]
+        return (f"a second mark-like feature ({area} px in ({x0}, {y0})-({x1}, {y1})) besides the mark at "
+                f"({best.x:.1f}, {best.y:.1f}): ambiguous, draw a tighter box")
+    trace.second_marks = second_marks(ctx, blanked, group, best, extent) if rest else []
+    if trace.second_marks:
+        d = trace.second_marks[0]
+        return (f"a second mark-like feature ({d.method}) at ({d.x:.1f}, {d.y:.1f}) besides the one at "
+                f"({best.x:.1f}, {best.y:.1f}): ambiguous, draw a tighter box")
+    return None
+
+
+def second_marks(ctx: _Context, blanked: np.ndarray, group: list[Detection], best: Detection,
+                 extent: float) -> list[Detection]:
+    """Step 3, uniqueness: the answers of the group's methods, ``symmetry`` and ``circles`` on the window
+    with the mark blanked out that are another mark: beyond ``extent`` from it, scoring at least
+    ``second_ratio`` of the method's score on the mark, of a similar size (:func:`similar_size`)."""
+    p = ctx.params
+    own = {d.method: d.score for d in group}
+    again = []
+    for m in sorted(set(own) | {"symmetry", "circles"}):
+        if m not in SEED_METHODS or m == "lines":
+            continue
+        floor = p.second_ratio * own.get(m, 0.0)
+        # hough need not verify (fit) candidates too weak to count as a second mark
+        d = ctx.run(m, blanked, min_metric=max(p.min_lone_score_hough, floor)) if m == "hough" else ctx.run(m, blanked)
+        if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent and d.score >= floor \
+                and similar_size(d.extent, extent, p):
+            again.append(d)
+    return again
+
+
+def similar_size(other: float | None, extent: float, params: AutoParams = AutoParams()) -> bool:
+    """Uniqueness: a second answer is another *mark* only when its size (from its detector's model) is within
+    ``second_size`` times the mark's (or unknown); a crossing of two field boundaries whose '+' arms run out
+    of the box, or a broad blurred cross in aerial texture around a small cloth panel, is not.
+
+    Examples
+    --------
+    >>> similar_size(12.0, 10.0), similar_size(30.0, 10.0), similar_size(None, 10.0)
+    (True, False, True)
+    """
+    return other is None or 1.0 / params.second_size <= other / max(extent, 1e-6) <= params.second_size
 
 
 # --- geometry helpers ------------------------------------------------------------------------------------
@@ -161,12 +659,13 @@ def ground_level(img: np.ndarray, x: float, y: float, r_in: float, r_out: float)
     return float(np.median(img[sel])) if sel.sum() >= 8 else float(np.median(img))
 
 
-def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: float) -> float:
-    """Radius (px) of the structure around (x, y): the last radius at which the ``EXTENT_PERCENTILE``-th
-    percentile of the absolute deviation from the ground over the circle (smoothed by 1 px) exceeds
-    max(0.25 x its largest value, 5 noise). A percentile, not the largest value: a thin line running through
-    a dot (the real EarthExplorer block mark) or a '+' beyond a ring crosses every circle at a few points and
-    would make the mark as large as the box."""
+def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: float,
+                   percentile: float = 75.0) -> float:
+    """Radius (px) of the structure around (x, y): the last radius at which the ``percentile``-th percentile
+    (``extent_percentile``) of the absolute deviation from the ground over the circle (smoothed by 1 px)
+    exceeds max(0.25 x its largest value, 5 noise). A percentile, not the largest value: a thin line running
+    through a dot (the real EarthExplorer block mark) or a '+' beyond a ring crosses every circle at a few
+    points and would make the mark as large as the box."""
     k = int(np.ceil(r_max))
     p = cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0)
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
@@ -176,24 +675,24 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
     dev = np.abs(p - g)
     ri = np.floor(rr).astype(int)
     inside = rr <= k
-    prof = np.array([np.percentile(dev[inside & (ri == r)], EXTENT_PERCENTILE) if (inside & (ri == r)).any() else 0.0
+    prof = np.array([np.percentile(dev[inside & (ri == r)], percentile) if (inside & (ri == r)).any() else 0.0
                      for r in range(k + 1)])
     thr = max(0.25 * prof.max(), 5.0 * noise)
     above = np.flatnonzero(prof > thr)
     return float(above[-1] + 1) if above.size else 1.0
 
 
-def detection_extent(det: Detection) -> float | None:
-    """The mark's radius (px) from a detector's own model, or None."""
-    d = det.diagnostics or {}
-    if det.method == "hough" and "refinement" in d:
-        f = d["refinement"]  # arms that run out of the fitted patch are as long as the patch shows them
-        return float(min(max(f.length1, f.length2) / 2.0, f.patch_half) + f.width / 2.0 + f.blur)
-    if det.method == "circles" and d.get("circles"):
-        return float(max(r for _, _, r in d["circles"]) + 1.0)
-    if det.method == "lines" and d.get("lines"):
-        return float(max(max(f.arms) for f in d["lines"]) + 1.0)
-    return None
+def group_extent(img: np.ndarray, members: list[Detection], noise: float,
+                 params: AutoParams = AutoParams()) -> float:
+    """The mark's radius (px): the largest of the members' own models (:attr:`Detection.extent`), else the
+    radial profile around the first member (:func:`profile_extent`)."""
+    ext = [e for e in (m.extent for m in members) if e is not None]
+    if ext:
+        return max(ext)
+    h, w = img.shape
+    m = members[0]
+    r_max = max(4.0, min(m.x, m.y, w - 1 - m.x, h - 1 - m.y, 0.5 * min(h, w)))
+    return profile_extent(img, m.x, m.y, noise, r_max, params.extent_percentile)
 
 
 def core_contrast(img: np.ndarray, x: float, y: float, extent: float, noise: float) -> float:
@@ -219,214 +718,15 @@ def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float 
     yy, xx = np.mgrid[0:h, 0:w]
     d = np.hypot(xx - x, yy - y) <= radius
     out = img.copy()
-    fill = np.random.default_rng(12345).normal(0.0, noise, int(d.sum())) if noise > 0 else 0.0
+    fill = np.random.default_rng(SEED).normal(0.0, noise, int(d.sum())) if noise > 0 else 0.0
     if level is None:
         level = ground_level(img, x, y, radius, radius + 5)
-    out[d] = (level + fill).astype(np.float32)
+    out[d] = np.asarray(level + fill, np.float32)
     return out
 
 
-def verify_centre(img: np.ndarray, x: float, y: float, extent: float, noise: float) -> Check:
-    """Containment and point symmetry (module docstring, step 3) of the mark of radius ``extent`` at (x, y)."""
-    h, w = img.shape
-    r = extent + EDGE_MARGIN
-    room = min(x, y, w - 1 - x, h - 1 - y)
-    if room < r:
-        return Check(False, f"the mark (radius {extent:.1f} px) at ({x:.1f}, {y:.1f}) is cut by the box edge "
-                            f"(only {room:.1f} px of room): enlarge or move the box", float("nan"), extent)
-    asym = point_asymmetry(img, x, y, r, noise)
-    if not asym <= MAX_ASYMMETRY:
-        return Check(False, f"the mark at ({x:.1f}, {y:.1f}) is not centrally symmetric ({asym:.2f} of its "
-                            f"disc's structure changes under a half turn; limit {MAX_ASYMMETRY}): partly hidden, on "
-                            "an edge or a wrong centre", asym, extent)
-    return Check(True, "", asym, extent)
-
-
-# --- the automatic choice --------------------------------------------------------------------------------
-
-def _agree(a: Detection, b: Detection) -> bool:
-    d = float(np.hypot(a.x - b.x, a.y - b.y))
-    sa = a.sigma if np.isfinite(a.sigma) else 0.1
-    sb = b.sigma if np.isfinite(b.sigma) else 0.1
-    return d <= min(MAX_AGREE, max(MIN_AGREE, 3.0 * np.hypot(sa, sb)))
-
-
-def _shift(det: Detection, dx: float, dy: float) -> Detection:
-    return Detection(status=det.status, x=det.x + dx, y=det.y + dy, score=det.score, sigma=det.sigma,
-                     method=det.method, reason=det.reason, diagnostics=det.diagnostics)
-
-
-def _crop(img: np.ndarray, x: float, y: float, half: int) -> tuple[np.ndarray, int, int]:
-    h, w = img.shape
-    cx, cy = int(round(x)), int(round(y))
-    x0, y0 = max(0, cx - half), max(0, cy - half)
-    x1, y1 = min(w, cx + half + 1), min(h, cy + half + 1)
-    return img[y0:y1, x0:x1], x0, y0
-
-
-def _extent(img, members: list[Detection], noise: float) -> float:
-    ext = [e for e in (detection_extent(m) for m in members) if e is not None]
-    if ext:
-        return max(ext)
-    h, w = img.shape
-    m = members[0]
-    r_max = max(4.0, min(m.x, m.y, w - 1 - m.x, h - 1 - m.y, 0.5 * min(h, w)))
-    return profile_extent(img, m.x, m.y, noise, r_max)
-
-
-def detect_auto(window: np.ndarray, mark: str = "auto", run: Runner | None = None,
-                methods: list[str] | None = None) -> Detection:
-    """The most reliable centre in ``window`` by the rule of the module docstring, or ``not_found``.
-
-    ``run(method, window)`` runs one detector (default: :func:`make_runner` with ``mark``); ``methods``
-    restricts the detectors used (default: every available one). The answer's ``method`` is the detector
-    whose centre is returned; ``diagnostics`` hold ``answers`` (every detector's Detection, crops' in window
-    pixels), ``groups``, ``check`` and ``rule`` (which step decided).
-    """
-    img = np.asarray(window, np.float32)
-    run = run or make_runner(mark)
-    have = [m for m in (methods or available_methods())]
-    if img.ndim != 2 or min(img.shape) < 16:
-        return not_found(METHOD, "window must be a 2-D array of at least 16 x 16 px")
-    if not np.isfinite(img).all():
-        return not_found(METHOD, "window holds NaN or infinite grey levels")
-    if float(img.max() - img.min()) < 0.02:
-        return not_found(METHOD, "homogeneous window (grey range below 0.02): no mark")
-    noise = max(laplacian_noise_sigma(img), 1e-4)
-    answers: dict[str, Detection] = {}
-
-    def go(m: str) -> None:
-        if m in have and m not in answers:
-            answers[m] = run(m, img)
-
-    first = ("hough", "symmetry") if mark == "panel" else ("circles", "symmetry")
-    for m in first:
-        go(m)
-    flat = _plain_ground(img, noise)
-    plain = float(flat.mean())
-    if not any(d.found for d in answers.values()) and (mark != "auto" or plain >= MIN_PLAIN):
-        go("hough")
-    found = [d for d in answers.values() if d.found]
-    diag: dict = {"answers": answers, "noise": noise, "plain_ground": plain,
-                  "ground_level": float(np.median(img[flat])) if flat.any() else float(np.median(img))}
-
-    # group the found answers
-    groups: list[list[Detection]] = []
-    for d in sorted(found, key=lambda d: d.sigma if np.isfinite(d.sigma) else 1e9):
-        for g in groups:
-            if _agree(g[0], d):
-                g.append(d)
-                break
-        else:
-            groups.append([d])
-    # answers on the same mark that disagree: something is wrong
-    for i, a in enumerate(groups):
-        for b in groups[i + 1:]:
-            dist = float(np.hypot(a[0].x - b[0].x, a[0].y - b[0].y))
-            reach = max(_extent(img, a, noise), _extent(img, b, noise))
-            if dist < reach:
-                return not_found(METHOD, f"methods disagree: {a[0].method} at ({a[0].x:.2f}, {a[0].y:.2f}) and "
-                                         f"{b[0].method} at ({b[0].x:.2f}, {b[0].y:.2f}), {dist:.2f} px apart on "
-                                         "the same mark", **diag, groups=groups)
-    if len(groups) > 1:
-        return not_found(METHOD, f"{len(groups)} different marks answered in the box ("
-                                 + "; ".join(f"{g[0].method} at ({g[0].x:.1f}, {g[0].y:.1f})" for g in groups)
-                                 + "): ambiguous, draw a tighter box", **diag, groups=groups)
-    diag["groups"] = groups
-    if not groups:
-        if mark == "panel":
-            return not_found(METHOD, _reasons(answers), **diag)
-        return _compact_dot(img, noise, run, have, answers, diag)
-
-    group = groups[0]
-    extent = _extent(img, group, noise)
-    if len(group) == 1:
-        # cross-check on a crop centred on the lone answer
-        lone = group[0]
-        crop, x0, y0 = _crop(img, lone.x, lone.y, int(np.ceil(extent + CROP_MARGIN)))
-        extra = {"hough": ["symmetry"] if mark == "panel" else ["lines", "symmetry"],
-                 "circles": ["symmetry", "hough"], "symmetry": ["circles", "hough"]}.get(lone.method, ["symmetry"])
-        for m in extra:
-            if m not in have or min(crop.shape) < 17:
-                continue
-            d = run(m, crop)
-            if d.found:
-                d = _shift(d, x0, y0)
-                answers[f"{m}@crop"] = d
-                if _agree(lone, d):
-                    group.append(d)
-                else:
-                    dist = float(np.hypot(d.x - lone.x, d.y - lone.y))
-                    return not_found(METHOD, f"methods disagree: {lone.method} at ({lone.x:.2f}, {lone.y:.2f}) and "
-                                             f"{m} on a crop around it at ({d.x:.2f}, {d.y:.2f}), {dist:.2f} px "
-                                             "apart", **diag)
-    if len(group) == 1:
-        lone = group[0]
-        if lone.score < MIN_SCORE.get(lone.method, 0.5):
-            return not_found(METHOD, f"lone {lone.method} answer with a low score ({lone.score:.2f})", **diag)
-        if lone.method == "symmetry":
-            c = core_contrast(img, lone.x, lone.y, extent, noise)
-            diag["core_snr"] = c
-            if not abs(c) >= MIN_CORE_SNR:
-                return not_found(METHOD, f"a lone symmetry answer at ({lone.x:.1f}, {lone.y:.1f}) with no compact "
-                                         f"core ({c:.1f} noise sigma): not corroborated", **diag)
-        rule = f"lone {lone.method}"
-    else:
-        rule = "corroborated by " + ", ".join(d.method for d in group)
-        extent = _extent(img, group, noise)
-    return _finish(img, group, extent, noise, run, have, rule, diag, mark == "panel")
-
-
-def _finish(img, group, extent, noise, run, have, rule, diag, panel=False, dot=None) -> Detection:
-    """Steps 3 and the score; ``dot`` is the plain ground level around an isolated dot (step 4), which also
-    fills its blank: the annulus just outside a dot in a small notch holds the notch's walls."""
-    best = min(group, key=lambda d: PRIORITY.index(d.method) if d.method in PRIORITY else len(PRIORITY))
-    chk = verify_centre(img, best.x, best.y, extent, noise)
-    diag.update(check=chk, rule=rule, extent=extent)
-    if not chk.ok:
-        return not_found(METHOD, chk.reason, **diag)
-    # uniqueness: blank the mark, look again
-    blanked = blank_disc(img, best.x, best.y, extent + EDGE_MARGIN, noise, level=dot)
-    again = []
-    rest, blobs = structure_left(blanked, img, best.x, best.y, extent, noise, any_size=dot is not None)
-    diag.update(structure_left=rest, mark_like=blobs)
-    if blobs and not panel:
-        x0, y0, x1, y1, area = blobs[0]
-        return not_found(METHOD, f"a second mark-like feature ({area} px in ({x0}, {y0})-({x1}, {y1})) besides the "
-                                 f"mark at ({best.x:.1f}, {best.y:.1f}): ambiguous, draw a tighter box", **diag)
-    own = {d.method: d.score for d in group}
-    for m in sorted(set(own) | {"symmetry", "circles"}) if rest else ():
-        if m in ("lines", "centroid") or m not in have:
-            continue
-        # hough need not verify (fit) candidates too weak to count as a second mark
-        floor = {"min_metric": max(MIN_SCORE["hough"], SECOND_RATIO * own.get(m, 0.0))} if m == "hough" else {}
-        d = run(m, blanked, **floor)
-        if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent and d.score >= SECOND_RATIO * own.get(m, 0.0) \
-                and _similar_size(detection_extent(d), extent):
-            again.append(d)
-    diag["second_marks"] = again
-    if again:
-        d = again[0]
-        return not_found(METHOD, f"a second mark-like feature ({d.method}) at ({d.x:.1f}, {d.y:.1f}) besides the one "
-                                 f"at ({best.x:.1f}, {best.y:.1f}): ambiguous, draw a tighter box", **diag)
-    methods = {d.method for d in group}
-    evidence = 1.0 - float(np.prod([1.0 - float(np.clip(d.score, 0, 1)) for d in group]))
-    if len(methods) < 2:
-        evidence *= LONE_FACTOR
-    quality = 1.0 - chk.asymmetry / (2.0 * MAX_ASYMMETRY)
-    score = float(np.clip(evidence * quality, 0.0, 1.0))
-    return Detection(status=FOUND, x=best.x, y=best.y, score=score, sigma=best.sigma, method=best.method,
-                     diagnostics=dict(diag, members=group))
-
-
-def _similar_size(other: float | None, extent: float) -> bool:
-    """Uniqueness: a second answer is another *mark* only when its size (from its detector's model) is within
-    ``SECOND_SIZE`` times the mark's; a crossing of two field boundaries whose '+' arms run out of the box, or
-    a broad blurred cross in aerial texture around a small cloth panel, is not."""
-    return other is None or 1.0 / SECOND_SIZE <= other / max(extent, 1e-6) <= SECOND_SIZE
-
-
-def _significance(img, x, y, extent, noise):
+def _significance(img: np.ndarray, x: float, y: float, extent: float,
+                  noise: float) -> tuple[np.ndarray, float, float]:
     """(smoothed image, ground level, threshold): a pixel of the image smoothed by 1 px is significant when it
     differs from the window's median by more than max(6 x its noise, a quarter of the mark's amplitude)."""
     g = float(np.median(img))
@@ -436,115 +736,120 @@ def _significance(img, x, y, extent, noise):
     return sm, g, max(6.0 * noise * 0.28, 0.25 * amp)
 
 
-def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, extent: float,
-                   noise: float, any_size: bool = False) -> tuple[int, list[tuple[int, int, int, int, int]]]:
+def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, extent: float, noise: float,
+                   any_size: bool = False, edge_margin: float = 3.0) -> tuple[int, list[Blob]]:
     """What remains of the window once the mark is blanked out (:func:`blank_disc`): the number of significant
-    pixels (:func:`_significance`) and the *mark-like* connected components among them, (x0, y0, x1, y1,
-    area): at least a quarter of the mark's own significant area (and 6 px) and compact (bounding box at
-    most 1.5 mark diameters across, not touching the box edge: an image-area edge or corner, or a frame
-    running through the box, is not mark-like); with ``any_size`` (an isolated dot) any component up to half
-    the box across counts: the 'dot' may be a piece of a larger mark, e.g. an arm's tip cut off by a speck). None left means the box holds nothing but the mark and plain ground."""
+    pixels (:func:`_significance`) and the *mark-like* connected components among them (:data:`Blob`): at
+    least a quarter of the mark's own significant area (within ``extent + edge_margin``) and 6 px, and compact
+    (bounding box at most 1.5 mark diameters across, not touching the box edge: an image-area edge or corner,
+    or a frame running through the box, is not mark-like); with ``any_size`` (an isolated dot) any component
+    up to half the box across counts: the 'dot' may be a piece of a larger mark, e.g. an arm's tip cut off by
+    a speck. None left means the box holds nothing but the mark and plain ground."""
     sm0, g, thr = _significance(img, x, y, extent, noise)
     h, w = img.shape
     yy, xx = np.mgrid[0:h, 0:w]
-    own = int(((np.abs(sm0 - g) > thr) & (np.hypot(xx - x, yy - y) <= extent + EDGE_MARGIN)).sum())
-    sm = cv2.GaussianBlur(blanked, (0, 0), 1.0)
-    sig = (np.abs(sm - g) > thr).astype(np.uint8)
-    n, lab, stats, _ = cv2.connectedComponentsWithStats(sig, connectivity=8)
+    own = int(((np.abs(sm0 - g) > thr) & (np.hypot(xx - x, yy - y) <= extent + edge_margin)).sum())
+    sig = (np.abs(cv2.GaussianBlur(blanked, (0, 0), 1.0) - g) > thr).astype(np.uint8)
+    n, _, stats, _ = cv2.connectedComponentsWithStats(sig, connectivity=8)
+    largest = 0.5 * max(h, w) if any_size else 1.5 * 2 * (extent + edge_margin)
     marks = []
     for i in range(1, n):
         x0, y0, bw, bh, area = (int(v) for v in stats[i])
         inside = x0 > 0 and y0 > 0 and x0 + bw < w and y0 + bh < h
-        compact = max(bw, bh) <= 1.5 * 2 * (extent + EDGE_MARGIN)
-        if any_size:
-            compact = max(bw, bh) <= 0.5 * max(h, w)
-        if inside and area >= max(6, 0.25 * own) and compact:
+        if inside and area >= max(6, 0.25 * own) and max(bw, bh) <= largest:
             marks.append((x0, y0, x0 + bw, y0 + bh, area))
     return int(sig.sum()), marks
 
 
-def _compact_dot(img, noise, run, have, answers, diag) -> Detection:
-    """Step 4 of the module docstring."""
-    if "symmetry" not in have:
-        return not_found(METHOD, _reasons(answers), **diag)
-    plain, ground = diag["plain_ground"], diag["ground_level"]
-    if plain < MIN_PLAIN:
-        return not_found(METHOD, _reasons(answers) + f"; the ground is not plain (only {plain:.0%} of the box is "
-                                 "within 4 noise sigma of its median): no isolated dot is looked for", **diag)
+def _crop(img: np.ndarray, x: float, y: float, half: int) -> tuple[np.ndarray, int, int]:
+    """The part of ``img`` within ``half`` px of the pixel nearest (x, y) (a view), and its origin."""
+    h, w = img.shape
+    cx, cy = int(round(x)), int(round(y))
+    x0, y0 = max(0, cx - half), max(0, cy - half)
+    x1, y1 = min(w, cx + half + 1), min(h, cy + half + 1)
+    return img[y0:y1, x0:x1], x0, y0
+
+
+def _reasons(answers: Mapping[str, Detection]) -> str:
+    return "no method found a mark: " + "; ".join(f"{m}: {d.reason}" for m, d in answers.items() if not d.found)
+
+
+# --- step 4: a compact dot that no method found ----------------------------------------------------------
+
+def compact_dot(ctx: _Context, trace: _Trace) -> AutoResult:
+    """Step 4 of the module docstring (nothing was found by the whole-window methods)."""
+    p, img, noise = ctx.params, ctx.img, ctx.noise
+    if trace.plain_ground < p.min_plain:
+        return trace.not_found(_reasons(trace.answers) + f"; the ground is not plain (only {trace.plain_ground:.0%} "
+                               "of the box is within 4 noise sigma of its median): no isolated dot is looked for")
+    blob = find_flat_blob(img, noise, trace.ground_level, p)
+    if isinstance(blob, str):
+        return trace.not_found(_reasons(trace.answers) + f"; {blob}")
+    bx, by, r_blob, iso = blob
+    det = isolated_symmetry(ctx, trace, bx, by, iso)
+    if not det.found:
+        return trace.not_found(_reasons(trace.answers) + f"; isolated compact blob: {det.reason}")
+    centroid = blob_centroid(img, det, iso, r_blob)
+    if centroid is None:
+        return trace.not_found(_reasons(trace.answers))
+    trace.answers["centroid"] = centroid
+    if not agree(det, centroid, p):
+        return trace.not_found(f"isolated dot: symmetry ({det.x:.2f}, {det.y:.2f}) and centroid "
+                               f"({centroid.x:.2f}, {centroid.y:.2f}) disagree")
+    group = [det, centroid]
+    trace.groups = [group]
+    return conclude(ctx, trace, group, r_blob + 1.0, "isolated compact dot: symmetry + centroid",
+                    dot=trace.ground_level)
+
+
+def blob_peaks(img: np.ndarray, params: AutoParams = AutoParams()) -> list[tuple[float, int, int]]:
+    """Step 4: (strength, x, y) of the blob-like local maxima of the scale-normalised difference of Gaussians
+    at sigma 1, 1.5, 2 and 2.5 px, strongest first. Lowe's edge-response test on the DoG's Hessian: a blob
+    curves both ways (det > 0, trace^2 / det below ``blob_edge_ratio``), a point on a straight edge or frame
+    line only across it."""
     peaks = []
     for s in (1.0, 1.5, 2.0, 2.5):
         dog = (cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)) * s
         dil = cv2.dilate(dog, np.ones((5, 5), np.uint8))
-        # Lowe's edge-response test on the DoG's Hessian: a blob curves both ways (det > 0, trace^2 / det
-        # small), a point on a straight edge or frame line only across it
         dxx = cv2.Sobel(dog, cv2.CV_32F, 2, 0, ksize=3)
         dyy = cv2.Sobel(dog, cv2.CV_32F, 0, 2, ksize=3)
         dxy = cv2.Sobel(dog, cv2.CV_32F, 1, 1, ksize=3)
         det, tr = dxx * dyy - dxy * dxy, dxx + dyy
-        blobby = (det > 0) & (tr < 0) & (tr * tr < EDGE_RATIO * det)
+        blobby = (det > 0) & (tr < 0) & (tr * tr < params.blob_edge_ratio * det)
         ys, xs = np.nonzero((dog >= dil) & (dog > 0) & blobby)
         peaks += [(float(dog[y, x]), int(x), int(y)) for y, x in zip(ys, xs)]
     peaks.sort(key=lambda t: (-t[0], t[2], t[1]))
+    return peaks
+
+
+def find_flat_blob(img: np.ndarray, noise: float, ground: float,
+                   params: AutoParams = AutoParams()) -> tuple[int, int, float, float] | str:
+    """Step 4: (x, y, radius, moat) of the strongest compact blob (:func:`blob_peaks`, at most 12 distinct
+    places tried) with flat surroundings (:func:`flat_blob`), or why there is none."""
     seen: list[tuple[int, int]] = []
-    blob = None
     why = "no compact blob with flat surroundings"
-    for _, bx, by in peaks:
+    for _, bx, by in blob_peaks(img, params):
         if any(abs(bx - sx) <= 3 and abs(by - sy) <= 3 for sx, sy in seen):
             continue
         seen.append((bx, by))
         if len(seen) > 12:
             break
-        got = _flat_blob(img, bx, by, noise, ground)
+        got = flat_blob(img, bx, by, noise, ground, params)
         if isinstance(got, str):
             why = got
             continue
-        blob = (bx, by, got)
-        break
-    if blob is None:
-        return not_found(METHOD, _reasons(answers) + f"; {why}", **diag)
-    bx, by, (r_blob, iso) = blob
-    cx, cy = float(bx), float(by)
-    det = None
-    for _ in range(2):
-        half_w = max(24, int(np.ceil(iso + 12)))
-        sub, x0, y0 = _crop(img, cx, cy, half_w)
-        sy, sx = np.mgrid[0:sub.shape[0], 0:sub.shape[1]]
-        gl = ground_level(sub, cx - x0, cy - y0, iso, iso + 3)
-        fill = gl + np.random.default_rng(12345).normal(0.0, noise, sub.shape)
-        iso_img = np.where(np.hypot(sx - (cx - x0), sy - (cy - y0)) <= iso, sub, fill).astype(np.float32)
-        det = run("symmetry", iso_img)
-        if not det.found:
-            answers["symmetry@isolated"] = det
-            return not_found(METHOD, _reasons(answers) + f"; isolated compact blob: {det.reason}", **diag)
-        det = _shift(det, x0, y0)
-        cx, cy = det.x, det.y
-    answers["symmetry@isolated"] = det
-    # corroboration: intensity-weighted centroid of the blob above the ground
-    pc = _patch(img, cx, cy, int(np.ceil(iso)))
-    yy, xx = np.mgrid[-int(np.ceil(iso)):int(np.ceil(iso)) + 1, -int(np.ceil(iso)):int(np.ceil(iso)) + 1]
-    wgt = np.clip(pc - ground_level(img, cx, cy, iso, iso + 3), 0, None) * (np.hypot(xx, yy) <= r_blob + 2)
-    if wgt.sum() <= 0:
-        return not_found(METHOD, _reasons(answers), **diag)
-    centroid = Detection(status=FOUND, x=cx + float((wgt * xx).sum() / wgt.sum()),
-                         y=cy + float((wgt * yy).sum() / wgt.sum()), score=0.8,
-                         sigma=max(det.sigma, 0.05), method="centroid")
-    answers["centroid"] = centroid
-    if not _agree(det, centroid):
-        return not_found(METHOD, f"isolated dot: symmetry ({det.x:.2f}, {det.y:.2f}) and centroid "
-                                 f"({centroid.x:.2f}, {centroid.y:.2f}) disagree", **diag)
-    group = [det, centroid]
-    diag["groups"] = [group]
-    return _finish(img, group, r_blob + 1.0, noise, run, have, "isolated compact dot: symmetry + centroid", diag,
-                   dot=ground)
+        return bx, by, got[0], got[1]
+    return why
 
 
-def _flat_blob(img, bx, by, noise, ground) -> tuple[float, float] | str:
+def flat_blob(img: np.ndarray, bx: int, by: int, noise: float, ground: float,
+              params: AutoParams = AutoParams()) -> tuple[float, float] | str:
     """(radius, moat) of a compact bright blob at pixel (bx, by), or why it is not one. The radius is the
     half maximum of its radial profile above the plain ground level ``ground``; the moat is the radius out to
-    which its surroundings are flat: every 1-px ring from radius + 1.5 px on, up to ``ISOLATE_FACTOR`` x the
+    which its surroundings are flat: every 1-px ring from radius + 1.5 px on, up to ``isolate_factor`` x the
     radius + 2 px, has at least 95 % of its pixels within 4 noise of the ground. A moat narrower than
-    ``MIN_MOAT`` px means the blob is part of a larger structure (a small Zeiss notch is allowed to come
-    closer than ``ISOLATE_FACTOR`` radii)."""
+    ``min_moat`` px means the blob is part of a larger structure (a small Zeiss notch is allowed to come
+    closer than ``isolate_factor`` radii)."""
     h, w = img.shape
     k = int(min(20, bx, by, w - 1 - bx, h - 1 - by))
     if k < 5:
@@ -553,13 +858,13 @@ def _flat_blob(img, bx, by, noise, ground) -> tuple[float, float] | str:
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
     rr = np.hypot(xx, yy)
     prof = np.array([p[(rr >= r - 0.5) & (rr < r + 0.5)].mean() for r in range(k + 1)])
-    if prof[0] - ground < MIN_BLOB_SNR * noise:
+    if prof[0] - ground < params.min_blob_snr * noise:
         return "the brightest compact blob is too faint"
     half = np.flatnonzero(prof - ground < 0.5 * (prof[0] - ground))
     if not half.size:
         return "a blob larger than 20 px"
     r_blob = max(1.0, float(half[0]))
-    reach = ISOLATE_FACTOR * r_blob + 2.0
+    reach = params.isolate_factor * r_blob + 2.0
     if reach + 2 > k:
         return "a compact blob too close to the box edge"
     flat = np.abs(p - ground) <= 4.0 * noise
@@ -569,18 +874,48 @@ def _flat_blob(img, bx, by, noise, ground) -> tuple[float, float] | str:
         if flat[ring].mean() < 0.95:
             break
         moat += 1.0
-    if moat < r_blob + MIN_MOAT:
+    if moat < r_blob + params.min_moat:
         return "the compact blob's surroundings are not flat"
     return r_blob, moat
 
 
-def _plain_ground(img: np.ndarray, noise: float) -> np.ndarray:
-    """The pixels within max(4 noise, ``PLAIN_FLOOR``) of the window's median grey level."""
-    return np.abs(img - np.median(img)) <= max(4.0 * noise, PLAIN_FLOOR)
+def isolated_symmetry(ctx: _Context, trace: _Trace, bx: int, by: int, iso: float) -> Detection:
+    """Step 4: ``symmetry`` on the blob at (bx, by) isolated within ``iso`` px (everything beyond replaced by
+    its ground level plus noise), twice, the second time around the first answer; in window pixels, also
+    stored in ``trace.answers["symmetry@isolated"]``."""
+    cx, cy = float(bx), float(by)
+    det: Detection = Detection()
+    for _ in range(2):
+        sub, x0, y0 = _crop(ctx.img, cx, cy, max(24, int(np.ceil(iso + 12))))
+        sy, sx = np.mgrid[0:sub.shape[0], 0:sub.shape[1]]
+        gl = ground_level(sub, cx - x0, cy - y0, iso, iso + 3)
+        fill = gl + np.random.default_rng(SEED).normal(0.0, ctx.noise, sub.shape)
+        iso_img = np.where(np.hypot(sx - (cx - x0), sy - (cy - y0)) <= iso, sub, fill).astype(np.float32)
+        det = ctx.run("symmetry", iso_img)
+        trace.answers["symmetry@isolated"] = det
+        if not det.found:
+            return det
+        det = det.shifted(x0, y0)
+        trace.answers["symmetry@isolated"] = det
+        trace.windows["symmetry@isolated"] = (x0, y0, x0 + sub.shape[1], y0 + sub.shape[0])
+        cx, cy = det.x, det.y
+    return det
 
 
-def _reasons(answers: dict[str, Detection]) -> str:
-    return "no method found a mark: " + "; ".join(f"{m}: {d.reason}" for m, d in answers.items() if not d.found)
+def blob_centroid(img: np.ndarray, det: Detection, iso: float, r_blob: float) -> Detection | None:
+    """Step 4: the intensity-weighted centroid (above the ground around ``iso``) of the blob within
+    ``r_blob + 2`` px of ``det``'s centre, as a ``"centroid"`` answer (None when nothing is above ground)."""
+    k = int(np.ceil(iso))
+    pc = _patch(img, det.x, det.y, k)
+    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+    wgt = np.clip(pc - ground_level(img, det.x, det.y, iso, iso + 3), 0, None) * (np.hypot(xx, yy) <= r_blob + 2)
+    if wgt.sum() <= 0:
+        return None
+    return Detection(status=FOUND, x=det.x + float((wgt * xx).sum() / wgt.sum()),
+                     y=det.y + float((wgt * yy).sum() / wgt.sum()), score=0.8, sigma=max(det.sigma, 0.05),
+                     method="centroid")
 
 
-__all__ = ["Check", "detect_auto", "make_runner", "point_asymmetry", "verify_centre"]
+__all__ = ["PRIORITY", "AutoParams", "AutoResult", "Check", "agree", "auto_score", "blank_disc", "core_contrast",
+           "detect", "group_answers", "plain_ground", "point_asymmetry", "profile_extent", "structure_left",
+           "verify_centre"]

@@ -3,17 +3,22 @@ synthetic marks with exact sub-pixel centres."""
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from matplotlib.figure import Figure
 
-import aerofid
 from aerofid import synth
+from aerofid.detect import hough_lines
+from aerofid.detect.hough import HoughParams, HoughResult, detect
 from aerofid.detect.hough import analysis as hc
 from aerofid.detect.hough import detector as hd
-from aerofid.detect.hough.search import SearchParams, search_box, spiral_coordinates
+from aerofid.detect.hough.cross_fit import CrossFit
+from aerofid.detect.hough.search import search_box, spiral_coordinates, window_sizes
 from aerofid.detect.threshold import interclass_variance, optimum_threshold
+from aerofid.errors import AerofidInputError
 
 # --- pieces of the algorithm -----------------------------------------------------------------------------
 
@@ -23,7 +28,9 @@ def test_decode_inverts_two_normal_form_lines(x, y, t1, sep):
     """Eq. 2: the intersection of rho_k = x cos(theta_k) + y sin(theta_k) is (x, y), for any separation."""
     t2 = (t1 + sep) % 180.0
     rho = [x * np.cos(np.deg2rad(t)) + y * np.sin(np.deg2rad(t)) for t in (t1, t2)]
-    gx, gy = hc.decode(t1, rho[0], t2, rho[1])
+    got = hough_lines.intersection(np.deg2rad(t1), rho[0], np.deg2rad(t2), rho[1])
+    assert got is not None
+    gx, gy = got
     assert gx == pytest.approx(x, abs=1e-7)
     assert gy == pytest.approx(y, abs=1e-7)
 
@@ -34,8 +41,9 @@ def test_accumulator_peak_is_the_line():
     s = np.linspace(-15, 15, 61)
     xs = 12.3 * np.cos(t) - s * np.sin(t)
     ys = 12.3 * np.sin(t) + s * np.cos(t)
-    thetas = hc.theta_grid(5.0)
-    acc, rho_min = hc.hough_accumulate(xs, ys, thetas, 0.5, 40.0)
+    thetas = hough_lines.theta_grid(5.0)
+    rho_min = -40.0
+    acc = hough_lines.accumulate(xs, ys, np.deg2rad(thetas), rho_min, 0.5, 161)
     k, j = np.unravel_index(np.argmax(acc), acc.shape)
     assert thetas[k] == 30.0
     assert rho_min + j * 0.5 <= 12.3 < rho_min + (j + 1) * 0.5
@@ -44,7 +52,7 @@ def test_accumulator_peak_is_the_line():
 
 def test_theta_grid_is_the_seeds():
     """0..175 deg by 5 deg: 36 angles (C ``LIM``)."""
-    g = hc.theta_grid(5.0)
+    g = hough_lines.theta_grid(5.0)
     assert len(g) == 36 and g[0] == 0 and g[-1] == 175
 
 
@@ -64,7 +72,7 @@ def test_accumulator_threshold_keeps_only_cells_above_30_percent():
 
 def test_matched_filter_weights_are_appendix_c():
     """At 5 deg steps: .8, 1, .8 around theta_k and around theta_k + 90."""
-    w = hc.matched_filter(hc.theta_grid(5.0))
+    w = hc.matched_filter(hough_lines.theta_grid(5.0), 0.8, 5.0, 90.0)
     row = w[3]  # theta = 15
     expected = np.zeros(36)
     expected[[2, 3, 4]] = [0.8, 1.0, 0.8]
@@ -73,7 +81,7 @@ def test_matched_filter_weights_are_appendix_c():
 
 
 def test_similarity_of_the_models_themselves_is_one():
-    th = hc.theta_grid(5.0)
+    th = hough_lines.theta_grid(5.0)
     assert hc.similarity(hc.panel_model(th, 20.0), th, 20.0, "panel")[0] == pytest.approx(1.0)
     assert hc.similarity(hc.external_model(th, 20.0), th, 20.0, "external")[0] == pytest.approx(1.0)
     assert hc.similarity(np.ones(36), th, 20.0)[0] is None   # no variance: the C code's flag
@@ -110,7 +118,76 @@ def test_spiral_starts_at_the_centre_and_covers_the_box():
     assert np.all(np.diff(np.maximum.accumulate(r)) >= 0)
 
 
+# --- steps of the verification and the result type ---------------------------------------------------
+
+def _fit(**kw):
+    """A CrossFit of a clean 30 px '+' (2 px strokes), with ``kw`` changed."""
+    args = dict(x=20.0, y=20.0, sigma_x=0.02, sigma_y=0.02, theta1=0.0, theta2=90.0, length1=30.0, length2=30.0,
+                width=2.0, blur=0.8, amplitude=0.6, sigma0=0.03, noise=0.03, arm_contrast=(0.5, 0.5, 0.5, 0.5),
+                patch_half=18.0, misfit=1.0)
+    args.update(kw)
+    return CrossFit(**args)
+
+
+@pytest.mark.parametrize("change,words", [
+    ({}, None),
+    ({"at_bound": "stroke width"}, "ended on a bound"),
+    ({"width": 12.0}, "blob"),
+    ({"width": 0.3, "blur": 1.5}, "not resolved"),
+    ({"length1": 5.0, "length2": 5.0, "width": 1.5, "blur": 0.9}, "do not stick out"),
+])
+def test_shape_refusal(change, words):
+    reason = hd.shape_refusal(_fit(**change))
+    assert reason is None if words is None else words in reason
+
+
+@pytest.mark.parametrize("change,words", [
+    ({}, None),
+    ({"sigma_x": 0.3, "sigma_y": 0.3}, "too uncertain"),
+    ({"misfit": 2.5}, "does not explain"),
+    ({"arm_contrast": (0.5, 0.5, 0.5, 0.1)}, "unbalanced"),
+    ({"arm_contrast": (0.05, 0.05, 0.05, 0.05)}, "too faint"),
+])
+def test_quality_refusal(change, words):
+    reason = hd.quality_refusal(_fit(**change), HoughParams())
+    assert reason is None if words is None else words in reason
+
+
+def test_extent_is_half_the_longer_bar_within_the_patch_plus_stroke_and_blur():
+    r = HoughResult(status="found", x=1.0, y=1.0, method="hough", refinement=_fit(length1=30.0, length2=20.0))
+    assert r.extent == pytest.approx(15.0 + 1.0 + 0.8)
+    r = HoughResult(status="found", x=1.0, y=1.0, method="hough", refinement=_fit(length1=60.0, patch_half=18.0))
+    assert r.extent == pytest.approx(18.0 + 1.0 + 0.8)     # arms run out of the patch: as long as it shows
+    assert HoughResult.not_found("hough", "nothing").extent is None
+
+
+def test_window_sizes_follow_the_mark():
+    assert window_sizes(HoughParams(mark="external")) == [40]
+    assert window_sizes(HoughParams(mark="panel")) == [16]
+    assert window_sizes(HoughParams()) == [40, 16]
+    assert window_sizes(HoughParams(window_size=24)) == [24]
+
+
+def test_accumulator_in_blocks_equals_one_block(monkeypatch):
+    rng = np.random.default_rng(6)
+    xs, ys = rng.uniform(0, 50, 400), rng.uniform(0, 50, 400)
+    thetas = np.deg2rad(hough_lines.theta_grid(1.0))
+    whole = hough_lines.accumulate(xs, ys, thetas, -71.0, 0.5, 285)
+    monkeypatch.setattr(hough_lines, "MAX_BLOCK", 1000)     # 2 thetas per block
+    assert np.array_equal(hough_lines.accumulate(xs, ys, thetas, -71.0, 0.5, 285), whole)
+    assert whole.sum() == 400 * 180
+
+
+def test_parallel_lines_have_no_intersection():
+    assert hough_lines.intersection(0.4, 3.0, 0.4, 7.0) is None
+    assert hough_lines.intersection(0.4, 3.0, 0.4 + 1e-9, 7.0) is None
+
+
 # --- the whole detector on synthetic marks -----------------------------------------------------------
+
+EXTERNAL = HoughParams(mark="external")
+PANEL = HoughParams(mark="panel")
+
 
 def _cross(rng, **kw):
     args = dict(size=rng.uniform(30, 44), width=2.0, window=120, angle_deg=rng.uniform(0, 90), rng=rng,
@@ -120,17 +197,21 @@ def _cross(rng, **kw):
 
 
 def test_external_fiducials_to_a_few_hundredths_of_a_pixel_with_honest_sigma():
+    """Measured (12 crosses, seed 11): RMS 0.011 px, max 0.019 px; per-axis RMS error / mean sigma 0.85
+    (0.95-1.09 for seeds 1-3, 1.00 over 40 crosses)."""
     rng = np.random.default_rng(11)
-    err, sig = [], []
+    err, err_axis, sig = [], [], []
     for _ in range(12):
         sc = _cross(rng)
-        d = hd.detect(sc.image, mark="external")
+        d = detect(sc.image, EXTERNAL)
         assert d.found, d.reason
         err.append(np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y))
+        err_axis += [d.x - sc.marks[0].x, d.y - sc.marks[0].y]
         sig.append(d.sigma)
     rms = np.sqrt(np.mean(np.square(err)))
     assert rms < 0.05 and max(err) < 0.12
-    assert 0.3 < rms / (np.sqrt(2) * np.mean(sig)) < 3.0   # sigma is per axis; the error is radial
+    ratio = np.sqrt(np.mean(np.square(err_axis))) / np.mean(sig)
+    assert 0.7 <= ratio <= 1.5, ratio
 
 
 def test_thin_blurred_crosses_whose_bars_never_reach_full_coverage():
@@ -140,7 +221,7 @@ def test_thin_blurred_crosses_whose_bars_never_reach_full_coverage():
     for _ in range(6):
         size = rng.uniform(20, 26)
         sc = _cross(rng, size=size, width=size / 20.0, blur_sigma=rng.uniform(0.85, 1.0), noise_sigma=0.02)
-        d = hd.detect(sc.image)
+        d = detect(sc.image)
         assert d.found, d.reason
         assert np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y) < 0.1
 
@@ -152,10 +233,10 @@ def test_cloth_panels_on_aerial_ground():
         sc = synth.panel_scene(rng, shape_hw=(160, 160), size=rng.uniform(7, 11))
         m = sc.marks[0]
         x0, y0, x1, y1 = m.box
-        d = hd.detect(sc.image[y0:y1, x0:x1], mark="panel")
+        d = detect(sc.image[y0:y1, x0:x1], PANEL)
         if d.found:
             err.append(np.hypot(d.x + x0 - m.x, d.y + y0 - m.y))
-    assert len(err) >= 8
+    assert len(err) >= 8          # found rate
     assert max(err) < 1.5
     assert np.sqrt(np.mean(np.square(err))) < 0.3
 
@@ -167,7 +248,7 @@ def test_non_orthogonal_cross_decodes_with_eq2():
     c = (60.37, 58.81)
     img = synth.paint(img, synth.coverage((120, 120), c, shape, 16, extent=25), 0.85)
     img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng)
-    d = hd.detect(img, mark="external", pair_separation=70.0)
+    d = detect(img, HoughParams(mark="external", pair_separation=70.0))
     assert d.found, d.reason
     assert np.hypot(d.x - c[0], d.y - c[1]) < 0.2
 
@@ -186,7 +267,7 @@ def test_things_that_are_not_a_cross_are_not_found(case):
         img = synth.paint(img, synth.coverage((100, 100), c, shapes[case], 8), 0.85)
     if case != "flat":
         img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.03, rng)
-    d = hd.detect(img)
+    d = detect(img)
     assert not d.found, (d.x, d.y, d.score)
     assert d.reason
 
@@ -195,13 +276,12 @@ def test_a_compact_blob_beside_a_panel_is_not_taken_for_it():
     """tests/data/panel_beside_blob_jpeg40.png: a cloth panel at (28.459, 28.196) on synthetic aerial ground
     with a small bright blob 20 px to its right, JPEG quality 40 (scene 8 of the "JPEG q=40" panels of
     benchmarks/bench_marks.py, seed 2026). The blob's blocks fit a '+' of 4 px bars whose arms do not reach
-    beyond the blurred crossing; before that check both ``hough`` and ``auto`` answered there, 19.8 px off."""
-    import cv2
-
+    beyond the blurred crossing (-0.7 px); before that check ``hough`` answered there, 19.8 px off. Measured:
+    ``hough`` now finds nothing here (the panel's own candidates fail verification too)."""
     img = cv2.imread(str(Path(__file__).parent / "data" / "panel_beside_blob_jpeg40.png"), cv2.IMREAD_GRAYSCALE)
-    img = img.astype(np.float32) / 255
-    for d in (hd.detect(img, mark="panel"), aerofid.locate(img, (0, 0, 58, 58), mark="panel")):
-        assert not d.found or np.hypot(d.x - 28.459, d.y - 28.196) < 0.5, (d.x, d.y)
+    d = detect(img.astype(np.float32) / 255, PANEL)
+    assert not d.found and "do not stick out" in d.reason, (d.x, d.y, d.reason)
+    assert any("do not stick out" in why for _, why in d.rejected)
 
 
 def _offset_bar(dx, dy, angle, length=30):
@@ -213,7 +293,7 @@ def _offset_bar(dx, dy, angle, length=30):
 def test_dark_cross_on_bright_ground_after_inversion():
     rng = np.random.default_rng(3)
     sc = _cross(rng, polarity="dark")
-    d = hd.detect(1.0 - sc.image, mark="external")
+    d = detect(1.0 - sc.image, EXTERNAL)
     assert d.found and np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y) < 0.1
 
 
@@ -221,36 +301,65 @@ def test_seed_mode_returns_one_pixel_answers_without_verification():
     """verify=False is the seed's algorithm: the Hough centre, good to about a pixel."""
     rng = np.random.default_rng(8)
     sc = _cross(rng)
-    d = hd.detect(sc.image, mark="external", verify=False)
+    d = detect(sc.image, HoughParams(mark="external", verify=False))
     assert d.found and np.hypot(d.x - sc.marks[0].x, d.y - sc.marks[0].y) < 1.0
-    assert "refinement" not in d.diagnostics
+    assert d.refinement is None and d.extent is None
+    assert d.sigma == pytest.approx(0.5 / np.sqrt(12))
+
+
+def test_result_carries_the_search_and_draws_the_thesis_figures():
+    rng = np.random.default_rng(9)
+    sc = _cross(rng)
+    d = detect(sc.image, EXTERNAL)
+    assert isinstance(d, HoughResult) and d.found and d.method == "hough"
+    assert d.analysis is not None and d.refinement is not None and d.model is not None
+    assert d.stage in (1, 2) and d.model_name == "external" and d.score == pytest.approx(min(1.0, d.metric))
+    assert d.candidates and all(c.metric <= d.metric for c in d.candidates if c.stage == d.stage)
+    assert 15 < d.extent < 25                       # a 30-44 px cross: half its bar plus stroke and blur
+    fig = Figure()
+    d.plot(fig, sc.image)
+    assert len(fig.axes) == 4
+    fig = Figure()
+    HoughResult.not_found("hough", "no candidate").plot(fig, sc.image)
+    assert len(fig.axes) == 1
 
 
 def test_exhaustive_search_lists_every_candidate_with_stage_and_metric():
     rng = np.random.default_rng(9)
     sc = synth.panel_scene(rng, shape_hw=(120, 120), size=9.0)
-    res = search_box(sc.image, "panel", hc.HoughParams(), SearchParams(exhaustive=True))
+    res = search_box(sc.image, HoughParams(mark="panel", exhaustive=True))
     assert len(res.candidates) > 3
     assert {c.stage for c in res.candidates} <= {1, 2}
     m = sc.marks[0]
     assert any(np.hypot(c.x - m.x, c.y - m.y) < 1.5 for c in res.candidates)
 
 
-def test_bad_parameters_are_rejected():
-    img = np.zeros((50, 50), np.float32)
-    with pytest.raises(TypeError):
-        hd.detect(img, not_a_parameter=1)
-    with pytest.raises(ValueError):
-        hd.detect(img, theta_step=7.0)
-    with pytest.raises(ValueError):
-        hd.detect(img, mark="circle")
+@pytest.mark.parametrize("name,value", [
+    ("theta_step", 7.0), ("theta_step", 0), ("theta_step", 1e-6), ("theta_step", float("nan")),
+    ("rho_step", 0), ("rho_step", 1e-9), ("rho_step", -1.0), ("rho_step", float("inf")),
+    ("window_size", 2), ("window_size", 10 ** 6), ("window_size", 24.5), ("overlap", 1.0),
+    ("hough_threshold", 1.0), ("max_bright_fraction", 0.0), ("taper_half_width", 0.0), ("pair_separation", 180),
+    ("min_pixels", 0), ("max_recursion", -1), ("max_rejections", 0), ("min_metric", float("nan")),
+    ("mark", "circle"), ("verify", "yes"), ("min_arm_balance", 2.0), ("min_arm_snr", -1.0), ("theta_step", "5"),
+])
+def test_bad_parameters_are_one_line_errors(name, value):
+    with pytest.raises(ValueError) as e:
+        HoughParams(**{name: value})
+    assert name in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(AerofidInputError) as e:
+        HoughParams.from_mapping({name: value}, "hough")
+    assert name in str(e.value) and "\n" not in str(e.value)
+
+
+def test_unknown_parameter_names_the_valid_ones():
+    with pytest.raises(AerofidInputError, match="unknown parameter 'not_a_parameter'.*theta_step"):
+        HoughParams.from_mapping({"not_a_parameter": 1}, "hough")
 
 
 def test_the_search_gives_up_after_max_rejections():
-    """A verification that refuses everything is called MAX_REJECTIONS times, then the search ends with a
+    """A verification that refuses everything is called ``max_rejections`` times, then the search ends with a
     reason that says so; without the limit it is called for every qualifying candidate."""
-    from aerofid.detect.hough.search import MAX_REJECTIONS
-
+    limit = HoughParams().max_rejections
     img = synth.aerial_ground((160, 160), np.random.default_rng(4))
     calls = []
 
@@ -258,9 +367,9 @@ def test_the_search_gives_up_after_max_rejections():
         calls.append((cand.x, cand.y))
         return "refused"
 
-    res = search_box(img, "auto", hc.HoughParams(), SearchParams(), refuse)
-    assert res.best is None and len(calls) == MAX_REJECTIONS
-    assert f"stopped after {MAX_REJECTIONS} refused" in res.reason
+    res = search_box(img, HoughParams(), refuse)
+    assert res.best is None and len(calls) == limit
+    assert f"stopped after {limit} refused" in res.reason
     calls.clear()
-    search_box(img, "auto", hc.HoughParams(), SearchParams(max_rejections=None), refuse)
-    assert len(calls) > MAX_REJECTIONS
+    search_box(img, HoughParams(max_rejections=None), refuse)
+    assert len(calls) > limit

@@ -1,11 +1,16 @@
 """Crossing-lines detector (Sohn et al., seed 004) and local dynamic thresholding, against exact truth."""
 
+import zlib
+
 import numpy as np
 import pytest
+from matplotlib.figure import Figure
 
 from aerofid import synth
-from aerofid.detect import lines
-from aerofid.detect.threshold import local_dynamic_threshold
+from aerofid.detect import hough_lines, lines
+from aerofid.detect.lines import LineFit, LinesParams, LinesResult
+from aerofid.detect.threshold import fill_tiles, local_dynamic_threshold
+from aerofid.errors import AerofidInputError
 from detector_checks import assert_contract, assert_rejects_noise_flat_and_edges, sigma_ratio
 from detector_checks import synthetic_marks as _marks
 
@@ -39,13 +44,61 @@ def test_hough_lines_peaks_at_the_drawn_lines():
     img = np.zeros((40, 40), bool)
     img[17, 3:37] = True          # y = 17: theta = 90 deg, rho = 17
     img[5:35, 9] = True           # x = 9: theta = 0, rho = 9
-    acc, thetas, rhos = lines.hough_lines(img, theta_step=1.0)
+    acc, thetas, rhos = lines.hough_transform(img, theta_step=1.0)
     (i1, j1, _), (i2, j2, _), _ = lines.two_peaks(acc, thetas, 30.0)
     got = sorted([(np.rad2deg(thetas[i]), rhos[j]) for i, j in ((i1, j1), (i2, j2))])
     # a 34 px line fills the same rho cell from 89 to 91 degrees: the peak is one of them
     assert got[0] == pytest.approx((0, 9), abs=1.01) and got[1] == pytest.approx((90, 17), abs=1.01)
-    c = lines.intersection(thetas[i1], rhos[j1], thetas[i2], rhos[j2])
+    c = hough_lines.intersection(thetas[i1], rhos[j1], thetas[i2], rhos[j2])
     assert c == pytest.approx([9, 17], abs=0.6)
+
+
+def test_hough_cells_are_centred_on_multiples_of_rho_step():
+    """Seed 004's cells: rho = 12 falls in the cell centred on 12 (the accumulator of hough_lines.py with its
+    lower edge half a cell below)."""
+    img = np.zeros((30, 30), bool)
+    img[3:27, 12] = True
+    acc, thetas, rhos = lines.hough_transform(img, theta_step=1.0, rho_step=1.0)
+    assert rhos[np.argmax(acc[0])] == 12.0 and acc[0].max() == 24
+
+
+def test_bar_half_width_of_a_ridge_on_a_plateau():
+    prof = np.zeros((1, 41))
+    prof[0, 10:31] = 2.0                  # a ring's plateau under the bar
+    prof[0, 19:22] = 10.0                 # a bar 3 cells wide
+    assert lines.bar_half_width(prof, 0, 20, 1.0) == pytest.approx(1.5)
+
+
+def test_fill_tiles_interpolates_unknown_tiles():
+    t = np.full((3, 3), np.nan)
+    t[0, 0], t[2, 2] = 0.2, 0.4
+    f = fill_tiles(t)
+    assert np.isfinite(f).all() and f[0, 0] == 0.2 and f[2, 2] == 0.4 and 0.2 < f[1, 1] < 0.4
+
+
+def _line_fit(theta, arms=(10, 10), **kw):
+    args = dict(theta=theta, rho=0.0, sigma_offset=0.02, sigma_slope=0.001, rms=0.05, expected_rms=0.04,
+                n_slices=20, arms=arms, half_width=1.0, contrast=20.0, side_foreground=0.0)
+    args.update(kw)
+    return LineFit(**args)
+
+
+@pytest.mark.parametrize("change,words", [
+    ({}, None),
+    ({"side_foreground": 0.6}, "bright area"),
+    ({"contrast": 2.0}, "hardly stands out"),
+    ({"arms": (1, 12)}, "one side"),
+    ({"arms": (4, 20)}, "one side"),
+])
+def test_line_refusal(change, words):
+    reason = lines.line_refusal([_line_fit(0.0), _line_fit(np.pi / 2, **change)], LinesParams())
+    assert reason is None if words is None else words in reason
+
+
+def test_centre_covariance_of_orthogonal_lines_is_their_offsets():
+    cov = lines.centre_covariance([_line_fit(0.0, sigma_offset=0.03), _line_fit(np.pi / 2, sigma_offset=0.04)],
+                                  offset_floor=0.0)
+    assert cov == pytest.approx(np.diag([0.03 ** 2, 0.04 ** 2]), abs=1e-12)
 
 
 # --- detector on synthetic marks ------------------------------------------------------------------------
@@ -55,7 +108,7 @@ def test_hough_lines_peaks_at_the_drawn_lines():
 def test_detect_accuracy(style, rotate):
     """Measured (20 marks per case): RMS 0.03-0.06 px, max <= 0.2 px."""
     errs, scores = [], []
-    for s, size in _marks(style, 20, seed=hash((style, rotate)) % 2 ** 16, rotate=rotate):
+    for s, size in _marks(style, 20, seed=zlib.crc32(f"{style}-{rotate}".encode()), rotate=rotate):
         m = s.marks[0]
         d = lines.detect(s.image)
         assert d.found, (style, size, d.reason)
@@ -68,16 +121,58 @@ def test_detect_accuracy(style, rotate):
 
 
 def test_sigma_is_honest():
-    """Observed per-axis RMS error within a factor 3 of the mean reported sigma (measured ~0.7-1.5)."""
+    """Observed per-axis RMS error over the mean reported sigma: measured 0.80 for this seed (0.60-0.86 for
+    seeds 1-3: ``offset_floor`` makes sigma somewhat pessimistic on tilted lines, by design)."""
     ratio = sigma_ratio(lines.detect, ("cross", "ring_cross", "ring_x_dot"), 12, seed=21)
-    assert 1 / 3 <= ratio <= 3, ratio
+    assert 0.7 <= ratio <= 1.5, ratio
 
 
 def test_detection_contract():
     s, _ = next(_marks("cross", 1, seed=5))
     d = lines.detect(s.image)
-    assert_contract(d, "lines", ("binary", "thresholds", "accumulator", "hough_lines", "lines", "fitted_lines"))
-    assert len(d.diagnostics["fitted_lines"]) == 2
+    assert_contract(d, "lines", ())
+    assert isinstance(d, LinesResult)
+    assert d.binary is not None and d.binary.shape == s.image.shape and d.thresholds is not None
+    assert d.peaks is not None and d.hough_centre is not None and d.score_parts is not None
+    assert len(d.lines) == 2 and len(d.fitted_lines) == 2 and d.covariance.shape == (2, 2)
+    assert d.extent == max(max(f.arms) for f in d.lines) + 1.0
+    assert d.score == pytest.approx(min(d.score_parts.arms, d.score_parts.angle, d.score_parts.peaks,
+                                        d.score_parts.fit))
+    fig = Figure()
+    d.plot(fig, s.image)
+    assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 5      # 2 Hough lines, 2 refined lines, the centre
+    assert LinesResult.not_found("lines", "homogeneous window").extent is None
+
+
+def test_not_found_keeps_what_was_computed():
+    d = lines.detect(synth.add_gaussian_noise(np.full((48, 48), 0.2, np.float32), 0.02, np.random.default_rng(1)))
+    assert not d.found and d.reason and d.binary is not None and d.lines == ()
+    fig = Figure()
+    d.plot(fig, np.zeros((48, 48)))
+    assert len(fig.axes) == 1
+
+
+@pytest.mark.parametrize("name,value", [
+    ("theta_step", 0), ("theta_step", 0.0), ("theta_step", 1e-9), ("theta_step", float("nan")), ("rho_step", 0),
+    ("rho_step", -1.0), ("rho_step", 1e-6), ("region", 0), ("region", 8.5), ("min_angle", 0), ("min_angle", 120),
+    ("iterations", 0), ("min_peak_ratio", 1.5), ("band_margin", -1.0), ("min_arm", -1), ("taper", float("inf")),
+    ("max_asymmetry", float("nan")), ("max_side_foreground", -0.1), ("offset_floor", "0.03"),
+])
+def test_bad_parameters_are_one_line_errors(name, value):
+    with pytest.raises(ValueError) as e:
+        LinesParams(**{name: value})
+    assert name in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(AerofidInputError) as e:
+        LinesParams.from_mapping({name: value}, "lines")
+    assert name in str(e.value) and "\n" not in str(e.value)
+
+
+def test_parameters_reach_the_detector():
+    """A finer Hough grid still finds the mark; min_angle above the mark's angle refuses it."""
+    s, _ = next(_marks("cross", 1, seed=5))
+    assert lines.detect(s.image, LinesParams(theta_step=1.0, rho_step=0.5)).found
+    d = lines.detect(s.image, LinesParams(max_side_foreground=0.0, min_contrast=1e5))
+    assert not d.found and d.reason
 
 
 # --- rejections -----------------------------------------------------------------------------------------
@@ -127,11 +222,15 @@ def test_bad_inputs_are_not_found_not_exceptions():
     assert lines.detect(img).status == "not_found"
 
 
-@pytest.mark.parametrize("style", ["dot", "bullseye"])
-def test_marks_without_lines_get_no_confident_wrong_centre(style):
+@pytest.mark.parametrize("style,found", [("dot", 0), ("bullseye", 4)])
+def test_marks_without_lines_get_no_confident_wrong_centre(style, found):
     """Chords through a dot or a bull's-eye cross off its centre; before the half-turn check ``lines`` answered
-    13 of 30 dots and 8 of 30 bull's-eyes 1.5-4.5 px off (docs/benchmarks_marks.md)."""
+    13 of 30 dots and 8 of 30 bull's-eyes 1.5-4.5 px off (docs/benchmarks_marks.md). Measured here: no dot and
+    4 of 12 bull's-eyes answered, all within 1 px of their centre."""
+    n = 0
     for s, _ in _marks(style, 12, seed=31):
         m = s.marks[0]
         d = lines.detect(s.image)
+        n += d.found
         assert not d.found or np.hypot(d.x - m.x, d.y - m.y) < 1.0, (d.x - m.x, d.y - m.y)
+    assert n == found

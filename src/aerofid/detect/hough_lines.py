@@ -25,7 +25,7 @@ def theta_grid(theta_step: float) -> np.ndarray:
     Examples
     --------
     >>> g = theta_grid(5.0)
-    >>> len(g), g[0], g[-1]
+    >>> len(g), float(g[0]), float(g[-1])
     (36, 0.0, 175.0)
     """
     return np.arange(0.0, 180.0 - 1e-9, theta_step)

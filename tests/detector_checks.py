@@ -17,6 +17,10 @@ def synthetic_marks(style, n, seed, rotate=False):
         yield s, size
 
 
+SIGMA_BAND = (0.7, 1.5)
+"""An honest sigma: observed per-axis RMS error / mean reported sigma within this band (issue 8)."""
+
+
 def sigma_ratio(detect, styles, n, seed):
     """Observed per-axis RMS error over the mean reported sigma, on ``n`` marks of each style (all found)."""
     err2, sig = [], []
@@ -30,12 +34,19 @@ def sigma_ratio(detect, styles, n, seed):
     return float(np.sqrt(np.mean(err2)) / np.mean(sig))
 
 
-def assert_contract(d, method, diagnostics):
-    """A found Detection of ``method`` with a score in [0, 1], a positive sigma and the ``diagnostics`` keys."""
-    assert isinstance(d, Detection) and d.method == method and d.found
+def assert_sigma_honest(ratio, band=SIGMA_BAND):
+    """``ratio`` (:func:`sigma_ratio`) within ``band``: the reported sigma neither flatters nor hides the error."""
+    lo, hi = band
+    assert lo <= ratio <= hi, f"observed error / reported sigma = {ratio:.2f}, outside {lo}-{hi}"
+
+
+def assert_contract(d, method, fields):
+    """A found answer of ``method``: a :class:`Detection` subclass (its own typed result), a score in [0, 1], a
+    positive sigma, each of the typed diagnostic ``fields`` set (not None), and plain scalars in ``to_dict``."""
+    assert isinstance(d, Detection) and type(d) is not Detection and d.method == method and d.found
     assert 0 <= d.score <= 1 and d.sigma > 0
-    for key in diagnostics:
-        assert key in d.diagnostics
+    for name in fields:
+        assert getattr(d, name) is not None, name
     assert set(d.to_dict()) >= {"status", "x", "y", "score", "sigma", "method", "reason"}
 
 

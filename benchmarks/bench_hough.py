@@ -30,8 +30,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from aerofid import locate, synth  # noqa: E402
-from aerofid.detect.hough import analysis as hc  # noqa: E402
-from aerofid.detect.hough.search import SearchParams, search_box  # noqa: E402
+from aerofid.detect.hough import HoughParams  # noqa: E402
+from aerofid.detect.hough.search import search_box  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
 SEED_MODE = {"method": "hough", "verify": False, "stage2_fallback": False}
@@ -56,7 +56,8 @@ HEADER = ("| case | marks | found | RMS error (px) | max error (px) | accepted >
 
 def bench_crosses(n: int, rng) -> list[str]:
     out = []
-    for label, noise, grain in (("moderate: noise 0.02, grain 0.01", 0.02, 0.01), ("heavy: noise 0.05, grain 0.02", 0.05, 0.02)):
+    conditions = (("moderate: noise 0.02, grain 0.01", 0.02, 0.01), ("heavy: noise 0.05, grain 0.02", 0.05, 0.02))
+    for label, noise, grain in conditions:
         for mode, kw in (("aerofid", OURS), ("seed (1 px)", SEED_MODE)):
             err, sig = [], []
             for _ in range(n):
@@ -123,8 +124,8 @@ def bench_table_5_2(scenes) -> list[str]:
             20: ("200 200 .81", "199 199 .76"), 24: ("200 200 .80", "199 199 .80"), 28: ("200 200 .87", "199 199 .30"),
             32: ("200 200 .66", "199 199 .20"), 36: ("200 200 .80", "none"), 40: ("200 200 .85", "none"),
             48: ("none", "none")}
-    lines = ["| window | seed paper: fid. 1 (x y rho) | seed paper: fid. 2 | seed algorithm here, fid. 1: x | y | metric "
-             "| fid. 2: x | y | metric | aerofid, fid. 1: x | y | score | fid. 2: x | y | score |",
+    lines = ["| window | seed paper: fid. 1 (x y rho) | seed paper: fid. 2 | seed algorithm here, fid. 1: x | y "
+             "| metric | fid. 2: x | y | metric | aerofid, fid. 1: x | y | score | fid. 2: x | y | score |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     box = (175, 175, 225, 225)
     for w, (s1, s2) in seed.items():
@@ -141,7 +142,8 @@ def bench_table_5_3(scene) -> list[str]:
             (2.0, 5): "201 199 .42", (3.0, 5): "200 197 .30", (4.0, 5): "198 197 .37", (0.5, 1): "200 200 .65",
             (0.5, 2): "200 199 .64", (0.5, 3): "200 200 .66", (0.5, 10): "200 200 .83", (0.5, 20): "200 200 .64",
             (0.5, 30): "199 200 .62"}
-    lines = ["| d rho (px) | d theta (deg) | seed paper (x y rho) | seed algorithm here: x | y | metric | aerofid: x | y | score |",
+    lines = ["| d rho (px) | d theta (deg) | seed paper (x y rho) | seed algorithm here: x | y | metric "
+             "| aerofid: x | y | score |",
              "|---|---|---|---|---|---|---|---|---|"]
     box = (175, 175, 225, 225)
     for (dr, dt), s in seed.items():
@@ -154,7 +156,8 @@ def bench_table_5_3(scene) -> list[str]:
 def bench_table_5_4(scene) -> list[str]:
     seed = {0: "200 199 .74", 10: "200 199 .74", 20: "200 199 .74", 30: "200 200 .80", 40: "200 200 .80",
             50: "200 201 .53", 60: "200 201 .53", 70: "200 201 .53", 80: "199 201 .45", 90: "199 201 .45"}
-    lines = ["| Hough threshold (% of peak) | seed paper (x y rho) | seed algorithm here: x | y | metric | aerofid: x | y | score |",
+    lines = ["| Hough threshold (% of peak) | seed paper (x y rho) | seed algorithm here: x | y | metric "
+             "| aerofid: x | y | score |",
              "|---|---|---|---|---|---|---|---|"]
     box = (175, 175, 225, 225)
     for pct, s in seed.items():
@@ -194,8 +197,7 @@ def bench_noise(rng, repeats: int) -> list[str]:
 def bench_table_5_1(scene) -> list[str]:
     lines = []
     for w in (16, 12):
-        res = search_box(scene.image, "panel", hc.HoughParams(), SearchParams(window_size=w, exhaustive=True,
-                                                                               stage2_fallback=False))
+        res = search_box(scene.image, HoughParams(mark="panel", window_size=w, exhaustive=True, stage2_fallback=False))
         n2 = sum(c.stage == 2 for c in res.candidates)
         lines.append(f"\n**Window = {w}**: {sum(c.stage == 1 for c in res.candidates)} stage-1 candidates, {n2} "
                      f"reached stage 2 (truth (200, 200)).\n")
@@ -219,8 +221,8 @@ def bench_table_5_1(scene) -> list[str]:
             lines.append(f"| {c1.x:.1f} | {c1.y:.1f} | {c1.metric:.2f} | {s2} |")
         lines.append("\n</details>\n")
         best = locate(scene.image, (0, 0, 404, 404), mark="panel", window_size=w, **OURS)
-        lines.append(f"\naerofid's answer for the whole image (window {w}): "
-                     + (f"({best.x:.2f}, {best.y:.2f}), score {best.score:.2f}" if best.found else f"not found ({best.reason})"))
+        answer = f"({best.x:.2f}, {best.y:.2f}), score {best.score:.2f}" if best.found else f"not found ({best.reason})"
+        lines.append(f"\naerofid's answer for the whole image (window {w}): " + answer)
     return lines
 
 
@@ -242,7 +244,8 @@ def bench_speed(rng, repeats: int) -> list[str]:
         ("200 x 200 box, external cross (aerofid)", lambda: locate(sc.image, box, mark="external", **OURS)),
         ("200 x 200 box, external cross (seed algorithm)", lambda: locate(sc.image, box, mark="external", **SEED_MODE)),
         ("50 x 50 box, 8 px panel (aerofid)", lambda: locate(panel.image, (175, 175, 225, 225), mark="panel", **OURS)),
-        ("whole 404 x 404 image, panel, window 16 (aerofid)", lambda: locate(panel.image, (0, 0, 404, 404), mark="panel", **OURS)),
+        ("whole 404 x 404 image, panel, window 16 (aerofid)",
+         lambda: locate(panel.image, (0, 0, 404, 404), mark="panel", **OURS)),
         ("whole 404 x 404 image, panel, window 16, every candidate (table 5.1)",
          lambda: locate(panel.image, (0, 0, 404, 404), mark="panel", exhaustive=True, **OURS)),
     ]

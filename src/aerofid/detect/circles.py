@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
@@ -204,7 +204,7 @@ def _gradient_noise_gain(canny_sigma: float) -> float:
     key = round(float(canny_sigma), 3)
     if key not in _GAIN_CACHE:
         rng = np.random.default_rng(0)
-        n = rng.normal(size=(128, 128)).astype(np.float32)
+        n: np.ndarray = rng.normal(size=(128, 128)).astype(np.float32)
         if canny_sigma > 0:
             k = int(2 * np.ceil(3 * canny_sigma) + 1)
             n = cv2.GaussianBlur(n, (k, k), canny_sigma)
@@ -285,8 +285,8 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
     Without ``near``, returns up to ``n_circles`` (radius, coverage) at least 1.5 px apart (``SAME_POLARITY_GAP``
     px when both are edges of the same polarity, i.e. both dark inside or both bright inside: a blurred edge
     seen from a centre a pixel off splits into two histogram peaks), the circles covered on ``min_coverage``
-    of their circumference first, each group by edge-point count (largest circles first). With ``near`` (the given radii), returns
-    for each the best peak within max(2, 0.15 R) px of it.
+    of their circumference first, each group by edge-point count (largest circles first). With ``near`` (the
+    given radii), returns for each the best peak within max(2, 0.15 R) px of it (:func:`_match_radii`).
     """
     d, cos = _radial(ep, cx, cy)
     ok = (cos >= radial_cos) & (d >= r_min - 1) & (d <= r_max + 1)
@@ -304,7 +304,7 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
     with np.errstate(divide="ignore", invalid="ignore"):
         outward = np.sign((ep.x - cx) * ep.nx + (ep.y - cy) * ep.ny)
 
-    def refine(i: int) -> tuple[float, float]:
+    def refine(i: int | np.integer) -> tuple[float, float]:
         sel = ok & (np.abs(d - centres[i]) <= 1.0)
         r = float(np.median(d[sel])) if sel.any() else float(centres[i])
         sel = ok & (np.abs(d - r) <= 1.0)
@@ -317,21 +317,7 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
     if near is not None:
         # each given radius takes its own histogram peak (within max(2, 0.15 R)), the set of peaks with the
         # least total distance to the given radii; a radius without a peak keeps its value, coverage 0
-        cand = [i for i in peaks if hs[i] >= 0.2 * hs.max()
-                and min(abs(centres[i] - r0) - max(2.0, 0.15 * r0) for r0 in near) <= 0]
-        best, best_cost = None, np.inf
-        for combo in itertools.permutations(cand + [None] * len(near), len(near)):
-            cost = 0.0
-            for r0, i in zip(near, combo):
-                if i is None:
-                    cost += 10.0
-                elif abs(centres[i] - r0) > max(2.0, 0.15 * r0):
-                    cost = np.inf
-                    break
-                else:
-                    cost += abs(centres[i] - r0)
-            if cost < best_cost:
-                best, best_cost = combo, cost
+        best = _match_radii(peaks, hs, centres, near)
         return [refine(i) if i is not None else (float(r0), 0.0) for r0, i in zip(near, best)]
     # circles covered on at least min_coverage of their circumference first, then by edge-point count
     scored = []
@@ -340,9 +326,16 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
         if r >= r_min and cov >= 0.25:
             scored.append((cov >= min_coverage, float(hs[i]), r, cov))
     scored.sort(key=lambda t: (not t[0], -t[1]))
+    return _apart([(r, cov) for _, _, r, cov in scored], polarity, n_circles)
+
+
+def _apart(circles: list[tuple[float, float]], polarity: Callable[[float], float],
+           n_circles: int) -> list[tuple[float, float]]:
+    """The first ``n_circles`` of ``circles`` (radius, coverage) at least 1.5 px from every one taken before,
+    :data:`SAME_POLARITY_GAP` px when both edges have the same ``polarity``."""
     out: list[tuple[float, float]] = []
     signs: list[float] = []
-    for _, _, r, cov in scored:
+    for r, cov in circles:
         sign = polarity(r)
         if any(abs(r - q) < (SAME_POLARITY_GAP if sign == t else 1.5) for (q, _), t in zip(out, signs)):
             continue
@@ -351,6 +344,30 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
         if len(out) >= n_circles:
             break
     return out
+
+
+def _match_radii(peaks: np.ndarray, hs: np.ndarray, centres: np.ndarray,
+                 near: tuple[float, ...]) -> tuple[int | None, ...]:
+    """For each given radius in ``near``, the index of its histogram peak (or None): the assignment of peaks
+    (at least 0.2 of the highest, within max(2, 0.15 R) px of a given radius) with the least total distance to
+    the given radii, a radius without a peak costing 10 px."""
+    cand: list[int | None] = [int(i) for i in peaks if hs[i] >= 0.2 * hs.max()
+                              and min(abs(centres[i] - r0) - max(2.0, 0.15 * r0) for r0 in near) <= 0]
+    best: tuple[int | None, ...] = (None,) * len(near)
+    best_cost = np.inf
+    for combo in itertools.permutations(cand + [None] * len(near), len(near)):
+        cost = 0.0
+        for r0, i in zip(near, combo):
+            if i is None:
+                cost += 10.0
+            elif abs(centres[i] - r0) > max(2.0, 0.15 * r0):
+                cost = np.inf
+                break
+            else:
+                cost += abs(centres[i] - r0)
+        if cost < best_cost:
+            best, best_cost = combo, cost
+    return best
 
 
 def de_hough(ep: EdgePoints, cx: float, cy: float, radii: list[float], tol: float = DEHOUGH_TOL,
@@ -390,9 +407,35 @@ class CircleFit:
         return float(np.sqrt(self.cov[0, 0])), float(np.sqrt(self.cov[1, 1]))
 
 
-def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray, radii: tuple[float, ...] | None = None,
-                           centre: tuple[float, float] | None = None, fix_radii: bool = False,
-                           weights: np.ndarray | None = None, max_iter: int = 20, tol: float = 1e-10) -> CircleFit | None:
+def _start_radii(x: np.ndarray, y: np.ndarray, label: np.ndarray, x0: float, y0: float, k: int) -> np.ndarray:
+    """Starting radii: each circle's mean distance of its points from (x0, y0) (1 for a circle without any)."""
+    dd = np.hypot(x - x0, y - y0)
+    return np.array([float(dd[label == j].mean()) if (label == j).any() else 1.0 for j in range(k)])
+
+
+def _gauss_helmert_design(xa: np.ndarray, ya: np.ndarray, x0: float, y0: float, R: np.ndarray, label: np.ndarray,
+                          p: np.ndarray, u: int, fix_radii: bool
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The condition equations of :func:`fit_concentric_circles` linearised at the observations (xa, ya) and the
+    parameters (x0, y0, R): ``A`` (n x u), ``B`` as its two columns (bx, by) (block diagonal, one row per
+    point), ``M = B P^-1 B^T`` (diagonal) and ``f``."""
+    n = xa.size
+    dx, dy = xa - x0, ya - y0
+    Rk = R[label]
+    f = dx * dx + dy * dy - Rk * Rk
+    bx, by = 2 * dx, 2 * dy
+    m = (bx * bx + by * by) / p
+    A = np.zeros((n, u))
+    A[:, 0], A[:, 1] = -bx, -by
+    if not fix_radii:
+        A[np.arange(n), 2 + label] = -2 * Rk
+    return A, bx, by, m, f
+
+
+def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray,
+                           radii: tuple[float, ...] | None = None, centre: tuple[float, float] | None = None,
+                           fix_radii: bool = False, weights: np.ndarray | None = None, max_iter: int = 20,
+                           tol: float = 1e-10) -> CircleFit | None:
     """Least-squares adjustment of k concentric circles, seed 003 eq. (2)-(3), as a Gauss-Helmert model.
 
     Condition equations, one per point i on circle k(i) (``label``):
@@ -415,13 +458,8 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray, radi
         return None
     k_circ = int(label.max()) + 1
     p = np.ones(n) if weights is None else np.asarray(weights, float)
-    if centre is None:
-        centre = (float(x.mean()), float(y.mean()))
-    x0, y0 = centre
-    if radii is None:
-        dd = np.hypot(x - x0, y - y0)
-        radii = tuple(float(dd[label == j].mean()) if (label == j).any() else 1.0 for j in range(k_circ))
-    R = np.asarray(radii, float).copy()
+    x0, y0 = centre if centre is not None else (float(x.mean()), float(y.mean()))
+    R = _start_radii(x, y, label, x0, y0, k_circ) if radii is None else np.asarray(radii, float).copy()
     u = 2 + (0 if fix_radii else k_circ)
     if n - u <= 0:
         return None
@@ -429,24 +467,15 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray, radi
     ey = np.zeros(n)
     converged = False
     it = 0
-    for it in range(1, max_iter + 1):
-        xa, ya = x + ex, y + ey                       # Taylor point of the observations
-        dx, dy = xa - x0, ya - y0
-        Rk = R[label]
-        f = dx * dx + dy * dy - Rk * Rk
-        bx, by = 2 * dx, 2 * dy                        # B (block diagonal: one row per point)
+    for it in range(1, max_iter + 1):              # noqa: B007 (``it`` is reported)
+        # linearised at the Taylor point of the observations (x + ex, y + ey)
+        A, bx, by, m, f = _gauss_helmert_design(x + ex, y + ey, x0, y0, R, label, p, u, fix_radii)
         w = f - (bx * ex + by * ey)                    # misclosure at the observations y
-        m = (bx * bx + by * by) / p                    # M = B P^-1 B^T (diagonal)
         if np.any(m <= 0):
             return None
-        A = np.zeros((n, u))
-        A[:, 0], A[:, 1] = -bx, -by
-        if not fix_radii:
-            A[np.arange(n), 2 + label] = -2 * Rk
         Am = A / m[:, None]
-        N = A.T @ Am
         try:
-            dxi = -np.linalg.solve(N, Am.T @ w)
+            dxi = -np.linalg.solve(A.T @ Am, Am.T @ w)
         except np.linalg.LinAlgError:
             return None
         kk = -(A @ dxi + w) / m
@@ -460,22 +489,21 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray, radi
         if step < tol:
             converged = True
             break
-    # final linearisation at the solution for the cofactor matrix
-    dx, dy = x + ex - x0, y + ey - y0
-    bx, by = 2 * dx, 2 * dy
-    m = (bx * bx + by * by) / p
-    A = np.zeros((n, u))
-    A[:, 0], A[:, 1] = -bx, -by
-    if not fix_radii:
-        A[np.arange(n), 2 + label] = -2 * R[label]
-    N = A.T @ (A / m[:, None])
+    return _gauss_helmert_result(x, y, ex, ey, x0, y0, R, label, p, u, fix_radii, it, converged)
+
+
+def _gauss_helmert_result(x: np.ndarray, y: np.ndarray, ex: np.ndarray, ey: np.ndarray, x0: float, y0: float,
+                          R: np.ndarray, label: np.ndarray, p: np.ndarray, u: int, fix_radii: bool, it: int,
+                          converged: bool) -> CircleFit | None:
+    """The :class:`CircleFit` at the solution: the cofactor matrix from the final linearisation, scaled by the
+    a-posteriori ``sigma0^2 = e^T P e / (n - u)`` (None when the normal matrix is singular)."""
+    A, _, _, m, _ = _gauss_helmert_design(x + ex, y + ey, x0, y0, R, label, p, u, fix_radii)
     try:
-        Q = np.linalg.inv(N)
+        Q = np.linalg.inv(A.T @ (A / m[:, None]))
     except np.linalg.LinAlgError:
         return None
-    r = n - u
-    vtpv = float(np.sum(p * (ex * ex + ey * ey)))
-    s0 = float(np.sqrt(vtpv / r))
+    r = x.size - u
+    s0 = float(np.sqrt(float(np.sum(p * (ex * ex + ey * ey))) / r))
     return CircleFit(float(x0), float(y0), tuple(float(v) for v in R), s0 * s0 * Q, s0,
                      np.column_stack([ex, ey]), r, it, converged)
 

@@ -1,5 +1,9 @@
-"""Concentric circles detector (Seedahmed, seed 003) against exact synthetic truth."""
+"""Concentric circles detector (Seedahmed, seed 003) against exact synthetic truth (fixed seeds throughout)."""
 
+import itertools
+import zlib
+
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -17,6 +21,16 @@ def _ring_radii(size):
     """Nominal radii of the outer ring of the synth marks: its inner and outer edge."""
     r, w = size / 2.0, max(1.0, size / 20.0)
     return (r - w, r)
+
+
+def _params(size=None):
+    """Default parameters, with the outer ring's nominal radii when ``size`` is given."""
+    return circles.CirclesParams(radii=_ring_radii(size) if size is not None else None)
+
+
+def _seed(*key):
+    """A fixed seed from a readable key (``hash`` is salted per process)."""
+    return zlib.crc32(repr(key).encode()) % 2 ** 16
 
 
 # --- Gauss-Helmert adjustment ---------------------------------------------------------------------------
@@ -89,9 +103,9 @@ def test_gauss_helmert_degenerate_input_returns_none():
 def test_detect_accuracy(style, given_radii):
     """Measured (tests/test_circles.py, 20 marks per case): RMS 0.012-0.024 px, max <= 0.06 px."""
     errs, scores = [], []
-    for s, size in _marks(style, 20, seed=hash((style, given_radii)) % 2 ** 16):
+    for s, size in _marks(style, 20, seed=_seed(style, given_radii)):
         m = s.marks[0]
-        d = circles.detect(s.image, radii=_ring_radii(size) if given_radii else None)
+        d = circles.detect(s.image, _params(size if given_radii else None))
         assert d.found, (style, size, d.reason)
         errs.append(np.hypot(d.x - m.x, d.y - m.y))
         scores.append(d.score)
@@ -102,23 +116,124 @@ def test_detect_accuracy(style, given_radii):
 
 
 def test_sigma_is_honest():
-    """Observed per-axis RMS error within a factor 3 of the mean reported sigma (measured ratio ~0.9-1.2)."""
+    """Observed per-axis RMS error over the mean reported sigma, 15 marks of each style (measured 0.94)."""
     ratio = sigma_ratio(circles.detect, STYLES, 15, seed=11)
-    assert 1 / 3 <= ratio <= 3, ratio
+    assert 0.7 <= ratio <= 1.5, ratio
 
 
-def test_detection_contract():
+def test_detection_contract_and_typed_results():
     s, size = next(_marks("ring_x_dot", 1, seed=5))
     d = circles.detect(s.image)
-    assert_contract(d, "circles", ("edges", "accumulator", "circles", "points", "labels", "fit"))
-    assert len(d.diagnostics["circles"]) == 2
+    assert_contract(d, "circles", ())
+    assert isinstance(d, circles.CirclesResult) and len(d.circles) == 2 and d.fit is not None
+    assert d.edge_points is not None and d.edge_points.edge_map.shape == s.image.shape
+    assert d.accumulator is not None and d.centre_votes is not None
+    assert d.points is not None and d.labels is not None and len(d.points) == len(d.labels)
+    assert d.extent == pytest.approx(max(r for _, _, r in d.circles) + 1.0)
+    assert abs(d.extent - size / 2) < 2.5
+    assert min(d.coverage) >= 0.6 and set(d.score_parts) == {"coverage", "fit", "concentric"}
+    assert circles.CirclesResult.not_found("circles", "x").extent is None
+
+
+def test_plot_draws_edges_circles_and_centre():
+    from matplotlib.figure import Figure
+
+    s, _ = next(_marks("bullseye", 1, seed=5))
+    d = circles.detect(s.image)
+    fig = Figure()
+    d.plot(fig, s.image)
+    assert len(fig.axes) == 1 and len(fig.axes[0].lines) >= 3
+
+
+@pytest.mark.parametrize("bad", [{"radii": (5.0,)}, {"radii": (-1.0, 4.0)}, {"radii": (3.0, float("nan"))},
+                                 {"n_circles": 1}, {"canny_sigma": -1}, {"canny_low_ratio": 1.5},
+                                 {"min_radius": 0}, {"max_radius": 1.0}, {"dehough_tol": 0}, {"radial_cos": 2},
+                                 {"min_coverage": float("nan")}, {"competitor_ratio": 0},
+                                 {"fix_radii": True}, {"fix_radii": "no"}])
+def test_bad_parameters_are_refused_with_one_line(bad):
+    with pytest.raises((TypeError, ValueError)) as e:
+        circles.CirclesParams(**bad)
+    assert "\n" not in str(e.value)
+
+
+def test_radii_are_normalised_to_a_tuple_of_floats():
+    assert circles.CirclesParams(radii=[9, np.float32(10.5)]).radii == (9.0, 10.5)
+    assert hash(circles.CirclesParams(radii=[9, 10])) == hash(circles.CirclesParams(radii=(9.0, 10.0)))
+
+
+# --- the bull's-eye false negative ----------------------------------------------------------------------
+
+# (seed, index) of synthetic_marks("bullseye", 20, seed) refused with the given radii before the fix: the given
+# radii's Hough peak lay 1.4 px off (on the ring where the middle ring's edges vote) and the adjustment settled
+# on a mixture of rings (refused for coverage, a competing circle, edge scatter)
+BULLSEYE_REFUSED = ((370, 8), (403, 6), (460, 4))
+
+
+@pytest.mark.parametrize("seed,index", BULLSEYE_REFUSED)
+def test_small_bullseye_with_given_radii_is_found(seed, index):
+    s, size = next(itertools.islice(_marks("bullseye", 20, seed), index, None))
+    assert 20 < size < 21
+    m = s.marks[0]
+    d = circles.detect(s.image, _params(size))
+    assert d.found, d.reason
+    assert np.hypot(d.x - m.x, d.y - m.y) < 0.1
+
+
+def test_bullseye_found_rate_over_many_seeds():
+    """60 bull's-eyes of 20-60 px, radii estimated and given: all found (600 seeds x 20 marks x 2: no refusal
+    after the fix, 3 before)."""
+    found = [circles.detect(s.image, _params(size if given else None)).found
+             for seed in range(3) for s, size in _marks("bullseye", 20, seed=1000 + seed) for given in (False, True)]
+    assert all(found), found.count(False)
+
+
+# --- pipeline steps -------------------------------------------------------------------------------------
+
+def test_hough_circles_peaks_at_the_centre_of_a_known_radius():
+    """Seed 003 section 3: every point on a circle of radius R votes for the centres R away."""
+    t = np.linspace(0, 2 * np.pi, 90, endpoint=False)
+    acc = circles.hough_circles(20 + 8 * np.cos(t), 17 + 8 * np.sin(t), 8.0, (40, 40))
+    assert np.unravel_index(np.argmax(acc), acc.shape) == (17, 20)
+
+
+def test_de_hough_labels_points_by_circle_and_leaves_tangential_edges_out():
+    rng = np.random.default_rng(12)
+    x, y, lab = _circle_points(30.0, 30.0, (6.0, 12.0), 30, rng)
+    a = np.arctan2(y - 30, x - 30)
+    n = x.size
+    ep = circles.EdgePoints(x, y, np.cos(a), np.sin(a), np.ones(n), x.astype(int), y.astype(int),
+                            np.zeros((60, 60), bool), 0.01)
+    assert (circles.de_hough(ep, 30.0, 30.0, [6.0, 12.0]) == lab).all()
+    tangential = circles.EdgePoints(x, y, -np.sin(a), np.cos(a), np.ones(n), x.astype(int), y.astype(int),
+                                    np.zeros((60, 60), bool), 0.01)
+    assert (circles.de_hough(tangential, 30.0, 30.0, [6.0, 12.0]) == -1).all()
+
+
+def test_estimate_radii_finds_both_edges_of_a_ring():
+    s = synth.mark_scene("ring_x_dot", 40, window=72, rng=np.random.default_rng(13), noise_sigma=0.01)
+    m = s.marks[0]
+    ep = circles.edges(s.image)
+    radii = sorted(r for r, _ in circles.estimate_radii(ep, m.x, m.y, 2.5, 30.0))
+    assert len(radii) == 2 and abs(radii[1] - 20) < 1.5 and abs(radii[0] - 18) < 1.5
+
+
+def test_fit_single_circle_recovers_an_offset_ring():
+    """Concentricity step: a ring whose centre is 1.5 px off the common centre is adjusted about its own."""
+    rng = np.random.default_rng(14)
+    x, y, _ = _circle_points(21.5, 20.0, (10.0,), 80, rng)
+    a = np.arctan2(y - 20.0, x - 21.5)
+    ep = circles.EdgePoints(x, y, np.cos(a), np.sin(a), np.ones(x.size), x.astype(int), y.astype(int),
+                            np.zeros((40, 40), bool), 0.01)
+    members = circles.de_hough(ep, 20.0, 20.0, [10.0], 1.5) == 0
+    f = circles.fit_single_circle(ep, members, 20.0, 20.0, 0, [10.0])
+    assert (f.x0, f.y0) == pytest.approx((21.5, 20.0), abs=1e-6)
 
 
 # --- rejections -----------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("radii", [None, (9.0, 10.0)])
 def test_rejects_noise_homogeneous_and_straight_edges(radii):
-    assert_rejects_noise_flat_and_edges(lambda img: circles.detect(img, radii=radii))
+    assert_rejects_noise_flat_and_edges(lambda img: circles.detect(img, circles.CirclesParams(radii=radii)))
 
 
 @pytest.mark.parametrize("style", STYLES)
@@ -129,9 +244,9 @@ def test_rejects_mark_cut_in_half(style):
         m = s.marks[0]
         for cut in (-2, 0, 1, 2):
             half = s.image[:, : int(m.x) + 1 + cut]
-            for radii in (None, _ring_radii(size)):
-                d = circles.detect(half, radii=radii)
-                assert not d.found, (style, size, cut, radii, d.x - m.x, d.y - m.y)
+            for p in (_params(), _params(size)):
+                d = circles.detect(half, p)
+                assert not d.found, (style, size, cut, p.radii, d.x - m.x, d.y - m.y)
 
 
 @pytest.mark.parametrize("r1,r2,off", [(15, 9, 3), (15, 9, 5), (15, 12, 8), (12, 12, 6), (15, 8, 2), (15, 8, 1)])
@@ -144,7 +259,7 @@ def test_rejects_non_concentric_circles(r1, r2, off):
     img = synth.paint(img, synth.coverage((64, 64), c2, synth.ring(r2 - 1.5, r2)), 0.85)
     img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng)
     for radii in (None, (r1, r2)):
-        d = circles.detect(img, radii=radii)
+        d = circles.detect(img, circles.CirclesParams(radii=radii))
         assert not d.found, (radii, d.x, d.y)
         assert any(w in d.reason for w in ("concentric", "competes", "circumference")), d.reason
 
@@ -154,8 +269,8 @@ def test_bad_inputs_are_not_found_not_exceptions():
     img = np.full((32, 32), 0.1, np.float32)
     img[3, 3] = np.nan
     assert circles.detect(img).status == "not_found"
-    s, _ = next(_marks("bullseye", 1, seed=9))
-    assert circles.detect(s.image, radii=(5.0,)).status == "not_found"
+    with pytest.raises(ValueError, match="radii"):
+        circles.CirclesParams(radii=(5.0,))
 
 
 # --- real-scan situations (the Wild RC20 frame's notches, JPEG) -----------------------------------------
@@ -196,8 +311,6 @@ def test_colour_jpeg_blocks_do_not_drown_the_circles_in_edges():
     back in its red channel, as on the real RC20 scan: the grey-level noise estimate sees about one grey level
     while the chroma blocks' gradients would make much of the window Canny edges (before the gradient-noise
     floor of :func:`circles.edges`, 0 of 6 found here)."""
-    import cv2
-
     rng = np.random.default_rng(23)
     for _ in range(6):
         s = synth.mark_scene("ring_cross", size=44, window=120, rng=rng, noise_sigma=0.004, blur_sigma=1.0,

@@ -2,45 +2,53 @@
 
 The box is clipped to the image, only its window is read (tiled TIFFs decode only the tiles it touches),
 colour is reduced to grey by a policy that keeps the mark's contrast, dark marks are inverted so every
-detector sees a bright mark, and the chosen method's detector runs on the window. Coordinates everywhere:
-x = column, y = row, the centre of the top-left pixel is (0, 0); boxes (x0, y0, x1, y1) with x1, y1
-exclusive.
+detector sees a bright mark, and the chosen method (:mod:`aerofid.detect.registry`) runs on the window.
+Coordinates everywhere: x = column, y = row, the centre of the top-left pixel is (0, 0); boxes (x0, y0, x1,
+y1) with x1, y1 exclusive.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from aerofid.detect import METHODS, available_methods, detector
-from aerofid.detect.result import FOUND, NOT_FOUND, Detection
+from aerofid.conventions import FOUND, MARKS, POLARITY_CHOICES, Box, Polarity
+from aerofid.detect import auto
+from aerofid.detect.registry import SEED_METHODS, method, route_params
+from aerofid.detect.result import Detection
 from aerofid.errors import AerofidInputError
 from aerofid.io.raster import check_window_size, clip_box, open_raster, to_grey
-
-MARKS = ("auto", "external", "panel")
-"""Kinds of mark: an external (film) fiducial, a cloth ground panel, or let the detector decide."""
-POLARITIES = ("bright", "dark", "auto")
-"""The mark is brighter than its ground (most fiducials), darker (negatives, some panels), or either."""
-
-AUTO_METHODS = ("circles", "symmetry", "hough", "lines")
-"""The detectors ``method="auto"`` may use; which of them run, how they are cross-checked and which answer
-is trusted is the rule of :mod:`aerofid.detect.auto`."""
 
 
 @dataclass(frozen=True)
 class Location:
     """The answer of :func:`locate`, in full-image pixels.
 
-    ``status`` is "found" or "not_found"; ``x``, ``y`` the centre (NaN when not found); ``score`` the
-    detector's confidence in [0, 1] (for ``hough``: the similarity metric of seed 001); ``sigma`` the
-    standard deviation of the centre per axis in px; ``box`` the box actually searched (clipped to the
-    image; ``clipped`` says whether it had to be); ``detection`` the detector's full answer with its
-    diagnostics (in window pixels; the window's top-left pixel is ``box[:2]``); ``window`` the grey
-    window the detector saw.
+    Attributes
+    ----------
+    status : str
+        ``"found"`` or ``"not_found"``.
+    x, y : float
+        The centre (NaN when not found).
+    score : float
+        The detector's confidence in [0, 1] (for ``hough``: the similarity metric of seed 001).
+    sigma : float
+        Standard deviation of the centre per axis (px).
+    method, mark, polarity : str
+        The method whose centre is returned, the kind of mark asked for, the polarity that answered.
+    box : tuple of int
+        The box actually searched (clipped to the image; ``clipped`` says whether it had to be).
+    requested_box : tuple of float
+        The box as given.
+    detection : Detection
+        The method's full typed answer (in window pixels; the window's top-left pixel is ``box[:2]``).
+    window : ndarray
+        The grey window the detector saw (mark bright).
     """
 
     status: str
@@ -51,7 +59,7 @@ class Location:
     method: str
     mark: str
     polarity: str
-    box: tuple[int, int, int, int]
+    box: Box
     requested_box: tuple[float, float, float, float]
     clipped: bool
     reason: str = ""
@@ -61,11 +69,12 @@ class Location:
 
     @property
     def found(self) -> bool:
+        """True when a mark was located."""
         return self.status == FOUND
 
     def to_dict(self) -> dict[str, Any]:
         """Scalars only, ready for JSON (NaN becomes None)."""
-        def num(v):
+        def num(v: float) -> float | None:
             return None if v is None or not np.isfinite(v) else float(v)
 
         return {
@@ -89,9 +98,10 @@ def _as_array(image: np.ndarray) -> np.ndarray:
     return a
 
 
-def read_box(image: str | os.PathLike | np.ndarray, box) -> tuple[np.ndarray, tuple[int, int, int, int], bool, str | None]:
+def read_box(image: str | os.PathLike[str] | np.ndarray,
+             box: Sequence[float]) -> tuple[np.ndarray, Box, bool, str | None]:
     """The window of ``image`` under ``box`` (clipped to the image): (window, clipped box, was clipped, path)."""
-    if isinstance(image, (str, os.PathLike)):
+    if isinstance(image, str | os.PathLike):
         with open_raster(image) as r:
             clipped, was = clip_box(box, r.width, r.height)
             check_window_size(clipped, r.bands, r.dtype.itemsize)
@@ -102,97 +112,98 @@ def read_box(image: str | os.PathLike | np.ndarray, box) -> tuple[np.ndarray, tu
     return a[y0:y1, x0:x1], clipped, was, None
 
 
-def _check_auto_params(params: dict) -> None:
-    """``method="auto"`` passes the user's parameters to ``hough``: check them before anything runs."""
-    from aerofid.detect.hough.analysis import HoughParams
-    from aerofid.detect.hough.search import SearchParams
-
-    extra = {"verify", "min_arm_balance", "min_arm_snr"}
-    hk, sk = set(HoughParams.__dataclass_fields__), set(SearchParams.__dataclass_fields__)
-    unknown = set(params) - hk - sk - extra
-    if unknown:
-        raise AerofidInputError(f"unknown parameter(s) for method 'auto' (which passes them to 'hough'): "
-                                f"{', '.join(sorted(unknown))}")
-    try:
-        HoughParams(**{k: v for k, v in params.items() if k in hk})
-        SearchParams(**{k: v for k, v in params.items() if k in sk})
-    except (TypeError, ValueError) as e:
-        raise AerofidInputError(f"bad parameter for method 'auto': {e}") from None
+Detector = Callable[[np.ndarray], Detection]
+"""One configured method: grey window (mark bright) -> its answer."""
 
 
-def _run(method: str, grey: np.ndarray, mark: str, params: dict) -> Detection:
-    if method == "auto":
-        from aerofid.detect.auto import detect_auto, make_runner
+def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Detector:
+    """The configured method ``method_name`` for ``mark`` with the user's ``params`` (checked now, before
+    any pixel is read: unknown names and bad values are one-line input errors naming the valid ones).
+    ``auto`` routes each parameter to the methods that take it (:func:`~aerofid.detect.registry.route_params`)."""
+    if method_name == "auto":
+        routed = route_params({"mark": mark, **params}, ["auto", *SEED_METHODS])
+        auto_params = routed.pop("auto")
+        return lambda grey: auto.detect(grey, auto_params, methods=routed)  # type: ignore[arg-type]
+    m = method(method_name)
+    values = dict(params)
+    if "mark" in m.params_type.names():
+        values["mark"] = mark
+    p = m.params_type.from_mapping(values, method_name)
+    return lambda grey: m.detect(grey, p)
 
-        have = available_methods()
-        return detect_auto(grey, mark, run=make_runner(mark, params),
-                           methods=[m for m in AUTO_METHODS if m in have])
-    fn = detector(method)
-    kwargs = dict(params)
-    if method == "hough":
-        kwargs["mark"] = mark
-    try:
-        return fn(grey, **kwargs)
-    except (TypeError, ValueError) as e:
-        raise AerofidInputError(f"bad parameter for method {method!r}: {e}") from None
+
+def _check_choice(value: str, choices: Sequence[str], what: str) -> None:
+    if value not in choices:
+        raise AerofidInputError(f"unknown {what} {value!r}; use one of {', '.join(choices)}")
 
 
-def locate(image: str | os.PathLike | np.ndarray, box, mark: str = "auto", method: str = "auto",
-           polarity: str = "bright", colour: str = "auto", **params) -> Location:
+def locate(image: str | os.PathLike[str] | np.ndarray, box: Sequence[float], mark: str = "auto",
+           method: str = "auto", polarity: str = "bright", colour: str = "auto", **params: Any) -> Location:
     """Locate the mark inside ``box`` of ``image``.
 
-    Args:
-        image: a path (TIFF/BigTIFF/GeoTIFF, JPEG, PNG) or a 2-D grey / (h, w, 3) RGB numpy array.
-        box: (x0, y0, x1, y1) in full-image pixels, x1 and y1 exclusive; a box partly outside the image is
-            clipped (``Location.clipped``), one wholly outside is an error.
-        mark: "external" (film fiducial), "panel" (cloth ground panel) or "auto".
-        method: "hough" (Hunt, Ryan & Gifford), "symmetry" (Cho & Kim), "circles" (Seedahmed), "lines"
-            (Sohn et al.) runs that one detector; "auto" runs the detectors that apply, cross-checks them and
-            answers only with a corroborated, verified centre (:mod:`aerofid.detect.auto`; ``score`` is then
-            comparable across methods and ``method`` names the detector whose centre is returned).
-        polarity: "bright" marks on darker ground (the seed's case), "dark" marks on brighter ground, or
-            "auto" (both are tried; the more confident answer wins).
-        colour: how RGB becomes grey: "auto" (the channel mix with the most mark contrast), "luminance",
-            "red", "green", "blue" or "max".
-        **params: the method's parameters (e.g. ``window_size=24``, ``rho_step=0.5``, ``theta_step=5``,
-            ``hough_threshold=0.3``); see :class:`aerofid.detect.hough.analysis.HoughParams` and
-            :class:`aerofid.detect.hough.search.SearchParams`.
+    Parameters
+    ----------
+    image : path or ndarray
+        A path (TIFF/BigTIFF/GeoTIFF, JPEG, PNG) or a 2-D grey / (h, w, 3) RGB numpy array.
+    box : (x0, y0, x1, y1)
+        Full-image pixels, x1 and y1 exclusive; a box partly outside the image is clipped
+        (``Location.clipped``), one wholly outside is an error.
+    mark : {"auto", "external", "panel"}
+        A film fiducial, a cloth ground panel, or let the detector decide.
+    method : {"auto", "hough", "symmetry", "circles", "lines"}
+        ``"hough"`` (Hunt, Ryan & Gifford), ``"symmetry"`` (Cho & Kim), ``"circles"`` (Seedahmed),
+        ``"lines"`` (Sohn et al.) runs that one detector; ``"auto"`` runs the detectors that apply,
+        cross-checks them and answers only with a corroborated, verified centre (:mod:`aerofid.detect.auto`;
+        ``method`` then names the detector whose centre is returned).
+    polarity : {"bright", "dark", "auto"}
+        Mark brighter than its ground (the seeds' case), darker, or try both (the more confident answer wins).
+    colour : str
+        How RGB becomes grey: "auto" (the channel mix with the most mark contrast), "luminance", "red",
+        "green", "blue" or "max".
+    **params
+        Parameters of the method (``aerofid.detect.hough.HoughParams``, ``...symmetry.SymmetryParams``,
+        ``...circles.CirclesParams``, ``...lines.LinesParams``, ``...auto.AutoParams``), e.g.
+        ``window_size=24``, ``max_asymmetry=0.2``; with ``method="auto"`` each goes to the methods that take it.
 
-    Returns:
-        :class:`Location`; "not found" is a status, never an exception.
+    Returns
+    -------
+    Location
+        "not found" is a status, never an exception.
 
-    Raises:
-        AerofidInputError: bad input (missing/corrupt file, box outside the image, unknown option...).
+    Raises
+    ------
+    AerofidInputError
+        Bad input (missing/corrupt file, box outside the image, unknown option or parameter...).
+
+    Examples
+    --------
+    >>> import numpy as np, aerofid
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("cross", size=30, window=80, rng=np.random.default_rng(0))
+    >>> truth = scene.marks[0]
+    >>> r = aerofid.locate(scene.image, (10, 10, 70, 70), mark="external")
+    >>> r.found, bool(np.hypot(r.x - truth.x, r.y - truth.y) < 0.1)
+    (True, True)
     """
-    if mark not in MARKS:
-        raise AerofidInputError(f"unknown mark {mark!r}; use one of {', '.join(MARKS)}")
-    if polarity not in POLARITIES:
-        raise AerofidInputError(f"unknown polarity {polarity!r}; use one of {', '.join(POLARITIES)}")
-    known = ("auto", *METHODS)
-    if method not in known:
-        raise AerofidInputError(f"unknown method {method!r}; use one of {', '.join(known)}")
-    have = available_methods()
-    if method != "auto" and method not in have:
-        raise AerofidInputError(f"method {method!r} is not available in this installation; use one of {', '.join(have)}")
+    _check_choice(mark, MARKS, "mark")
+    _check_choice(polarity, POLARITY_CHOICES, "polarity")
+    detector = make_detector(method, mark, params)
     window, clipped, was_clipped, path = read_box(image, _box_tuple(box))
-    requested = tuple(float(v) for v in _box_tuple(box))
-    if method == "auto":
-        _check_auto_params(params)
-    methods = [method]
-    polarities = ("bright", "dark") if polarity == "auto" else (polarity,)
+    polarities: tuple[Polarity, ...] = ("bright", "dark") if polarity == "auto" else (polarity,)  # type: ignore[assignment]
     best: tuple[Detection, str, np.ndarray] | None = None
     for pol in polarities:
         grey = to_grey(window, colour, pol)
         if pol == "dark":
             grey = 1.0 - grey
-        for m in methods:
-            det = _run(m, grey, mark, params)
-            if best is None or _better(det, best[0]):
-                best = (det, pol, grey)
+        det = detector(grey)
+        if best is None or _better(det, best[0]):
+            best = (det, pol, grey)
+    assert best is not None
     det, pol, grey = best
     x0, y0 = clipped[0], clipped[1]
     return Location(status=det.status, x=det.x + x0, y=det.y + y0, score=det.score, sigma=det.sigma,
-                    method=det.method, mark=mark, polarity=pol, box=clipped, requested_box=requested,
+                    method=det.method, mark=mark, polarity=pol, box=clipped,
+                    requested_box=tuple(float(v) for v in _box_tuple(box)),  # type: ignore[arg-type]
                     clipped=was_clipped, reason=det.reason, image=path, detection=det, window=grey)
 
 
@@ -203,7 +214,7 @@ def _better(a: Detection, b: Detection) -> bool:
     return a.score > b.score
 
 
-def _box_tuple(box) -> tuple:
+def _box_tuple(box: Sequence[float]) -> tuple[float, ...]:
     try:
         t = tuple(box)
     except TypeError:
@@ -211,4 +222,4 @@ def _box_tuple(box) -> tuple:
     return t
 
 
-__all__ = ["Location", "MARKS", "NOT_FOUND", "POLARITIES", "locate", "read_box"]
+__all__ = ["Location", "locate", "make_detector", "read_box"]

@@ -4,9 +4,9 @@
   aerial photograph centered at the generated coordinates" (thesis 000, section 5.9): a crop of the image
   around the box, enlarged, with the searched box, an orange cross at the sub-pixel centre and a circle
   of radius 3 sigma.
-- :func:`diagnostic_png`: the thesis figures 5.2-5.5 for the winning window: the optimally thresholded
-  window, the Hough accumulator before and after thresholding, and the theta projection with the fitted
-  similarity model.
+- :func:`diagnostic_png`: the method's own diagnostic figure (each result type draws its own; for ``hough``
+  the thesis figures 5.2-5.5: the optimally thresholded window, the Hough accumulator before and after
+  thresholding, and the theta projection with the fitted similarity model).
 
 Both return PNG bytes; the CLI writes them with :func:`aerofid.io.atomic.write_bytes_atomic`.
 """
@@ -18,6 +18,7 @@ import io
 import cv2
 import numpy as np
 
+from aerofid.detect.result import Detection
 from aerofid.locate import Location
 
 ORANGE = (0, 140, 255)   # BGR
@@ -42,8 +43,8 @@ def overlay_png(location: Location, min_side: int = 480, cross_px: float = 11.0)
     big = cv2.cvtColor(big, cv2.COLOR_GRAY2BGR)
     cv2.rectangle(big, (0, 0), (w * scale - 1, h * scale - 1), BOX_COLOUR, 1)
 
-    def pt(x, y):  # window pixel centre -> enlarged image, fixed point
-        return (int(round(((x + 0.5) * scale - 0.5) * (1 << SHIFT))), int(round(((y + 0.5) * scale - 0.5) * (1 << SHIFT))))
+    def pt(x: float, y: float) -> tuple[int, int]:  # window pixel centre -> enlarged image, fixed point
+        return (round(((x + 0.5) * scale - 0.5) * (1 << SHIFT)), round(((y + 0.5) * scale - 0.5) * (1 << SHIFT)))
 
     if location.found:
         x = location.x - location.box[0]
@@ -67,55 +68,24 @@ def overlay_png(location: Location, min_side: int = 480, cross_px: float = 11.0)
 
 
 def diagnostic_png(location: Location) -> bytes:
-    """PNG of the diagnostic figure for a ``hough`` result (thesis figures 5.2-5.5); for other methods or
-    when nothing was found, the searched window with the reason."""
-    import matplotlib
+    """PNG of the method's own diagnostic figure (:meth:`aerofid.detect.result.Detection.plot`) for the window
+    it saw: for ``hough`` the thesis figures 5.2-5.5, for ``auto`` the figure of the method whose centre it
+    returns, with the result in the title."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    det = location.detection
-    diag = det.diagnostics if det is not None else {}
-    a = diag.get("analysis")
-    if a is None:
-        fig, ax = plt.subplots(figsize=(5, 5))
-        if location.window is not None:
-            ax.imshow(location.window, cmap="gray", interpolation="nearest")
-        ax.set_title(f"{location.method}: {location.status} {location.reason}"[:70], fontsize=9)
-        return _fig_png(fig)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 8.5))
-    ox, oy = diag["window_origin"]
-    ax = axes[0, 0]
-    ax.imshow(a.binary, cmap="gray", interpolation="nearest")
-    ax.plot([a.x], [a.y], "+", color="orange", ms=14, mew=2)
-    ax.set_title(f"Optimally thresholded window (stage {diag['stage']}, origin {ox},{oy} in box)", fontsize=9)
-    for ax, acc, title in ((axes[0, 1], a.accumulator, "Hough accumulator"),
-                           (axes[1, 0], a.accumulator_thresholded, "Thresholded accumulator")):
-        theta_step = 180.0 / len(a.thetas)
-        ax.imshow(acc, aspect="auto", cmap="magma", interpolation="nearest", origin="lower",
-                  extent=[a.rho_min, a.rho_min + acc.shape[1] * a.rho_step, 0.0, 180.0])
-        ax.set_ylim(0.0, 180.0 - theta_step)
-        ax.set_xlabel("rho (px)")
-        ax.set_ylabel("theta (deg)")
-        ax.set_title(title, fontsize=9)
-    ax = axes[1, 1]
-    proj = a.projection / (a.projection.max() or 1.0)
-    model = np.asarray(diag["model"], float)
-    model = model / (model.max() or 1.0)
-    ax.plot(a.thetas, proj, "o-", label="projection (eq. 5)")
-    ax.plot(a.thetas, model, "--", label=f"{diag['model_name']} model")
-    ax.set_xlabel("theta (deg)")
-    ax.set_title(f"Theta projection, similarity {diag['metric']:.2f}", fontsize=9)
-    ax.legend(fontsize=8)
-    fig.suptitle(f"{location.status}: x={location.x:.3f} y={location.y:.3f} sigma={location.sigma:.3f} px", fontsize=10)
-    fig.tight_layout()
-    return _fig_png(fig)
-
-
-def _fig_png(fig) -> bytes:
-    import matplotlib.pyplot as plt
-
+    fig = Figure(figsize=(10, 8.5))
+    FigureCanvasAgg(fig)
+    window = location.window if location.window is not None else np.zeros((8, 8), np.float32)
+    det = location.detection if location.detection is not None else Detection.not_found(location.method,
+                                                                                          location.reason)
+    det.plot(fig, window)
+    if location.found:
+        title = (f"{location.method}: x={location.x:.3f} y={location.y:.3f} sigma={location.sigma:.3f} px "
+                 f"score={location.score:.2f}")
+    else:
+        title = f"not found: {location.reason}"
+    fig.suptitle(title[:110], fontsize=10)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=90)
-    plt.close(fig)
     return buf.getvalue()

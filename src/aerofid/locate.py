@@ -190,7 +190,7 @@ def locate(image: str | os.PathLike[str] | np.ndarray, box: Sequence[float], mar
     detector = make_detector(method, mark, params)
     window, clipped, was_clipped, path = read_box(image, _box_tuple(box))
     polarities: tuple[Polarity, ...] = ("bright", "dark") if polarity == "auto" else (polarity,)  # type: ignore[assignment]
-    best: tuple[Detection, str, np.ndarray] | None = None
+    best: tuple[Detection, Polarity, np.ndarray] | None = None
     for pol in polarities:
         grey = to_grey(window, colour, pol)
         if pol == "dark":
@@ -199,10 +199,10 @@ def locate(image: str | os.PathLike[str] | np.ndarray, box: Sequence[float], mar
         if best is None or _better(det, best[0]):
             best = (det, pol, grey)
     assert best is not None
-    det, pol, grey = best
+    det, chosen, grey = best
     x0, y0 = clipped[0], clipped[1]
     return Location(status=det.status, x=det.x + x0, y=det.y + y0, score=det.score, sigma=det.sigma,
-                    method=det.method, mark=mark, polarity=pol, box=clipped,
+                    method=det.method, mark=mark, polarity=chosen, box=clipped,
                     requested_box=tuple(float(v) for v in _box_tuple(box)),  # type: ignore[arg-type]
                     clipped=was_clipped, reason=det.reason, image=path, detection=det, window=grey)
 

@@ -4,7 +4,10 @@
 
 Prints, per mark style: found / tried, RMS and max radial error (px), RMS error per axis vs the mean
 reported sigma (their ratio should be near 1), median time per call; then, per rejection case, how many
-windows were (correctly) not found; all as Markdown tables. Marks: size 20-60 px, blur 0.5-1.0 px,
+windows were (correctly) not found; all as Markdown tables. ``--asymmetry`` instead prints, for the same
+scenes, the point-asymmetry measure at the final centre (``max_asymmetry`` off) against the square sub-image
+measure symmetry used before issue 8, and how many pass each limit (the recalibration of ``max_asymmetry``).
+Marks: size 20-60 px, blur 0.5-1.0 px,
 Gaussian noise 0.01-0.03, random sub-pixel centre near the middle of a 120 x 120 window on film border.
 """
 
@@ -84,22 +87,75 @@ def rejection_cases(rng):
             "mark cut in half by window edge": half}
 
 
+def square_asymmetry(img, x, y, r, noise):
+    """The measure symmetry used before issue 8: on the (2r+1)-square sub-image, cubic-resampled about (x, y)."""
+    from scipy import ndimage
+
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
+    j = ndimage.map_coordinates(img, [yy + y, xx + x], order=3, mode="nearest").astype(np.float32).astype(np.float64)
+    dd = j - j[::-1, ::-1]
+    sig = float(j.var()) - noise * noise
+    return float(((dd * dd).mean() - 2.0 * noise * noise) / (2.0 * sig)) if sig > 0 else float("inf")
+
+
+def asymmetry_table(rng, n, old_limit=0.1):
+    """Both measures on the benchmark's scenes, and how many pass the old and the new limit."""
+    new_limit = SymmetryParams().max_asymmetry
+    print(f"| case | measured | disc (now) min-max | square (before) min-max | pass disc <= {new_limit} | "
+          f"pass square <= {old_limit} | decisions that differ |")
+    print("|---|---|---|---|---|---|---|")
+
+    def rng_txt(c):
+        return f"{c.min():.3f}-{c.max():.3f}" if len(c) else "-"
+
+    def row(label, images):
+        vals = []
+        for img, params in images:
+            d = detect(img, params.replace(max_asymmetry=np.inf))
+            if d.found:
+                vals.append((d.asymmetry, square_asymmetry(img, d.x, d.y, d.radius, d.noise_sigma)))
+        v = np.array(vals).reshape(-1, 2)
+        new, old = v[:, 0] <= new_limit, v[:, 1] <= old_limit
+        print(f"| {label} | {len(v)}/{n} | {rng_txt(v[:, 0])} | {rng_txt(v[:, 1])} | {new.sum()} | {old.sum()} | "
+              f"{(new != old).sum()} |")
+
+    for label, style, ground, hint in _mark_rows():
+        scenes = []
+        for _ in range(n):
+            size = rng.uniform(20, 60)
+            s = synth.mark_scene(style, size, rng=rng, blur_sigma=rng.uniform(0.5, 1.0),
+                                 noise_sigma=rng.uniform(0.01, 0.03), ground=ground)
+            scenes.append((s.image, SymmetryParams(radius=int(0.3 * size) if hint else None)))
+        row(label, scenes)
+    for name, make in rejection_cases(rng).items():
+        row(name, [(make(rng), SymmetryParams()) for _ in range(n)])
+
+
+def _mark_rows():
+    rows = [(st, st, "film", False) for st in STYLES]
+    rows += [("notch_dot, radius = notch half-size", "notch_dot", "film", True)]
+    rows += [(f"{st}, aerial ground", st, "aerial", False) for st in ("ring_cross", "dot")]
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=100, help="marks per style and windows per rejection case")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--paper-centre", action="store_true",
                     help="point_refine=False: the centre of eq. (15) as published, without the refinement")
+    ap.add_argument("--asymmetry", action="store_true",
+                    help="the point-asymmetry measures at the final centre instead (max_asymmetry recalibration)")
     a = ap.parse_args(argv)
     rng = np.random.default_rng(a.seed)
+    if a.asymmetry:
+        asymmetry_table(rng, a.n)
+        return
 
     print("| style | found | RMS radial (px) | max radial (px) | RMS per axis (px) | mean sigma (px) | ratio | "
           "median ms |")
     print("|---|---|---|---|---|---|---|---|")
-    rows = [(st, st, "film", False) for st in STYLES]
-    rows += [("notch_dot, radius = notch half-size", "notch_dot", "film", True)]
-    rows += [(f"{st}, aerial ground", st, "aerial", False) for st in ("ring_cross", "dot")]
-    for label, style, ground, hint in rows:
+    for label, style, ground, hint in _mark_rows():
         errs, axis, sig, times, nf = [], [], [], [], Counter()
         for _ in range(a.n):
             size = rng.uniform(20, 60)

@@ -1,5 +1,6 @@
 """Geometry checks shared by the detectors and ``auto``: a patch resampled about a sub-pixel point, and how far a
-pattern is from being centrally symmetric about it (every supported mark style is)."""
+pattern is from being centrally symmetric about it (every supported mark style is). :func:`point_asymmetry` is
+the package's one point-asymmetry measure (``symmetry``'s ``max_asymmetry``, ``lines``, ``auto``)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,18 @@ def patch(img: np.ndarray, x: float, y: float, k: int) -> np.ndarray:
 def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: float) -> float:
     """Share of the structure within ``radius`` of (x, y) that changes under a 180-degree rotation about
     (x, y), net of noise: ``(mean (J - rot J)^2 - 2 n^2) / (2 (var J - n^2))`` over the disc (0: symmetric,
-    about 1: unrelated). The patch is resampled so that (x, y) is exactly its centre."""
+    about 1: unrelated). The patch is resampled so that (x, y) is exactly its centre.
+
+    Examples
+    --------
+    >>> yy, xx = np.mgrid[0:41, 0:41]
+    >>> dot = (np.hypot(xx - 20.0, yy - 20.0) < 6).astype(np.float32)
+    >>> point_asymmetry(dot, 20.0, 20.0, 10, 0.0) < 0.01
+    True
+    >>> bump = np.maximum(dot, (np.hypot(xx - 26.0, yy - 20.0) < 3).astype(np.float32))
+    >>> point_asymmetry(bump, 20.0, 20.0, 10, 0.0) > 0.1
+    True
+    """
     k = int(np.ceil(radius))
     p = patch(img, x, y, k).astype(np.float64)
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]

@@ -749,9 +749,9 @@ def _retry_from_centre_votes(w: np.ndarray, p: CirclesParams,
     The circles' Hough spaces searched over ``radius_tol`` about the given radii also collect the votes of the
     mark's *other* concentric edges at distance ``a``, on a ring of radius ``|R - a|`` about the centre: on small
     bull's-eyes (20 px: rings 1 px wide, edges 1-2 px apart) that ring outscores the centre, the peak lies
-    1-1.5 px off and the adjustment settles on a mixture of rings that the checks refuse (about 1 mark in 700,
-    tests/test_circles.py). Every edge's gradient line passes through the common centre, so the centre votes
-    peak there."""
+    1-1.5 px off and the adjustment settles on a mixture of rings that the checks refuse (3 of 12 000 marks,
+    docs/marks.md). Every edge's gradient line passes through the common centre, so the centre votes peak
+    there."""
     if p.radii is None or first.centre_votes is None or first.accumulator is None:
         return None
     vx, vy, _ = _peak(first.centre_votes)

@@ -3,14 +3,17 @@
 Two estimators, with different names because they measure different things once the noise is not white:
 
 - :func:`difference_noise_sigma` (first differences): the robust std of horizontal and vertical first
-  differences / sqrt(2). Used by ``circles``, ``lines`` and the local dynamic threshold.
+  differences / sqrt(2). Used by ``circles`` (a floor under its gradient-noise estimate), ``lines`` and the
+  local dynamic threshold.
 - :func:`laplacian_noise_sigma` (Immerkaer 1996): the median response of a 3x3 Laplacian-difference kernel.
   Used by ``symmetry`` and ``auto``.
 
-Both are exact for white Gaussian noise. Correlated noise (a blurred scan, film grain, JPEG blocks) has little
-power at the highest frequencies, which the Laplacian kernel sees most: there it reports a lower sigma than
-the first differences. The ratio measured on each kind of noise is in docs/architecture.md (``python
-benchmarks/bench_noise.py``).
+Where each holds (docs/noise.md, ``python benchmarks/bench_noise.py --n 20 --seed 0``, estimate / true sigma):
+on white Gaussian noise both are exact on flat ground (1.00) and the first differences read 4-7 % high with a
+mark in the window (the Laplacian 0-2 %). Correlated noise has little power at the highest frequencies, which
+the Laplacian kernel sees most, so both read low and the Laplacian much lower: white noise blurred by 0.7 px
+0.64-0.69 against 0.26-0.28; JPEG (quality 75) of noise 0.53-0.90 against 0.13-0.43; film grain
+(``synth.add_grain``) 0.40-0.43 against 0.04-0.05. Neither is the pixel sigma of correlated noise.
 """
 
 from __future__ import annotations

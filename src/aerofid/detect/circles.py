@@ -695,7 +695,7 @@ class _Trace:
 
 # --- the detector ---------------------------------------------------------------------------------------
 
-def detect(window: np.ndarray, params: CirclesParams = DEFAULT, **overrides: Any) -> CirclesResult:
+def detect(window: np.ndarray, params: CirclesParams = DEFAULT) -> CirclesResult:
     """Centre of a mark made of concentric circles (Seedahmed, seed 003), in window pixels.
 
     Parameters
@@ -704,9 +704,6 @@ def detect(window: np.ndarray, params: CirclesParams = DEFAULT, **overrides: Any
         2-D float32 grey levels on [0, 1], the mark brighter than its ground.
     params : CirclesParams
         The method's parameters.
-    **overrides
-        TRANSITIONAL (issue 8): parameter overrides, ``params.replace(**overrides)``; to be removed once every
-        caller passes ``params``.
 
     Returns
     -------
@@ -725,7 +722,7 @@ def detect(window: np.ndarray, params: CirclesParams = DEFAULT, **overrides: Any
     >>> d.found, bool(np.hypot(d.x - scene.marks[0].x, d.y - scene.marks[0].y) < 0.05), len(d.circles)
     (True, True, 2)
     """
-    p = params.replace(**overrides) if overrides else params
+    p = params
     w = np.asarray(window, np.float32)
     bad = unusable_window(w)
     if bad is not None:

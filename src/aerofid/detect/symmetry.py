@@ -405,7 +405,7 @@ class _Trace:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
-def detect(window: np.ndarray, params: SymmetryParams = DEFAULT, **overrides: Any) -> SymmetryResult:
+def detect(window: np.ndarray, params: SymmetryParams = DEFAULT) -> SymmetryResult:
     """Find the centre of a centrally symmetric mark in ``window`` (Cho & Kim, seed 002).
 
     Parameters
@@ -416,9 +416,6 @@ def detect(window: np.ndarray, params: SymmetryParams = DEFAULT, **overrides: An
         eq. 12).
     params : SymmetryParams
         The method's parameters (seed defaults).
-    **overrides
-        TRANSITIONAL (issue 8): parameter overrides, ``params.replace(**overrides)``; to be removed once every
-        caller passes ``params``.
 
     Returns
     -------
@@ -438,7 +435,7 @@ def detect(window: np.ndarray, params: SymmetryParams = DEFAULT, **overrides: An
     >>> detect(np.full((60, 60), 0.5, np.float32)).reason
     'homogeneous window: no grey-level variation at all'
     """
-    p = params.replace(**overrides) if overrides else params
+    p = params
     img = np.asarray(window)
     problem = _window_problem(img, p)
     if problem is not None:

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from aerofid import synth
 from aerofid.detect.asymmetry import point_asymmetry
-from aerofid.detect.registry import method
+from aerofid.detect.registry import METHODS
 from aerofid.detect.symmetry import (
     FiducialArea,
     SymmetryParams,
@@ -60,8 +60,8 @@ def runs():
 
 
 def test_registry_points_here():
-    m = method("symmetry")
-    assert m.load().detect is detect and m.params_type is SymmetryParams
+    m = METHODS["symmetry"]
+    assert m.function is detect and m.params_type is SymmetryParams
 
 
 @pytest.mark.parametrize("style", STYLES)

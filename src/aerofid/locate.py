@@ -19,7 +19,7 @@ import numpy as np
 
 from aerofid.conventions import FOUND, MARKS, POLARITY_CHOICES, Box, Polarity
 from aerofid.detect import auto
-from aerofid.detect.registry import SEED_METHODS, method, route_params
+from aerofid.detect.registry import METHODS, route_params
 from aerofid.detect.result import Detection
 from aerofid.errors import AerofidInputError
 from aerofid.io.raster import check_window_size, clip_box, open_raster, to_grey
@@ -116,15 +116,22 @@ Detector = Callable[[np.ndarray], Detection]
 """One configured method: grey window (mark bright) -> its answer."""
 
 
+METHOD_NAMES = ("auto", *METHODS)
+"""What ``method`` may be: ``auto`` or one of the seeds' methods (:data:`aerofid.detect.registry.METHODS`)."""
+
+
 def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Detector:
     """The configured method ``method_name`` for ``mark`` with the user's ``params`` (checked now, before
     any pixel is read: unknown names and bad values are one-line input errors naming the valid ones).
     ``auto`` routes each parameter to the methods that take it (:func:`~aerofid.detect.registry.route_params`)."""
+    _check_choice(method_name, METHOD_NAMES, "method")
     if method_name == "auto":
-        routed = route_params({"mark": mark, **params}, ["auto", *SEED_METHODS])
+        types = {"auto": auto.AutoParams, **{m: METHODS[m].params_type for m in METHODS}}
+        routed = route_params({"mark": mark, **params}, types)
         auto_params = routed.pop("auto")
-        return lambda grey: auto.detect(grey, auto_params, methods=routed)  # type: ignore[arg-type]
-    m = method(method_name)
+        assert isinstance(auto_params, auto.AutoParams)
+        return lambda grey: auto.detect(grey, auto_params, methods=routed)
+    m = METHODS[method_name]
     values = dict(params)
     if "mark" in m.params_type.names():
         values["mark"] = mark
@@ -222,4 +229,4 @@ def _box_tuple(box: Sequence[float]) -> tuple[float, ...]:
     return t
 
 
-__all__ = ["Location", "locate", "make_detector", "read_box"]
+__all__ = ["METHOD_NAMES", "Location", "locate", "make_detector", "read_box"]

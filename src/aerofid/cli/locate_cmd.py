@@ -7,8 +7,8 @@ import json
 import click
 
 from aerofid.conventions import MARKS, POLARITY_CHOICES
-from aerofid.detect.registry import METHODS
 from aerofid.errors import AerofidInputError
+from aerofid.locate import METHOD_NAMES
 from aerofid.locate import locate as locate_mark
 
 
@@ -52,7 +52,7 @@ def parse_params(items: tuple[str, ...]) -> dict:
               help="Search box in full-image pixels (x = column, y = row, x1/y1 exclusive).")
 @click.option("--mark", type=click.Choice(MARKS), default="auto", show_default=True,
               help="external = film fiducial, panel = cloth ground panel.")
-@click.option("--method", type=click.Choice(tuple(METHODS)), default="auto", show_default=True)
+@click.option("--method", type=click.Choice(METHOD_NAMES), default="auto", show_default=True)
 @click.option("--polarity", type=click.Choice(POLARITY_CHOICES), default="bright", show_default=True,
               help="Mark brighter (bright) or darker (dark) than its ground, or try both (auto).")
 @click.option("--colour", default="auto", show_default=True,

@@ -1,21 +1,21 @@
-"""The methods a user can name: each seed's detector with its parameter class, and ``auto``.
+"""The seeds' methods a user can name, each with its parameter class, and which parameter goes where.
 
 :data:`METHODS` maps a method name to its :class:`Method`; every method has the same signature,
 ``detect(window, params) -> <Method>Result`` (``window``: 2-D float32 on [0, 1], the mark brighter than its
-ground; the answer in window pixels). :func:`route_params` sends a user's parameters to the methods that take
-them (one place for "which names belong to which method").
+ground; the answer in window pixels). ``auto`` (:mod:`aerofid.detect.auto`) runs these methods; it is not
+listed here because it sits above them. :func:`route_params` sends a user's parameters to the methods that
+take them: the one place that knows which names belong to which method.
 """
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from types import ModuleType
 from typing import Any
 
 import numpy as np
 
+from aerofid.detect import circles, hough, lines, symmetry
 from aerofid.detect.params import MethodParams
 from aerofid.detect.result import Detection
 from aerofid.errors import AerofidInputError
@@ -23,62 +23,49 @@ from aerofid.errors import AerofidInputError
 
 @dataclass(frozen=True)
 class Method:
-    """A method: its name, the seed it implements, its module and its parameter class."""
+    """A seed's method: its name, the seed it implements, its ``detect`` function and its parameter class."""
 
     name: str
     seed: str
-    module: str
-    params_class: str
-
-    def load(self) -> ModuleType:
-        """The method's module."""
-        return importlib.import_module(self.module)
-
-    @property
-    def params_type(self) -> type[MethodParams]:
-        """The method's parameter class (a :class:`~aerofid.detect.params.MethodParams`)."""
-        cls: type[MethodParams] = getattr(self.load(), self.params_class)
-        return cls
+    function: Callable[..., Detection]
+    params_type: type[MethodParams]
 
     def detect(self, window: np.ndarray, params: MethodParams | None = None) -> Detection:
         """Run the method on ``window`` with ``params`` (its defaults when None)."""
-        result: Detection = self.load().detect(window, params if params is not None else self.params_type())
-        return result
+        return self.function(window, params if params is not None else self.params_type())
 
 
 METHODS: dict[str, Method] = {
-    "hough": Method("hough", "Hunt, Ryan & Gifford (seed 001, thesis 000)", "aerofid.detect.hough", "HoughParams"),
-    "symmetry": Method("symmetry", "Cho & Kim (seed 002)", "aerofid.detect.symmetry", "SymmetryParams"),
-    "circles": Method("circles", "Seedahmed (seed 003)", "aerofid.detect.circles", "CirclesParams"),
-    "lines": Method("lines", "Sohn et al. (seed 004)", "aerofid.detect.lines", "LinesParams"),
-    "auto": Method("auto", "aerofid: the seeds' methods cross-checked", "aerofid.detect.auto", "AutoParams"),
+    "hough": Method("hough", "Hunt, Ryan & Gifford (seed 001, thesis 000)", hough.detect, hough.HoughParams),
+    "symmetry": Method("symmetry", "Cho & Kim (seed 002)", symmetry.detect, symmetry.SymmetryParams),
+    "circles": Method("circles", "Seedahmed (seed 003)", circles.detect, circles.CirclesParams),
+    "lines": Method("lines", "Sohn et al. (seed 004)", lines.detect, lines.LinesParams),
 }
-"""Every method a user can name (``locate(method=...)``, ``--method``)."""
+"""The seeds' methods, by the name a user gives (``locate(method=...)``, ``--method``)."""
 
-SEED_METHODS = ("hough", "symmetry", "circles", "lines")
-"""The methods of the seeds (all but ``auto``)."""
-
-
-def method(name: str) -> Method:
-    """The :class:`Method` called ``name``; an unknown name is an input error naming the valid ones."""
-    if name not in METHODS:
-        raise AerofidInputError(f"unknown method {name!r}; use one of {', '.join(METHODS)}")
-    return METHODS[name]
+SEED_METHODS = tuple(METHODS)
+"""Their names."""
 
 
-def route_params(values: Mapping[str, Any], methods: Sequence[str]) -> dict[str, MethodParams]:
-    """Each method's parameters from the user's ``values``: a name goes to every one of ``methods`` whose
-    parameter class has it (``auto`` passes e.g. ``max_asymmetry`` to ``symmetry`` and ``theta_step`` to
-    ``hough`` and ``lines``); a name that none of them takes is an input error listing the valid names.
+def route_params(values: Mapping[str, Any], types: Mapping[str, type[MethodParams]]) -> dict[str, MethodParams]:
+    """Each method's parameters from the user's ``values``: a name goes to every method of ``types`` (method
+    name -> parameter class) that has it (``auto`` passes e.g. ``max_asymmetry`` to ``symmetry`` and
+    ``theta_step`` to ``hough`` and ``lines``); a name that none takes is one input error listing the valid
+    names, a bad value one naming the method.
+
+    Examples
+    --------
+    >>> p = route_params({"theta_step": 10.0}, {m: METHODS[m].params_type for m in ("hough", "lines")})
+    >>> p["hough"].theta_step, p["lines"].theta_step
+    (10.0, 10.0)
     """
-    types = {m: method(m).params_type for m in methods}
     unknown = sorted(set(values) - {n for t in types.values() for n in t.names()})
     if unknown:
         s = "s" if len(unknown) > 1 else ""
         valid = sorted({n for t in types.values() for n in t.names()})
         raise AerofidInputError(f"unknown parameter{s} {', '.join(map(repr, unknown))} for method "
-                                f"{'/'.join(methods)}; valid: {', '.join(valid)}")
+                                f"{'/'.join(types)}; valid: {', '.join(valid)}")
     return {m: t.from_mapping({k: v for k, v in values.items() if k in t.names()}, m) for m, t in types.items()}
 
 
-__all__ = ["METHODS", "SEED_METHODS", "Method", "method", "route_params"]
+__all__ = ["METHODS", "SEED_METHODS", "Method", "route_params"]

@@ -12,8 +12,7 @@ its own diagnostic figure (:meth:`Detection.plot`).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
@@ -66,8 +65,6 @@ class Detection:
     method: str = ""
     reason: str = ""
     origin: tuple[float, float] = (0.0, 0.0)
-    diagnostics: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
-    """TRANSITIONAL (issue 8): untyped diagnostics, removed once every method returns its own typed result."""
 
     @property
     def found(self) -> bool:
@@ -127,11 +124,6 @@ def unusable_window(window: np.ndarray, min_side: int = 8, min_range: float = 0.
     if float(w.max() - w.min()) < min_range:
         return f"homogeneous window (grey range below {min_range})"
     return None
-
-
-def not_found(method: str, reason: str, **diagnostics: Any) -> Detection:
-    """TRANSITIONAL (issue 8): use ``<Method>Result.not_found(method, reason, ...)``."""
-    return Detection(status=NOT_FOUND, method=method, reason=reason, diagnostics=diagnostics)
 
 
 def _num(v: float) -> float | None:

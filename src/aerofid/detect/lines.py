@@ -684,7 +684,7 @@ def _locate(w: np.ndarray, params: LinesParams, fields: dict[str, Any]) -> Lines
                        covariance=cov, score_parts=parts, **fields)
 
 
-def detect(window: np.ndarray, params: LinesParams = DEFAULT, **overrides: Any) -> LinesResult:
+def detect(window: np.ndarray, params: LinesParams = DEFAULT) -> LinesResult:
     """Centre of a mark made of two crossing lines (Sohn et al., seed 004), in window pixels.
 
     The seed's steps (local dynamic thresholding, Hough transform, two peaks, their intersection), then each
@@ -714,8 +714,6 @@ def detect(window: np.ndarray, params: LinesParams = DEFAULT, **overrides: Any) 
     >>> r.found, bool(np.hypot(r.x - scene.marks[0].x, r.y - scene.marks[0].y) < 0.1)
     (True, True)
     """
-    if overrides:  # TRANSITIONAL (issue 8): old callers' keywords, until they pass a LinesParams
-        params = params.replace(**overrides)
     w = np.asarray(window, np.float32)
     bad = unusable_window(w)
     if bad is not None:

@@ -231,7 +231,7 @@ class HoughResult(Detection):
         fig.tight_layout()
 
 
-def detect(window: np.ndarray, params: HoughParams = DEFAULT, **overrides: object) -> HoughResult:
+def detect(window: np.ndarray, params: HoughParams = DEFAULT) -> HoughResult:
     """Locate a '+' mark in ``window`` by the complete seed algorithm, each accepted candidate refined to
     sub-pixel and verified (beyond the seed).
 
@@ -261,8 +261,6 @@ def detect(window: np.ndarray, params: HoughParams = DEFAULT, **overrides: objec
     >>> r.found, bool(np.hypot(r.x - scene.marks[0].x, r.y - scene.marks[0].y) < 0.1), r.refinement is not None
     (True, True, True)
     """
-    if overrides:  # TRANSITIONAL (issue 8): old callers' keywords, until they pass a HoughParams
-        params = params.replace(**overrides)
     image = np.asarray(window)
     bad = unusable_window(image, min_side=4)
     if bad is not None:

@@ -272,9 +272,5 @@ def search_box(image: np.ndarray, params: HoughParams = DEFAULT, verify: Verifie
     return search.result()
 
 
-SearchParams = HoughParams
-"""TRANSITIONAL (issue 8): the search's parameters are fields of :class:`HoughParams`; remove once
-``locate._check_auto_params`` and ``auto._hough_keys`` use ``HoughParams.from_mapping``."""
-
 __all__ = ["WINDOW_EXTERNAL", "WINDOW_PANEL", "Candidate", "SearchResult", "Verifier", "extract_window",
            "make_candidate", "recursive_analysis", "search_box", "spiral_coordinates", "window_sizes"]

@@ -3,24 +3,21 @@ a small bright dot with a thin line through it, in a dark block beside two large
 so the test asserts what must hold regardless: ``auto`` finds the dot from boxes of several sizes with answers
 that agree, and the answer does not depend on how the crop is mirrored or transposed."""
 
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
 
 import aerofid
-
-CROP = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "hipp_nagap_ee" / "fiducial_templates" / "ee" / "block" / "T.jpg"
-
-pytestmark = pytest.mark.skipif(not CROP.exists(), reason="../shared/realdata is absent")
+from conftest import realdata_path
 
 DOT = (390, 273)  # read off the crop by eye, to the pixel
 
 
 @pytest.fixture(scope="module")
 def img():
-    return cv2.imread(str(CROP), cv2.IMREAD_GRAYSCALE)
+    crop = cv2.imread(str(realdata_path("hipp_nagap_ee/fiducial_templates/ee/block/T.jpg")), cv2.IMREAD_GRAYSCALE)
+    assert crop is not None, "the real EarthExplorer block crop cannot be decoded"
+    return crop
 
 
 def test_the_dot_on_a_line_is_found_from_boxes_of_several_sizes(img):

@@ -3,7 +3,6 @@
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -12,8 +11,6 @@ import tifffile
 
 import aerofid
 from aerofid import synth
-
-REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
 
 
 @pytest.fixture(scope="module")
@@ -147,10 +144,9 @@ def test_cli_demo_runs_and_finds_every_mark(tmp_path):
     assert all(r["status"] == "found" and r["error_px"] < 0.3 for r in rows)
 
 
-@pytest.mark.skipif(not (REAL / "unbc_bc_wild_rc20").is_dir(), reason="../shared/realdata is absent")
-def test_real_rc20_corner_is_read_from_the_jpeg_window():
+def test_real_rc20_corner_is_read_from_the_jpeg_window(realdata):
     """The real Wild RC20 frame opens and a box around a corner mark reads as a red-dominant window."""
-    path = REAL / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
+    path = realdata("unbc_bc_wild_rc20/15BCC02013_114.jpg")
     r = aerofid.locate(path, (593, 130, 713, 250))
     assert r.box == (593, 130, 713, 250)
     assert r.window.shape == (120, 120)

@@ -8,8 +8,6 @@ or transposed, and the corner centres fit the calibration by an affine transform
 pixel (the scanner's own deformation is part of that residual).
 """
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -17,11 +15,9 @@ import aerofid
 from aerofid.formats.camera_file import read_camera
 from aerofid.io.raster import open_raster
 from aerofid.orientation.interior import adjust, apply_transform
+from conftest import realdata_path
 
-DIR = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20"
-FRAME = DIR / "15BCC02013_114.jpg"
-
-pytestmark = pytest.mark.skipif(not FRAME.exists(), reason="../shared/realdata is absent")
+FRAME = "unbc_bc_wild_rc20/15BCC02013_114.jpg"
 
 MARKS = {  # approximate centres (x, y) read off downsampled crops, as in benchmarks/bench_rc20.py
     "corner TL": (665, 179), "corner TR": (5690, 202), "corner BL": (660, 5213), "corner BR": (5678, 5225),
@@ -33,7 +29,7 @@ PIXEL_MM = 25.4 / 600
 
 @pytest.fixture(scope="module")
 def crops():
-    with open_raster(FRAME) as r:
+    with open_raster(realdata_path(FRAME)) as r:
         return {k: ((x - 60, y - 60), np.ascontiguousarray(r.read_window((x - 60, y - 60, x + 60, y + 60))))
                 for k, (x, y) in MARKS.items()}
 
@@ -61,7 +57,7 @@ def test_every_mark_found_and_mirror_consistent(crops, centres, name):
 
 
 def test_corner_marks_fit_the_calibration_and_midsides_the_spans(centres):
-    cam = read_camera(DIR / "MeasuresCamera.xml")
+    cam = read_camera(realdata_path("unbc_bc_wild_rc20/MeasuresCamera.xml"))
     px = np.array([centres[CALIBRATED[f.name]] for f in cam.fiducials])
     mm = np.array([[f.x_mm, f.y_mm] for f in cam.fiducials])
     fit = adjust(px, mm, "affine")

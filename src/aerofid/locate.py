@@ -19,6 +19,7 @@ import numpy as np
 
 from aerofid.conventions import FOUND, MARKS, POLARITY_CHOICES, Box, Polarity
 from aerofid.detect import auto
+from aerofid.detect.params import MethodParams
 from aerofid.detect.registry import METHODS, route_params
 from aerofid.detect.result import Detection
 from aerofid.errors import AerofidInputError
@@ -126,7 +127,8 @@ def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Det
     ``auto`` routes each parameter to the methods that take it (:func:`~aerofid.detect.registry.route_params`)."""
     _check_choice(method_name, METHOD_NAMES, "method")
     if method_name == "auto":
-        types = {"auto": auto.AutoParams, **{m: METHODS[m].params_type for m in METHODS}}
+        types: dict[str, type[MethodParams]] = {"auto": auto.AutoParams}
+        types.update({m: METHODS[m].params_type for m in METHODS})
         routed = route_params({"mark": mark, **params}, types)
         auto_params = routed.pop("auto")
         assert isinstance(auto_params, auto.AutoParams)

@@ -32,10 +32,9 @@ import numpy as np
 
 from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import point_asymmetry
-from aerofid.detect.hough.params import is_int, number_in
 from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
 from aerofid.detect.noise import difference_noise_sigma
-from aerofid.detect.params import MethodParams, check
+from aerofid.detect.params import MethodParams, check, is_int, number_in
 from aerofid.detect.result import Detection, unusable_window
 from aerofid.detect.threshold import local_dynamic_threshold
 from aerofid.robust import robust_std

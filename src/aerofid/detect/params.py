@@ -9,9 +9,12 @@ into parameters or one :class:`~aerofid.errors.AerofidInputError` line naming th
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, TypeVar
+
+import numpy as np
 
 from aerofid.errors import AerofidInputError
 
@@ -72,10 +75,30 @@ class MethodParams:
         return dataclasses.replace(self, **changes)
 
 
+def is_number(v: Any) -> bool:
+    """``v`` is a real number (int, float or a numpy scalar of those kinds; not a bool)."""
+    if isinstance(v, bool):
+        return False
+    return isinstance(v, (int, float, np.integer, np.floating))
+
+
+def is_int(v: Any) -> bool:
+    """``v`` is an integer (int or numpy integer; not a bool)."""
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+
+def number_in(v: Any, lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> bool:
+    """``v`` is a finite number between ``lo`` and ``hi`` (inclusive unless ``lo_open`` / ``hi_open``)."""
+    if not is_number(v) or not math.isfinite(float(v)):
+        return False
+    x = float(v)
+    return (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
+
+
 def check(condition: bool, message: str) -> None:
     """``validate`` helper: raise ``ValueError(message)`` unless ``condition``."""
     if not condition:
         raise ValueError(message)
 
 
-__all__ = ["MethodParams", "check"]
+__all__ = ["MethodParams", "check", "is_int", "is_number", "number_in"]

@@ -9,12 +9,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
-
-import numpy as np
 
 from aerofid.conventions import MARKS
-from aerofid.detect.params import MethodParams, check
+from aerofid.detect.params import MethodParams, check, is_int, number_in
 
 MAX_WINDOW = 4096
 """Largest first-stage window (px)."""
@@ -120,26 +117,6 @@ class HoughParams(MethodParams):
         _validate_verification(self)
 
 
-def is_number(v: Any) -> bool:
-    """``v`` is a real number (int, float or a numpy scalar of those kinds; not a bool)."""
-    if isinstance(v, bool):
-        return False
-    return isinstance(v, (int, float, np.integer, np.floating))
-
-
-def is_int(v: Any) -> bool:
-    """``v`` is an integer (int or numpy integer; not a bool)."""
-    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
-
-
-def number_in(v: Any, lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> bool:
-    """``v`` is a finite number between ``lo`` and ``hi`` (inclusive unless ``lo_open`` / ``hi_open``)."""
-    if not is_number(v) or not math.isfinite(float(v)):
-        return False
-    x = float(v)
-    return (x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)
-
-
 def _validate_window_analysis(p: HoughParams) -> None:
     check(number_in(p.rho_step, 0.1, 20.0), f"rho_step must be in [0.1, 20] px, not {p.rho_step!r}")
     check(number_in(p.theta_step, 0.5, 45.0) and abs(180.0 / p.theta_step - round(180.0 / p.theta_step)) < 1e-9,
@@ -187,4 +164,4 @@ def _validate_verification(p: HoughParams) -> None:
 DEFAULT = HoughParams()
 """The seed's parameters (the default of every function that takes a :class:`HoughParams`)."""
 
-__all__ = ["DEFAULT", "HoughParams", "is_int", "is_number", "number_in"]
+__all__ = ["DEFAULT", "HoughParams"]

@@ -43,7 +43,7 @@ import numpy as np
 from aerofid.conventions import FOUND
 from aerofid.detect.noise import difference_noise_sigma
 from aerofid.detect.params import MethodParams, check
-from aerofid.detect.result import Detection, unusable_window
+from aerofid.detect.result import Detection, Refused, unusable_window
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -662,14 +662,6 @@ class CirclesResult(Detection):
             ax.set_title(f"circles: {self.reason}"[:90], fontsize=8)
 
 
-class _Failure(Exception):
-    """Internal: a step could not go on; carries the reason for ``not_found``."""
-
-    def __init__(self, reason: str):
-        super().__init__(reason)
-        self.reason = reason
-
-
 @dataclass
 class _Trace:
     """Internal: the intermediate results gathered so far (the diagnostic fields of :class:`CirclesResult`)."""
@@ -730,7 +722,7 @@ def detect(window: np.ndarray, params: CirclesParams = DEFAULT) -> CirclesResult
     t = _Trace()
     try:
         cx, cy, sigma, score = _run(w, p, t)
-    except _Failure as f:
+    except Refused as f:
         retry = _retry_from_centre_votes(w, p, t)
         if retry is None:
             return CirclesResult.not_found(METHOD, f.reason, **t.fields())
@@ -758,7 +750,7 @@ def _retry_from_centre_votes(w: np.ndarray, p: CirclesParams,
     t = _Trace()
     try:
         return t, _run(w, p, t, start=(vx, vy))
-    except _Failure:
+    except Refused:
         return None
 
 
@@ -770,14 +762,14 @@ def _run(w: np.ndarray, p: CirclesParams, t: _Trace,
     ep = edges(w, p.canny_sigma, p.canny_high, p.canny_low_ratio)
     t.edge_points, t.noise = ep, ep.noise
     if ep.x.size < 12:
-        raise _Failure(f"too few edge pixels ({ep.x.size}) for circles")
+        raise Refused(f"too few edge pixels ({ep.x.size}) for circles")
     r_max = float(p.max_radius) if p.max_radius is not None else 0.5 * min(h, wd)
     cx, cy, radii, votes = _hough_start(ep, p, r_max, (h, wd), t, start)
     fit, lab = _adjust(ep, cx, cy, radii, p, t)
     if not (0 <= fit.x0 <= wd - 1 and 0 <= fit.y0 <= h - 1):
-        raise _Failure("the adjusted centre lies outside the window")
+        raise Refused("the adjusted centre lies outside the window")
     if max(fit.radii) > 0.5 * max(h, wd) * 1.5:
-        raise _Failure("the adjusted circles are larger than the window")
+        raise Refused("the adjusted circles are larger than the window")
     cx, cy, radii = fit.x0, fit.y0, list(fit.radii)
     cover = _check_coverage(ep, lab, cx, cy, radii, p, t)
     sep, s_sep = _check_concentric(ep, lab, cx, cy, radii, p, t)
@@ -786,11 +778,11 @@ def _run(w: np.ndarray, p: CirclesParams, t: _Trace,
                                       p.min_coverage, p.radial_cos)
     if comp is not None:
         ox, oy, rr, cov_o = comp
-        raise _Failure(f"another circle (radius {rr:.1f} px, {cov_o:.0%} of it) centred at ({ox:.1f}, {oy:.1f}) "
+        raise Refused(f"another circle (radius {rr:.1f} px, {cov_o:.0%} of it) centred at ({ox:.1f}, {oy:.1f}) "
                        f"competes with ({cx:.1f}, {cy:.1f}): circles not concentric or more than one mark")
     t.expected_rms = expected = _expected_edge_rms(ep, lab, p.canny_sigma)
     if fit.sigma0 > p.max_rms_ratio * expected:
-        raise _Failure(f"the edge points scatter {fit.sigma0:.2f} px about the adjusted circles, "
+        raise Refused(f"the edge points scatter {fit.sigma0:.2f} px about the adjusted circles, "
                        f"{fit.sigma0 / expected:.1f} times what the noise explains: not a clean pair of "
                        f"concentric circles")
     sx, sy = fit.sigma_xy
@@ -829,11 +821,11 @@ def _hough_start(ep: EdgePoints, p: CirclesParams, r_max: float, shape: tuple[in
         found = estimate_radii(ep, cx, cy, p.min_radius, r_max, p.n_circles, radial_cos=p.radial_cos,
                                min_coverage=p.min_coverage)
         if len(found) < 2:
-            raise _Failure(f"fewer than two circles centred at the Hough peak ({cx:.0f}, {cy:.0f})")
+            raise Refused(f"fewer than two circles centred at the Hough peak ({cx:.0f}, {cy:.0f})")
     else:
         spread = max(np.hypot(px - cx, py - cy) for px, py, _ in per)
         if spread > max(4.0, 0.2 * min(radii)):
-            raise _Failure(f"the circles of radii {radii} peak {spread:.1f} px apart: not concentric")
+            raise Refused(f"the circles of radii {radii} peak {spread:.1f} px apart: not concentric")
         found = estimate_radii(ep, cx, cy, 1.0, max(radii) + 3, near=radii, radial_cos=p.radial_cos)
     return cx, cy, [r for r, _ in found], votes
 
@@ -848,11 +840,11 @@ def _adjust(ep: EdgePoints, cx: float, cy: float, radii: list[float], p: Circles
         lab = de_hough(ep, cx, cy, radii, tol_i, p.radial_cos)
         sel = lab >= 0
         if any((lab == j).sum() < 5 for j in range(len(radii))):
-            raise _Failure("a circle has fewer than 5 edge points after de-Houghing")
+            raise Refused("a circle has fewer than 5 edge points after de-Houghing")
         start = tuple(p.radii) if p.fix_radii and p.radii is not None else tuple(radii)
         fit = fit_concentric_circles(ep.x[sel], ep.y[sel], lab[sel], start, (cx, cy), fix_radii=p.fix_radii)
         if fit is None or not np.isfinite([fit.x0, fit.y0]).all():
-            raise _Failure("the concentric-circles adjustment did not converge")
+            raise Refused("the concentric-circles adjustment did not converge")
         cx, cy = fit.x0, fit.y0
         radii = list(fit.radii)
     assert fit is not None
@@ -871,7 +863,7 @@ def _check_coverage(ep: EdgePoints, lab: np.ndarray, cx: float, cy: float, radii
     t.coverage = tuple(cover)
     if min(cover) < p.min_coverage:
         j = int(np.argmin(cover))
-        raise _Failure(f"circle of radius {radii[j]:.1f} px has edges on only {cover[j]:.0%} of "
+        raise Refused(f"circle of radius {radii[j]:.1f} px has edges on only {cover[j]:.0%} of "
                        f"its circumference (cut by the window edge, or not a circle)")
     return cover
 
@@ -886,7 +878,7 @@ def _check_concentric(ep: EdgePoints, lab: np.ndarray, cx: float, cy: float, rad
     s_sep = max(float(np.sqrt(a.cov[0, 0] + a.cov[1, 1] + b.cov[0, 0] + b.cov[1, 1])) for a, b in pairs)
     t.concentricity = (sep, s_sep)
     if sep > p.concentric_tol + 3 * s_sep:
-        raise _Failure(f"the circles' centres differ by {sep:.2f} px: not concentric")
+        raise Refused(f"the circles' centres differ by {sep:.2f} px: not concentric")
     return sep, s_sep
 
 
@@ -906,10 +898,10 @@ def fit_single_circle(ep: EdgePoints, members: np.ndarray, cx: float, cy: float,
                                     (radii[j] if fj is None else fj.radii[0],),
                                     (cx, cy) if fj is None else (fj.x0, fj.y0))
         if fj is None or not np.isfinite([fj.x0, fj.y0]).all():
-            raise _Failure(f"circle {j} could not be adjusted on its own")
+            raise Refused(f"circle {j} could not be adjusted on its own")
         m = de_hough(ep, fj.x0, fj.y0, [fj.radii[0]], band, p.radial_cos) == 0
         if m.sum() < 5:
-            raise _Failure(f"circle {j} could not be adjusted on its own")
+            raise Refused(f"circle {j} could not be adjusted on its own")
     assert fj is not None
     return fj
 
@@ -939,7 +931,7 @@ def _check_other_circles(ep: EdgePoints, lab: np.ndarray, fit: CircleFit, r_max:
         d_o = float(np.hypot(fo.x0 - cx, fo.y0 - cy))
         s_o = float(np.sqrt(fo.cov[0, 0] + fo.cov[1, 1] + fit.cov[0, 0] + fit.cov[1, 1]))
         if d_o > p.concentric_tol + 3 * s_o:
-            raise _Failure(f"another circle (radius {fo.radii[0]:.1f} px) is centred {d_o:.2f} px "
+            raise Refused(f"another circle (radius {fo.radii[0]:.1f} px) is centred {d_o:.2f} px "
                            f"away: circles not concentric")
 
 

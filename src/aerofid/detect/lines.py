@@ -35,7 +35,7 @@ from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
 from aerofid.detect.noise import difference_noise_sigma
 from aerofid.detect.params import MethodParams, check, is_int, number_in
-from aerofid.detect.result import Detection, unusable_window
+from aerofid.detect.result import Detection, Refused, unusable_window
 from aerofid.detect.threshold import local_dynamic_threshold
 from aerofid.robust import robust_std
 
@@ -529,29 +529,25 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
 
 # --- the pipeline ----------------------------------------------------------------------------------------
 
-class _Refused(Exception):
-    """A step's reason why there is no mark (ends :func:`detect` with a not-found answer)."""
-
-
 def _seed_lines(binary: np.ndarray, params: LinesParams, fields: dict[str, Any]) -> tuple[HoughPeaks, np.ndarray]:
     """Seed 004's answer: the two Hough peaks (:func:`hough_peaks`) and their intersection, checked (two
     directions, not parallel, inside the window)."""
     n_fg = int(binary.sum())
     if n_fg < MIN_FOREGROUND:
-        raise _Refused(f"local dynamic thresholding found no mark ({n_fg} foreground pixels)")
+        raise Refused(f"local dynamic thresholding found no mark ({n_fg} foreground pixels)")
     peaks = hough_peaks(binary, params)
     fields["peaks"] = peaks
     v1, v2 = peaks.first[2], peaks.second[2]
     if v2 <= 0 or v2 < params.min_peak_ratio * v1:
-        raise _Refused(f"only one dominant direction in the Hough space (second peak {v2:.0f} votes vs {v1:.0f})")
+        raise Refused(f"only one dominant direction in the Hough space (second peak {v2:.0f} votes vs {v1:.0f})")
     (t1, r1), (t2, r2) = peaks.lines
     c = intersection(t1, r1, t2, r2)
     if c is None:
-        raise _Refused("the two Hough lines are parallel")
+        raise Refused("the two Hough lines are parallel")
     fields["hough_centre"] = c
     h, w = binary.shape
     if not (-0.5 <= c[0] <= w - 0.5 and -0.5 <= c[1] <= h - 0.5):
-        raise _Refused("the Hough lines intersect outside the window")
+        raise Refused("the Hough lines intersect outside the window")
     return peaks, np.array(c)
 
 
@@ -560,7 +556,7 @@ def _half_widths(peaks: HoughPeaks, shape: tuple[int, ...], rho_step: float) -> 
     between cells); a line wider than 1/4 of the window (at least 6 px) is an edge or a blob."""
     hw = [max(1.0, bar_half_width(peaks.smoothed, i, j, rho_step)) for i, j, _ in (peaks.first, peaks.second)]
     if max(hw) > max(3.0, 0.125 * min(shape)):
-        raise _Refused(f"a Hough line is {2 * max(hw):.0f} px wide: an edge or a blob, not a bar")
+        raise Refused(f"a Hough line is {2 * max(hw):.0f} px wide: an edge or a blob, not a bar")
     return hw
 
 
@@ -583,12 +579,12 @@ def refine_lines(w: np.ndarray, binary: np.ndarray, peaks: HoughPeaks, centre: n
             f = fit_line(w, cur[k][0], cur[k][1], hw[k], c, other, noise, params.band_margin,
                          background_mask=fg_near, taper=params.taper)
             if f is None:
-                raise _Refused(f"line {k + 1} has too little support for a least-squares fit")
+                raise Refused(f"line {k + 1} has too little support for a least-squares fit")
             fits.append(f)
         cur = [(f.theta, f.rho) for f in fits]
         c_new = intersection(*cur[0], *cur[1])
         if c_new is None:
-            raise _Refused("the fitted lines are parallel")
+            raise Refused("the fitted lines are parallel")
         moved = float(np.hypot(*(np.array(c_new) - c)))
         c = np.array(c_new)
         if moved < CONVERGED:
@@ -620,12 +616,12 @@ def _check_geometry(fits: list[LineFit], c: np.ndarray, shape: tuple[int, ...], 
     h, wd = shape
     x, y = float(c[0]), float(c[1])
     if not (0 <= x <= wd - 1 and 0 <= y <= h - 1):
-        raise _Refused("the fitted lines intersect outside the window")
+        raise Refused("the fitted lines intersect outside the window")
     if abs(x - hough_centre[0]) > MAX_HOUGH_SHIFT or abs(y - hough_centre[1]) > MAX_HOUGH_SHIFT:
-        raise _Refused(f"the least-squares lines moved more than {MAX_HOUGH_SHIFT:g} px from the Hough lines")
+        raise Refused(f"the least-squares lines moved more than {MAX_HOUGH_SHIFT:g} px from the Hough lines")
     angle = float(_angle_diff(fits[0].theta, fits[1].theta))
     if angle < np.deg2rad(params.min_angle):
-        raise _Refused(f"the fitted lines cross at only {np.rad2deg(angle):.0f} degrees")
+        raise Refused(f"the fitted lines cross at only {np.rad2deg(angle):.0f} degrees")
     return angle
 
 
@@ -638,7 +634,7 @@ def _half_turn_asymmetry(w: np.ndarray, fits: list[LineFit], c: np.ndarray, nois
     asym = point_asymmetry(w, x, y, max(reach, 3.0), noise)
     fields["asymmetry"] = asym
     if not asym <= params.max_asymmetry:
-        raise _Refused(f"the window is not centrally symmetric about the intersection ({asym:.2f} of the "
+        raise Refused(f"the window is not centrally symmetric about the intersection ({asym:.2f} of the "
                        f"structure within {reach:.0f} px changes under a half turn; limit {params.max_asymmetry}): "
                        "not the centre of a '+'")
 
@@ -662,7 +658,7 @@ def score_parts(fits: list[LineFit], angle: float, peaks: HoughPeaks) -> ScorePa
 
 def _locate(w: np.ndarray, params: LinesParams, fields: dict[str, Any]) -> LinesResult:
     """The whole pipeline on a usable window; every intermediate result goes into ``fields``; a step that finds
-    no mark raises :class:`_Refused`."""
+    no mark raises :class:`Refused`."""
     binary, surface = local_dynamic_threshold(w, params.region, return_thresholds=True)
     fields.update(binary=binary, thresholds=surface)
     peaks, c = _seed_lines(binary, params, fields)
@@ -673,7 +669,7 @@ def _locate(w: np.ndarray, params: LinesParams, fields: dict[str, Any]) -> Lines
     angle = _check_geometry(fits, c, w.shape, fields["hough_centre"], params)
     reason = line_refusal(fits, params)
     if reason is not None:
-        raise _Refused(reason)
+        raise Refused(reason)
     _half_turn_asymmetry(w, fits, c, noise, params, fields)
     cov = centre_covariance(fits, params.offset_floor)
     parts = score_parts(fits, angle, peaks)
@@ -720,7 +716,7 @@ def detect(window: np.ndarray, params: LinesParams = DEFAULT) -> LinesResult:
     fields: dict[str, Any] = {}
     try:
         return _locate(w, params, fields)
-    except _Refused as refused:
+    except Refused as refused:
         return LinesResult.not_found(METHOD, str(refused), **fields)
 
 

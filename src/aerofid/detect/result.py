@@ -105,6 +105,15 @@ class Detection:
             ax.set_title(f"{self.method}: not found: {self.reason}"[:90], fontsize=9)
 
 
+class Refused(Exception):
+    """A method's step cannot go on (a method's own control flow, never seen by a caller): ``reason`` becomes
+    the reason of the method's not-found answer."""
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
 def unusable_window(window: np.ndarray, min_side: int = 8, min_range: float = 0.02) -> str | None:
     """Why no detector can use ``window`` (not 2-D, smaller than ``min_side``, NaN or infinite values, grey
     range below ``min_range``), or None when it is usable.
@@ -131,4 +140,4 @@ def _num(v: float) -> float | None:
     return None if not np.isfinite(v) else v
 
 
-__all__ = ["FOUND", "NOT_FOUND", "Detection", "unusable_window"]
+__all__ = ["FOUND", "NOT_FOUND", "Detection", "Refused", "unusable_window"]

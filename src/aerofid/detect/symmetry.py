@@ -54,7 +54,7 @@ from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MethodParams, check
-from aerofid.detect.result import Detection
+from aerofid.detect.result import Detection, Refused
 from aerofid.robust import MAD_TO_SIGMA
 
 if TYPE_CHECKING:
@@ -367,14 +367,6 @@ class SymmetryResult(Detection):
         ax2.set_title("high-pass profiles, eq. (7)", fontsize=9)
 
 
-class _Failure(Exception):
-    """Internal: a step could not go on; carries the reason for ``not_found``."""
-
-    def __init__(self, reason: str):
-        super().__init__(reason)
-        self.reason = reason
-
-
 @dataclass
 class _Trace:
     """Internal: the intermediate results gathered so far (the diagnostic fields of :class:`SymmetryResult`)."""
@@ -443,7 +435,7 @@ def detect(window: np.ndarray, params: SymmetryParams = DEFAULT) -> SymmetryResu
     trace = _Trace()
     try:
         x, y, score = _run(img.astype(np.float32, copy=False), p, trace)
-    except _Failure as f:
+    except Refused as f:
         return SymmetryResult.not_found(METHOD, f.reason, **trace.fields())
     return SymmetryResult(status=FOUND, x=x, y=y, score=score, sigma=float(0.5 * (trace.sigma_x + trace.sigma_y)),
                           method=METHOD, **trace.fields())
@@ -465,7 +457,7 @@ def _window_problem(img: np.ndarray, p: SymmetryParams) -> str | None:
 
 
 def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, float]:
-    """The four stages on a usable window; fills ``t``; returns (x, y, score) or raises :class:`_Failure`."""
+    """The four stages on a usable window; fills ``t``; returns (x, y, score) or raises :class:`Refused`."""
     t.noise_sigma = noise = laplacian_noise_sigma(img)
     area_img = img if p.area_smooth <= 1 else cv2.blur(img, (p.area_smooth, p.area_smooth),
                                                         borderType=cv2.BORDER_REFLECT)
@@ -498,7 +490,7 @@ def kernel_radius(bounds: FiducialArea, p: SymmetryParams, shape: tuple[int, ...
         r = int(round(max(bounds.half_height, bounds.half_width)))
         return max(p.min_radius, min(r, r_max))
     if p.radius > r_max:
-        raise _Failure(f"kernel radius {p.radius} px does not fit in the {w}x{h} px window (max {r_max})")
+        raise Refused(f"kernel radius {p.radius} px does not fit in the {w}x{h} px window (max {r_max})")
     return int(p.radius)
 
 
@@ -510,7 +502,7 @@ def search_range(bounds: FiducialArea, r: int, p: SymmetryParams, shape: tuple[i
     lo_x, hi_x = p.log_outer + r, w - 1 - p.log_outer - r
     lo_y, hi_y = p.log_outer + r, h - 1 - p.log_outer - r
     if lo_x > hi_x or lo_y > hi_y:
-        raise _Failure(f"window {w}x{h} px leaves no room for a symmetry kernel of radius {r} px")
+        raise Refused(f"window {w}x{h} px leaves no room for a symmetry kernel of radius {r} px")
     if p.diagonal is None:
         ax0, ax1 = bounds.L3 - max(bounds.half_width, r), bounds.L3 + max(bounds.half_width, r)
         ay0, ay1 = min(bounds.L1, bounds.y_mid - r), max(bounds.L2, bounds.y_mid + r)
@@ -520,7 +512,7 @@ def search_range(bounds: FiducialArea, r: int, p: SymmetryParams, shape: tuple[i
     lo_x, hi_x = max(lo_x, int(np.floor(ax0))), min(hi_x, int(np.ceil(ax1)))
     lo_y, hi_y = max(lo_y, int(np.floor(ay0))), min(hi_y, int(np.ceil(ay1)))
     if lo_x > hi_x or lo_y > hi_y:
-        raise _Failure("the area of interest around L3 and between L1 and L2 leaves no room for a symmetry "
+        raise Refused("the area of interest around L3 and between L1 and L2 leaves no room for a symmetry "
                        f"kernel of radius {r} px inside the window")
     return lo_x, lo_y, hi_x, hi_y
 
@@ -552,11 +544,11 @@ def _unit_pixel_centre(i2: np.ndarray, bounds: FiducialArea, r: int, aoi: tuple[
         d = d_next
     t.iterations, t.shifts = tuple(history), tuple(shifts)
     if not converged:
-        raise _Failure(f"symmetry centre diverged: shifts {', '.join(f'{s:.1f}' for s in shifts)} px "
+        raise Refused(f"symmetry centre diverged: shifts {', '.join(f'{s:.1f}' for s in shifts)} px "
                        f"in {len(shifts)} iterations")
     for name, c, lo, hi in (("x", x, lo_x, hi_x), ("y", y, lo_y, hi_y)):
         if hi - lo >= 2 and (c <= lo or c >= hi):
-            raise _Failure(f"symmetry centre {name}={c} is at the limit of the search range [{lo}, {hi}]: "
+            raise Refused(f"symmetry centre {name}={c} is at the limit of the search range [{lo}, {hi}]: "
                            "the mark is probably cut by the window edge or larger than the window")
     return x, y, d
 
@@ -580,12 +572,12 @@ def _check_self_diagnosis(diag: SelfDiagnosis, p: SymmetryParams, stage: str, x:
     seed's threshold by the toss of the noise."""
     if not diag.r_self >= p.rself_threshold:
         if stage == "unit-pixel":
-            raise _Failure(f"self-diagnosis failed: R_self = {diag.r_self:.2f} < {p.rself_threshold} at pixel "
+            raise Refused(f"self-diagnosis failed: R_self = {diag.r_self:.2f} < {p.rself_threshold} at pixel "
                            f"({x}, {y}); the window holds no centrally symmetric mark there")
-        raise _Failure(f"self-diagnosis failed at the sub-pixel centre: R_self = {diag.r_self:.2f} < "
+        raise Refused(f"self-diagnosis failed at the sub-pixel centre: R_self = {diag.r_self:.2f} < "
                        f"{p.rself_threshold}")
     if not min(diag.R13, diag.R24) >= p.min_rotation_corr:
-        raise _Failure(f"self-diagnosis failed at the {stage} centre ({x:.1f}, {y:.1f}): the 90-degree "
+        raise Refused(f"self-diagnosis failed at the {stage} centre ({x:.1f}, {y:.1f}): the 90-degree "
                        f"correlations R13 = {diag.R13:.2f}, R24 = {diag.R24:.2f} are below {p.min_rotation_corr} "
                        "(a straight bar or band, or a pattern symmetric about one axis only)")
 
@@ -596,12 +588,12 @@ def _subpixel_stage(img: np.ndarray, x: int, y: int, r: int, d: int, p: Symmetry
     ``p.max_total_shift``."""
     got = subpixel_centre(img, x, y, r, d, p)
     if got is None:
-        raise _Failure("sub-pixel stage: no room for the enlarged kernel (the mark is too close to the window "
+        raise Refused("sub-pixel stage: no room for the enlarged kernel (the mark is too close to the window "
                        "edge); enlarge the box")
     xs, ys, t.subpixel = got
     total = float(np.hypot(xs - x, ys - y))
     if not np.isfinite(total) or total > p.max_total_shift:
-        raise _Failure(f"sub-pixel stage moved the centre by {total:.2f} px (> {p.max_total_shift} px) "
+        raise Refused(f"sub-pixel stage moved the centre by {total:.2f} px (> {p.max_total_shift} px) "
                        "from the unit-pixel centre")
     return xs, ys
 
@@ -612,10 +604,10 @@ def _refine(img: np.ndarray, xs: float, ys: float, r: int, p: SymmetryParams, t:
     t.centre_eq15 = (xs, ys)
     got = point_symmetry_centre(img, xs, ys, r)
     if got is None:
-        raise _Failure("the point-symmetry refinement did not converge (a flat or one-sided pattern)")
+        raise Refused("the point-symmetry refinement did not converge (a flat or one-sided pattern)")
     shift = float(np.hypot(got[0] - xs, got[1] - ys))
     if shift > p.max_refine_shift:
-        raise _Failure(f"the point-symmetry centre lies {shift:.2f} px from eq. (15)'s (> {p.max_refine_shift} "
+        raise Refused(f"the point-symmetry centre lies {shift:.2f} px from eq. (15)'s (> {p.max_refine_shift} "
                        "px): the two disagree")
     return got
 
@@ -630,14 +622,14 @@ def _verify_centre(img: np.ndarray, xs: float, ys: float, r: int, noise: float, 
     _check_self_diagnosis(diag, p, "sub-pixel", xs, ys)
     t.asymmetry = asym = point_asymmetry(img, xs, ys, r, noise)
     if not asym <= p.max_asymmetry:
-        raise _Failure(f"the pattern is not centrally symmetric about ({xs:.2f}, {ys:.2f}): the 180-degree "
+        raise Refused(f"the pattern is not centrally symmetric about ({xs:.2f}, {ys:.2f}): the 180-degree "
                        f"residual holds {asym:.2f} of its structure (limit {p.max_asymmetry})")
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
     spread = float(subs[xx * xx + yy * yy <= r * r].std())
     t.neighbourhood_std, t.signal_std = spread, float(np.sqrt(max(spread * spread - noise * noise, 0.0)))
     t.faint_limit = max(p.min_std, p.faint_snr * noise)
     if t.signal_std < t.faint_limit:
-        raise _Failure(f"mark too faint: grey-level std {spread:.4f} near the centre, {t.signal_std:.4f} net of "
+        raise Refused(f"mark too faint: grey-level std {spread:.4f} near the centre, {t.signal_std:.4f} net of "
                        f"noise {noise:.4f}, is below {t.faint_limit:.4f}")
     return diag.r_self
 

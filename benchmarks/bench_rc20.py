@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 import aerofid  # noqa: E402
 from aerofid.formats.camera_file import read_camera  # noqa: E402
 from aerofid.io.raster import open_raster  # noqa: E402
-from aerofid.orientation.interior import adjust, apply_transform  # noqa: E402
+from aerofid.orientation.adjustment import adjust  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
 MARKS = {  # approximate centres (x, y), full-image pixels
@@ -70,8 +70,8 @@ def orientation_check(auto_px: dict) -> list[str]:
                    f"{rms / PIXEL_UM:.2f} |")
     mids = {k: auto_px[k] for k in ("midside T", "midside B", "midside L", "midside R") if k in auto_px}
     if len(mids) == 4:
-        H = fits["affine"].H
-        mm_mid = {k: apply_transform(H, np.array([v]))[0] for k, v in mids.items()}
+        to_mm = fits["affine"].transform
+        mm_mid = {k: to_mm(np.array([v]))[0] for k, v in mids.items()}
         span_x = float(np.hypot(*(mm_mid["midside R"] - mm_mid["midside L"])))
         span_y = float(np.hypot(*(mm_mid["midside T"] - mm_mid["midside B"])))
         out += ["\nThe midside marks mapped to film mm by the corners' affine transformation:\n",

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+import csv
 import json
-from pathlib import Path
 
 import pytest
 
@@ -11,7 +11,6 @@ from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera, write_camera
 from aerofid.orientation.camera import Camera
 
-REAL = Path("/work/shared/realdata")
 MIN = {"name": "cam", "fiducials": {"P1": [-106, -106], "P2": [106, 106], "P3": [-106, 106], "P4": [106, -106]}}
 
 
@@ -100,11 +99,8 @@ def test_fiducial_centre_is_intersection_of_opposite_lines():
     assert cx == pytest.approx(0.0, abs=1e-9) and cy == pytest.approx(0.0, abs=1e-9)
 
 
-def test_micmac_measures_camera_real_rc20():
-    path = REAL / "unbc_bc_wild_rc20" / "MeasuresCamera.xml"
-    if not path.is_file():
-        pytest.skip("real data not available")
-    cam = read_camera(path)
+def test_micmac_measures_camera_real_rc20(realdata):
+    cam = read_camera(realdata("unbc_bc_wild_rc20/MeasuresCamera.xml"))
     # SOURCES.md: P1 lower-right, P2 lower-left, P3 upper-left, P4 upper-right; x right, y up
     assert cam.names == ("P1", "P2", "P3", "P4")
     assert cam.fiducial("P1").x_mm == 106.004 and cam.fiducial("P1").y_mm == -106.002
@@ -112,23 +108,16 @@ def test_micmac_measures_camera_real_rc20():
     assert cam.y_axis == "up"
 
 
-def test_micmac_measures_camera_corner_origin_is_y_down():
-    path = REAL / "spymicmac_docs" / "MeasuresCamera_example.xml"
-    if not path.is_file():
-        pytest.skip("real data not available")
-    cam = read_camera(path)
+def test_micmac_measures_camera_corner_origin_is_y_down(realdata):
+    cam = read_camera(realdata("spymicmac_docs/MeasuresCamera_example.xml"))
     assert len(cam.fiducials) == 8
     assert cam.y_axis == "down"
     assert cam.fiducial("P7").x_mm == 110.002 and cam.fiducial("P7").y_mm == 0.0
 
 
-def test_usgs_calibration_reports_load_as_cameras():
+def test_usgs_calibration_reports_load_as_cameras(realdata):
     """Every 8-mark row of the transcribed USGS reports makes a valid camera (GPL data: read only)."""
-    import csv
-
-    path = REAL / "usgs_calib_reports_transcribed" / "combined_reports.csv"
-    if not path.is_file():
-        pytest.skip("real data not available")
+    path = realdata("usgs_calib_reports_transcribed/combined_reports.csv")
     marks = ["ll", "lr", "ul", "ur", "ml", "mr", "mt", "mb"]
     n, bad = 0, []
     with open(path, newline="") as f:

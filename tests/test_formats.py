@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from aerofid.errors import AerofidInputError
-from aerofid.formats.measurements import Measurements, read_measurements, write_measurements
+from aerofid.formats.camera_file import read_camera
+from aerofid.formats.measurements import read_measurements, write_measurements
 from aerofid.formats.micmac import (
     affine_plane_xml,
     read_affine_plane,
@@ -17,9 +16,11 @@ from aerofid.formats.micmac import (
     write_affine_plane,
     write_measures_camera,
 )
-from aerofid.orientation.interior import apply_transform
+from aerofid.io.atomic import write_text_atomic
+from aerofid.orientation.camera import Camera
+from aerofid.orientation.measurements import Measurements
+from aerofid.orientation.transform import AffineTransform
 
-REAL = Path("/work/shared/realdata")
 M = Measurements(np.array([[167.5, 212.5], [5215.0, 234.0], [148.5, 5259.5], [5194.5, 5279.25]]),
                  ("P1", "P2", "P3", "P4"), "scan.tif")
 
@@ -95,20 +96,14 @@ def test_micmac_multi_image_needs_a_choice(tmp_path):
     assert set(read_mesure_appuis(p)) == {"a.tif", "b.tif"}
 
 
-def test_micmac_real_bare_root_file():
-    path = REAL / "unbc_bc_wild_rc20" / "MeasuresCamera.xml"
-    if not path.is_file():
-        pytest.skip("real data not available")
-    m = read_measures_im(path)
+def test_micmac_real_bare_root_file(realdata):
+    m = read_measures_im(realdata("unbc_bc_wild_rc20/MeasuresCamera.xml"))
     assert m.image == "15BCC02013_114.jpg"
     assert m.names == ("P1", "P2", "P3", "P4")
     np.testing.assert_array_equal(m.xy[2], [-106.007, 106.006])
 
 
 def test_micmac_measures_camera_round_trip(tmp_path):
-    from aerofid.formats.camera_file import read_camera
-    from aerofid.orientation.camera import Camera
-
     cam = Camera.from_dict({"name": "c", "fiducials": {"P1": [1, 2], "P2": [100, 2], "P3": [50, 80]}})
     write_measures_camera(tmp_path / "MeasuresCamera.xml", cam)
     back = read_camera(tmp_path / "MeasuresCamera.xml")
@@ -128,7 +123,7 @@ def test_affine_plane_layout_and_round_trip(tmp_path):
     np.testing.assert_array_equal(back, H)
     # the meaning of the elements: I00 is the image of (0, 0), I00 + V10 of (1, 0), I00 + V01 of (0, 1)
     i00, v10, v01 = back[:, 2], back[:, 0], back[:, 1]
-    np.testing.assert_allclose(apply_transform(H, [[0, 0], [1, 0], [0, 1]]), [i00, i00 + v10, i00 + v01])
+    np.testing.assert_allclose(AffineTransform(H)([[0, 0], [1, 0], [0, 1]]), [i00, i00 + v10, i00 + v01])
 
 
 def test_affine_plane_refuses_projective():
@@ -137,8 +132,6 @@ def test_affine_plane_refuses_projective():
 
 
 def test_atomic_write_leaves_no_partial_file(tmp_path):
-    from aerofid.io.atomic import write_text_atomic
-
     with pytest.raises(AerofidInputError, match="does not exist"):
         write_text_atomic(tmp_path / "nope" / "x.txt", "a")
     write_text_atomic(tmp_path / "x.txt", "hello")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -26,11 +25,12 @@ from aerofid.io.raster import (
     segment_indices,
     to_grey,
 )
+from conftest import realdata_path
 
 COLORMAP = np.zeros((3, 256), np.uint16)
 BANDS_CONTIG = {"photometric": "minisblack", "planarconfig": "contig"}
 VOLUME = {"photometric": "minisblack", "volumetric": True, "tile": (2, 16, 16)}
-RC20 = Path("/work/shared/realdata/unbc_bc_wild_rc20/15BCC02013_114.jpg")
+RC20 = "unbc_bc_wild_rc20/15BCC02013_114.jpg"
 HEIGHT, WIDTH = 203, 157  # not multiples of any tile or strip size below
 WINDOWS = [(0, 0, WIDTH, HEIGHT), (10, 20, 50, 60), (31, 47, 97, 150), (WIDTH - 1, HEIGHT - 1, WIDTH, HEIGHT)]
 GEOTIFF_TAGS = [
@@ -609,10 +609,8 @@ def test_colour_policy_errors(call, words):
 
 @pytest.fixture(scope="module")
 def rc20():
-    """The real Wild RC20 colour frame, opened once (skipped where the real data is absent)."""
-    if not RC20.exists():
-        pytest.skip("real data not available")
-    with open_raster(RC20) as raster:
+    """The real Wild RC20 colour frame, opened once (skipped where ../shared/realdata is absent)."""
+    with open_raster(realdata_path(RC20)) as raster:
         yield raster
 
 

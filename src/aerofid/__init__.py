@@ -11,11 +11,15 @@ from aerofid.formats.camera_file import read_camera, write_camera
 from aerofid.formats.measurements import read_measurements, write_measurements
 from aerofid.locate import Location, locate
 from aerofid.orientation.camera import Camera, Fiducial
-from aerofid.orientation.interior import AmbiguousCorrespondenceError, InteriorOrientation, orient
+from aerofid.orientation.correspondence import AmbiguousCorrespondenceError
+from aerofid.orientation.interior import orient
 from aerofid.orientation.measurements import Measurements
+from aerofid.orientation.result import InteriorOrientation
+from aerofid.orientation.transform import AffineTransform, ProjectiveTransform, SimilarityTransform
 
 __version__ = "0.1.0"
 
-__all__ = ["AerofidInputError", "AmbiguousCorrespondenceError", "Camera", "Fiducial", "InteriorOrientation",
-           "Location", "Measurements", "__version__", "locate", "orient", "read_camera", "read_measurements",
-           "write_camera", "write_measurements"]
+__all__ = ["AerofidInputError", "AffineTransform", "AmbiguousCorrespondenceError", "Camera", "Fiducial",
+           "InteriorOrientation", "Location", "Measurements", "ProjectiveTransform", "SimilarityTransform",
+           "__version__", "locate", "orient", "read_camera", "read_measurements", "write_camera",
+           "write_measurements"]

@@ -10,8 +10,19 @@ import json
 from pathlib import Path
 
 import click
+import numpy as np
 
 from aerofid.errors import AerofidInputError
+from aerofid.formats.camera_file import read_camera
+from aerofid.formats.measurements import read_measurements
+from aerofid.formats.micmac import write_affine_plane, write_measures_camera, write_measures_im
+from aerofid.io.atomic import write_text_atomic
+from aerofid.orientation.camera import Camera
+from aerofid.orientation.correspondence import AmbiguousCorrespondenceError
+from aerofid.orientation.interior import orient as run_orient
+from aerofid.orientation.measurements import Measurements
+from aerofid.orientation.report import to_html, to_text
+from aerofid.orientation.result import InteriorOrientation
 
 REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
 
@@ -34,13 +45,6 @@ REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
               help="write MeasuresIm-<image>.xml, MeasuresCamera.xml and <image>-AffinePlane-px2mm.xml into DIR")
 def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir) -> int:
     """Interior orientation (pixel -> film mm) of a scan from its measured fiducials."""
-    from aerofid.formats.camera_file import read_camera
-    from aerofid.formats.measurements import read_measurements
-    from aerofid.io.atomic import write_text_atomic
-    from aerofid.orientation.interior import AmbiguousCorrespondenceError
-    from aerofid.orientation.interior import orient as run_orient
-    from aerofid.orientation.report import to_html, to_text
-
     if meas_path is None:
         if image:
             raise AerofidInputError(
@@ -63,14 +67,7 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         return 1
 
     if output is not None:
-        suffix = Path(output).suffix.lower()
-        if suffix == ".json":
-            content = json.dumps(res.to_dict(), indent=2) + "\n"
-        elif suffix == ".txt":
-            content = to_text(res)
-        else:
-            content = to_html(res)
-        write_text_atomic(output, content)
+        write_text_atomic(output, _report(res, Path(output).suffix.lower()))
     if micmac_dir is not None:
         _write_micmac(Path(micmac_dir), cam, res)
     if as_json:
@@ -80,13 +77,20 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
     return 0
 
 
-def _write_micmac(folder: Path, cam, res) -> None:
-    from aerofid.formats.micmac import write_affine_plane, write_measures_camera, write_measures_im
-    from aerofid.orientation.measurements import Measurements
+def _report(res: InteriorOrientation, suffix: str) -> str:
+    """The report for a file ending in ``suffix``: JSON, plain text or HTML."""
+    if suffix == ".json":
+        return json.dumps(res.to_dict(), indent=2) + "\n"
+    if suffix == ".txt":
+        return to_text(res)
+    return to_html(res)
 
+
+def _write_micmac(folder: Path, cam: Camera, res: InteriorOrientation) -> None:
+    """MeasuresIm of the used fiducials, MeasuresCamera, and the AffinePlane pixel -> mm (not projective)."""
     used = res.used
     name = res.image or "image"
-    m = Measurements([[f.x_px, f.y_px] for f in used], tuple(f.name for f in used), name)
+    m = Measurements(np.array([[f.x_px, f.y_px] for f in used]), tuple(f.name for f in used), name)
     write_measures_im(folder / f"MeasuresIm-{name}.xml", m)
     write_measures_camera(folder / "MeasuresCamera.xml", cam)
     if res.model != "projective":

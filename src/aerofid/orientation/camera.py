@@ -23,8 +23,9 @@ Film coordinates: mm as the certificate gives them, x right, y up (``y_axis: up`
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -141,7 +142,7 @@ class Camera:
         return float(s[0]), float(s[1])
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], source: str = "") -> "Camera":
+    def from_dict(cls, data: Mapping[str, Any], source: str = "") -> Camera:
         """Build a camera from the JSON/YAML structure (see the module docstring)."""
         where = f" in {source!r}" if source else ""
         if not isinstance(data, Mapping):

@@ -4,8 +4,9 @@ pixel is (0, 0)). Files are read and written by :mod:`aerofid.formats.measuremen
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -57,7 +58,7 @@ class Measurements:
         return {"image": self.image, "points": pts}
 
     @classmethod
-    def from_any(cls, obj: Any, image: str = "") -> "Measurements":
+    def from_any(cls, obj: Any, image: str = "") -> Measurements:
         """From a Measurements, a mapping name -> (x, y), a JSON-like dict, or an n x 2 array."""
         if isinstance(obj, Measurements):
             return obj

@@ -1,0 +1,214 @@
+"""Correspondence of unnamed measured points to calibrated fiducials: the 8 arrangements of the film in the
+scanner (4 rotations x 2 sides), each tested and the best kept only when it is significantly better."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize, stats
+
+from aerofid.errors import AerofidInputError
+from aerofid.orientation.adjustment import adjust
+from aerofid.orientation.transform import transform_class
+
+#: Significance level of the test that tells two fiducial arrangements apart.
+ALPHA_ARRANGEMENT = 0.01
+#: The 8 arrangements: rotation of the film image on the scan (degrees, counter-clockwise as seen on the
+#: film's mm frame) and whether the scan is mirrored (film scanned from the other side).
+ARRANGEMENTS = tuple((rot, mir) for mir in (False, True) for rot in (0, 90, 180, 270))
+
+
+def arrangement_matrix(rotation_deg: int, mirrored: bool, y_axis: str = "up") -> np.ndarray:
+    """Signed permutation G with pixel -> mm linear part ~ s * G for this arrangement.
+
+    The nominal arrangement (0, False) maps pixel x (column) to film x and pixel y (row, down) to film
+    y, reversed when the camera's y axis points up.
+    """
+    L0 = np.diag([1.0, -1.0]) if y_axis == "up" else np.eye(2)
+    t = math.radians(rotation_deg)
+    R = np.round(np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]]))
+    F = np.diag([1.0, -1.0]) if mirrored else np.eye(2)
+    return R @ L0 @ F
+
+
+@dataclass(frozen=True)
+class ArrangementFit:
+    """The best assignment of the measured points under one arrangement and its fit."""
+
+    rotation_deg: int
+    mirrored: bool
+    assignment: tuple[int, ...]          # for each measured point, the index of the calibrated fiducial
+    sum_sq_mm2: float                    # v^T v of the fit with that assignment
+    rms_mm: float
+    redundancy: int
+
+    def to_dict(self, fiducial_names: Sequence[str] | None = None) -> dict:
+        a = [fiducial_names[j] for j in self.assignment] if fiducial_names is not None else list(self.assignment)
+        return {"rotation_deg": self.rotation_deg, "mirrored": self.mirrored, "assignment": a,
+                "rms_mm": self.rms_mm, "sum_sq_mm2": self.sum_sq_mm2, "redundancy": self.redundancy}
+
+
+@dataclass(frozen=True)
+class Correspondence:
+    """Which calibrated fiducial each measured point is, found by testing the 8 arrangements.
+
+    Attributes
+    ----------
+    status : str
+        ``"unique"`` or ``"ambiguous"``.
+    best : ArrangementFit
+        The best-fitting arrangement.
+    candidates : tuple of ArrangementFit
+        All arrangements tested (one per distinct assignment), best first.
+    reason : str
+        Why it is ambiguous (empty when unique).
+    fiducial_names : tuple of str
+        The camera's fiducial names, to report assignments by name.
+    """
+
+    status: str
+    best: ArrangementFit
+    candidates: tuple[ArrangementFit, ...]
+    reason: str = ""
+    fiducial_names: tuple[str, ...] = ()
+
+    @property
+    def assignment(self) -> tuple[int, ...]:
+        return self.best.assignment
+
+    def to_dict(self) -> dict:
+        names = self.fiducial_names or None
+        return {"status": self.status, "rotation_deg": self.best.rotation_deg, "mirrored": self.best.mirrored,
+                "assignment": self.best.to_dict(names)["assignment"], "reason": self.reason,
+                "candidates": [c.to_dict(names) for c in self.candidates]}
+
+
+class AmbiguousCorrespondenceError(AerofidInputError):
+    """Two arrangements of the fiducials fit the measurements equally well; names are needed."""
+
+    def __init__(self, message: str, correspondence: Correspondence):
+        super().__init__(message)
+        self.correspondence = correspondence
+
+
+def match_fiducials(px: np.ndarray, mm: np.ndarray, model: str = "affine", *, y_axis: str = "up",
+                    fiducial_names: Sequence[str] | None = None, alpha: float = ALPHA_ARRANGEMENT,
+                    max_rotation_deg: float = 45.0) -> Correspondence:
+    """Assign unnamed measured points (m x 2 px) to calibrated fiducials (n x 2 mm), m <= n.
+
+    For each of the 8 arrangements (4 rotations x 2 sides) every pair of measured points is matched to
+    every pair of calibrated fiducials; the similarity they define (rotation within +-45 degrees of the
+    arrangement, so each hypothesis belongs to one arrangement) maps all fiducials onto the scan and the
+    measured points are assigned to them (Hungarian method). The best assignment of each arrangement is
+    then fitted with ``model`` (similarity when the model has no redundancy) and the arrangements are ranked
+    by ``v^T v``. The best is ``unique`` only if the runner-up is worse by the F test
+    ``v2^T v2 / v1^T v1 > F(r, r; 1 - alpha)``; otherwise the answer is ``ambiguous``.
+    """
+    px = np.asarray(px, dtype=float).reshape(-1, 2)
+    mm = np.asarray(mm, dtype=float).reshape(-1, 2)
+    m, n = len(px), len(mm)
+    if m > n:
+        raise AerofidInputError(f"{m} measured points but the camera has only {n} fiducials")
+    if m < 2:
+        raise AerofidInputError("at least 2 measured points are needed to assign them to fiducials")
+    cls = transform_class(model)
+    rank_model = model if 2 * m - cls.n_params > 0 and m >= cls.min_points else "similarity"
+    lim = math.radians(max_rotation_deg) + 1e-9
+    fits = [fit for rot, mir in ARRANGEMENTS
+            if (fit := _arrangement_fit(px, mm, rot, mir, y_axis, lim, rank_model)) is not None]
+    if not fits:
+        raise AerofidInputError("the measured points cannot be matched to the camera's fiducials")
+    names = tuple(fiducial_names) if fiducial_names is not None else ()
+    return _decide(_distinct(fits), alpha, names)
+
+
+def _arrangement_fit(px: np.ndarray, mm: np.ndarray, rot: int, mir: bool, y_axis: str, lim: float,
+                     rank_model: str) -> ArrangementFit | None:
+    """The best assignment under one arrangement, fitted with ``rank_model`` (None when none fits)."""
+    G = arrangement_matrix(rot, mir, y_axis)
+    Cp = mm @ np.linalg.inv(G).T                            # fiducials in the scan's orientation (px-like, scaled)
+    assign = _best_assignment(px, Cp, lim)
+    if assign is None:
+        return None
+    try:
+        fit = adjust(px, mm[list(assign)], rank_model)
+    except AerofidInputError:
+        return None
+    ss = float(fit.v @ fit.v)
+    return ArrangementFit(rot, mir, assign, ss, math.sqrt(ss / len(px)), fit.redundancy)
+
+
+def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, ...] | None:
+    """The assignment of the measured points to the fiducials ``Cp`` with the least squared distance over
+    the similarities defined by a pair of each (rotation within ``lim`` radians)."""
+    m, n = len(px), len(Cp)
+    best_cost, best_assign = np.inf, None
+    for i1, i2 in itertools.combinations(range(m), 2):
+        dm = px[i2] - px[i1]
+        for j1, j2 in itertools.permutations(range(n), 2):
+            proj = _pair_similarity(px[i1], dm, Cp, j1, j2, lim)
+            if proj is None:
+                continue
+            D = np.sum((px[:, None, :] - proj[None, :, :]) ** 2, axis=2)
+            rows, cols = optimize.linear_sum_assignment(D)
+            cost = float(D[rows, cols].sum())
+            if cost < best_cost:
+                best_cost, best_assign = cost, tuple(int(c) for c in cols[np.argsort(rows)])
+    return best_assign
+
+
+def _pair_similarity(p1: np.ndarray, dm: np.ndarray, Cp: np.ndarray, j1: int, j2: int,
+                     lim: float) -> np.ndarray | None:
+    """The fiducials ``Cp`` projected into the scan by the similarity that maps fiducials j1, j2 onto the
+    measured pair (first point ``p1``, difference ``dm``); None when it rotates by more than ``lim``."""
+    dc = Cp[j2] - Cp[j1]
+    nc = np.hypot(*dc)
+    if nc == 0 or np.hypot(*dm) == 0:
+        return None
+    ang = math.atan2(dm[1], dm[0]) - math.atan2(dc[1], dc[0])
+    ang = (ang + math.pi) % (2 * math.pi) - math.pi
+    if abs(ang) > lim:
+        return None
+    k = np.hypot(*dm) / nc
+    R = k * np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
+    t = p1 - R @ Cp[j1]
+    return Cp @ R.T + t
+
+
+def _distinct(fits: list[ArrangementFit]) -> list[ArrangementFit]:
+    """One candidate per distinct assignment, best first."""
+    fits = sorted(fits, key=lambda f: f.sum_sq_mm2)
+    uniq: list[ArrangementFit] = []
+    for f in fits:
+        if all(f.assignment != g.assignment for g in uniq):
+            uniq.append(f)
+    return uniq
+
+
+def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) -> Correspondence:
+    """Unique when the runner-up fits worse by the F test, else ambiguous with the reason."""
+    best = uniq[0]
+    if len(uniq) == 1:
+        return Correspondence("unique", best, tuple(uniq), "", names)
+    second = uniq[1]
+    r = best.redundancy
+    if r < 1:
+        reason = "no redundancy to compare the arrangements: measure more fiducials or give names"
+        return Correspondence("ambiguous", best, tuple(uniq), reason, names)
+    crit = float(stats.f.ppf(1 - alpha, r, r))
+    ratio = second.sum_sq_mm2 / max(best.sum_sq_mm2, 1e-30)
+    if ratio > crit:
+        return Correspondence("unique", best, tuple(uniq), "", names)
+    reason = (f"arrangements rotation {best.rotation_deg} deg{' mirrored' if best.mirrored else ''} "
+              f"(rms {best.rms_mm * 1000:.2f} um) and rotation {second.rotation_deg} deg"
+              f"{' mirrored' if second.mirrored else ''} (rms {second.rms_mm * 1000:.2f} um) fit equally well "
+              f"(ratio {ratio:.3g} <= F({r}, {r}; {1 - alpha:g}) = {crit:.3g}): name the measured points")
+    return Correspondence("ambiguous", best, tuple(uniq), reason, names)
+
+
+__all__ = ["ALPHA_ARRANGEMENT", "ARRANGEMENTS", "AmbiguousCorrespondenceError", "ArrangementFit", "Correspondence",
+           "arrangement_matrix", "match_fiducials"]

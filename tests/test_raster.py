@@ -1,4 +1,5 @@
-"""Tests of aerofid.io.raster: opening scans, windowed reads, boxes, grey levels and colour policy."""
+"""Tests of aerofid.io.raster (opening scans, windowed reads, boxes) and aerofid.io.colour (grey levels and
+colour policy)."""
 
 from __future__ import annotations
 
@@ -13,18 +14,8 @@ from hypothesis import strategies as st
 
 from aerofid.errors import AerofidInputError
 from aerofid.io import raster as raster_module
-from aerofid.io.raster import (
-    MIX_WEIGHTS,
-    Raster,
-    check_window_size,
-    choose_channel_mix,
-    clip_box,
-    mark_contrast,
-    normalise,
-    open_raster,
-    segment_indices,
-    to_grey,
-)
+from aerofid.io.colour import MIX_WEIGHTS, choose_channel_mix, mark_contrast, normalise, to_grey
+from aerofid.io.raster import Raster, check_window_size, clip_box, open_raster, segment_indices
 from conftest import realdata_path
 
 COLORMAP = np.zeros((3, 256), np.uint16)

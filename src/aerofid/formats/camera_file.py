@@ -25,7 +25,7 @@ def read_camera(path: str | Path) -> Camera:
         raise AerofidInputError(f"camera file {str(path)!r} does not exist")
     suffix = path.suffix.lower()
     if suffix == ".xml":
-            return read_measures_camera(path)
+        return read_measures_camera(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:

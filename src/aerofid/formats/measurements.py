@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from aerofid.errors import AerofidInputError
-from aerofid.formats.micmac import read_measures_im, write_measures_im
+from aerofid.formats.micmac import number_text, read_measures_im, write_measures_im
 from aerofid.io.atomic import write_text_atomic
 from aerofid.orientation.measurements import (
     Measurements,
@@ -63,15 +63,11 @@ def write_measurements(path: str | Path, m: Measurements) -> None:
     elif suffix in (".csv", ".txt"):
         lines = ["name,x,y"] if m.names is not None else ["x,y"]
         for i, (x, y) in enumerate(m.xy):
-            row = f"{_fmt(x)},{_fmt(y)}"
+            row = f"{number_text(x)},{number_text(y)}"
             lines.append(f"{m.names[i]},{row}" if m.names is not None else row)
         write_text_atomic(path, "\n".join(lines) + "\n")
     else:
         raise AerofidInputError(f"unknown measurements format {suffix!r}: use .json, .csv or MicMac .xml")
-
-
-def _fmt(v: float) -> str:
-    return repr(float(v))
 
 
 def _image_from_name(path: Path) -> str:
@@ -101,7 +97,8 @@ def _from_csv_text(text: str, source: str, image: str) -> Measurements:
         names = tuple(r[0] for r in rows)
         if any(not n for n in names):
             raise AerofidInputError(f"a point has an empty name{where}")
-        xy = [(finite_number(r[1], f"point {r[0]!r} x", where), finite_number(r[2], f"point {r[0]!r} y", where)) for r in rows]
+        xy = [(finite_number(r[1], f"point {r[0]!r} x", where), finite_number(r[2], f"point {r[0]!r} y", where))
+              for r in rows]
         return Measurements(np.array(xy), names, image)
     raise AerofidInputError(f"each line must be 'name,x,y' (or 'x,y' for unnamed points){where}")
 

@@ -131,7 +131,7 @@ def _mesure_xml(name_im: str, pts: list[tuple[str, float, float]]) -> str:
              f"          <NameIm>{_esc(name_im)}</NameIm>"]
     for n, x, y in pts:
         lines += ["          <OneMesureAF1I>", f"               <NamePt>{_esc(n)}</NamePt>",
-                  f"               <PtIm>{_num(x)} {_num(y)}</PtIm>", "          </OneMesureAF1I>"]
+                  f"               <PtIm>{number_text(x)} {number_text(y)}</PtIm>", "          </OneMesureAF1I>"]
     lines += ["     </MesureAppuiFlottant1Im>", "</SetOfMesureAppuisFlottants>", ""]
     return "\n".join(lines)
 
@@ -158,9 +158,9 @@ def affine_plane_xml(H) -> str:
         H = H[:2]
     (a, b, c), (d, e, f) = H
     return "\n".join(['<?xml version="1.0" ?>', "<AffinitePlane>",
-                      f"     <I00>{_num(c)} {_num(f)}</I00>",
-                      f"     <V10>{_num(a)} {_num(d)}</V10>",
-                      f"     <V01>{_num(b)} {_num(e)}</V01>",
+                      f"     <I00>{number_text(c)} {number_text(f)}</I00>",
+                      f"     <V10>{number_text(a)} {number_text(d)}</V10>",
+                      f"     <V01>{number_text(b)} {number_text(e)}</V01>",
                       "</AffinitePlane>", ""])
 
 
@@ -182,7 +182,8 @@ def read_affine_plane(path: str | Path) -> np.ndarray:
     return np.array([[a, b, c], [d, e, f]])
 
 
-def _num(v: float) -> str:
+def number_text(v: float) -> str:
+    """A number as the shortest text that reads back to the same float."""
     return repr(float(v))
 
 

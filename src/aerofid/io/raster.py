@@ -1,4 +1,4 @@
-"""Open scanned aerial photographs lazily, read windows of them, and turn windows into grey levels.
+"""Open scanned aerial photographs lazily and read windows of them (grey levels: :mod:`aerofid.io.colour`).
 
 Formats: TIFF and BigTIFF (a GeoTIFF is a TIFF), tiled or striped, any compression that tifffile with
 imagecodecs decodes (none, LZW, deflate, JPEG, PackBits, ...); JPEG; PNG. The format is recognised from
@@ -15,7 +15,7 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
   JPEG) is decoded whole on the first read and kept in memory;
 * a JPEG or PNG is decoded whole when opened (OpenCV cannot read a window of it) and kept in memory.
 
-Pixel conventions (see DESIGN.md): x = column, y = row, boxes are ``(x0, y0, x1, y1)`` with x1, y1
+Pixel conventions: x = column, y = row, boxes are ``(x0, y0, x1, y1)`` with x1, y1
 exclusive. Every bad input raises :class:`aerofid.errors.AerofidInputError` with a one-line message.
 """
 
@@ -33,43 +33,24 @@ import numpy as np
 import tifffile
 
 from aerofid.errors import AerofidInputError
-from aerofid.robust import MAD_TO_SIGMA
+
+# TRANSITIONAL re-export: aerofid.locate still imports to_grey from here; remove once it imports aerofid.io.colour
+from aerofid.io.colour import to_grey as to_grey  # noqa: F401
 
 __all__ = [
-    "COLOUR_POLICIES",
-    "MIX_WEIGHTS",
-    "POLARITIES",
     "WINDOW_LIMIT_BYTES",
     "Raster",
-    "channel_mix",
     "check_window_size",
-    "choose_channel_mix",
     "clip_box",
-    "mark_contrast",
-    "normalise",
     "open_raster",
     "segment_indices",
-    "to_grey",
 ]
 
 SUPPORTED_FORMATS = "TIFF/BigTIFF/GeoTIFF, JPEG or PNG"
-COLOUR_POLICIES = ("auto", "luminance", "red", "green", "blue", "max")
-POLARITIES = ("bright", "dark")
 WINDOW_LIMIT_BYTES = 1_000_000_000
 
-#: Weights of the channel mixes that ``to_grey(policy="auto")`` chooses among. Luminance uses the
-#: ITU-R BT.601 luma weights, as OpenCV and Pillow do.
-MIX_WEIGHTS = {
-    "luminance": (0.299, 0.587, 0.114),
-    "red": (1.0, 0.0, 0.0),
-    "green": (0.0, 1.0, 0.0),
-    "blue": (0.0, 0.0, 1.0),
-}
 #: How many decoded JPEG/PNG files stay in memory between calls.
 DECODED_CACHE = 2
-#: Noise floor (grey levels in [0, 1]) for float windows, which have no quantisation step.
-FLOAT_NOISE_FLOOR = 1e-6
-
 _TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 _JPEG_MAGIC = b"\xff\xd8\xff"
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -181,126 +162,6 @@ def segment_indices(
     cols = np.arange(x0 // seg_cols, (x1 - 1) // seg_cols + 1)
     in_plane = (rows[:, None] * across + cols[None, :]).ravel()
     return (np.arange(planes)[:, None] * per_plane + in_plane[None, :]).ravel()
-
-
-# --------------------------------------------------------------------------------------------------
-# Grey levels and colour policy (pure)
-# --------------------------------------------------------------------------------------------------
-
-
-def normalise(window: np.ndarray) -> np.ndarray:
-    """Return ``window`` as float32 grey levels in [0, 1].
-
-    Integer samples are divided by the largest value of their dtype (255 for uint8, 65535 for uint16; a
-    16-bit file that holds 12-bit data is still divided by 65535: the bit depth is not guessed). Float
-    samples are returned unchanged, as float32.
-    """
-    array = np.asarray(window)
-    if array.dtype.kind in "ui":
-        return array.astype(np.float32) / np.float32(np.iinfo(array.dtype).max)
-    if array.dtype.kind == "f":
-        return array.astype(np.float32, copy=False)
-    raise AerofidInputError(
-        f"cannot use samples of type {array.dtype} as grey levels; give integer or float samples"
-    )
-
-
-def _noise_floor(dtype: np.dtype) -> float:
-    """Smallest noise level worth believing for samples of ``dtype``, in [0, 1] grey levels."""
-    if dtype.kind in "ui":
-        return 1.0 / float(np.iinfo(dtype).max)
-    return FLOAT_NOISE_FLOOR
-
-
-def mark_contrast(grey: np.ndarray, polarity: str = "bright", *, noise_floor: float) -> float:
-    """Contrast of a mark in a grey window relative to the window's robust noise.
-
-    For ``polarity="bright"`` the signal is the 99th percentile minus the median; for ``"dark"`` it is the
-    median minus the 1st percentile. The noise is the median absolute deviation of the window, scaled to a
-    Gaussian sigma (x 1.4826) and floored at ``noise_floor`` so that a flat background does not divide by 0.
-    """
-    _check_choice(polarity, POLARITIES, "polarity")
-    low, median, high = np.percentile(grey, (1.0, 50.0, 99.0))
-    signal = high - median if polarity == "bright" else median - low
-    noise = MAD_TO_SIGMA * float(np.median(np.abs(grey - median)))
-    return float(signal) / max(noise, noise_floor)
-
-
-def channel_mix(rgb: np.ndarray, mix: str) -> np.ndarray:
-    """Mix an ``(h, w, 3)`` float window to grey: ``"max"`` of the channels, or a weighted sum from
-    :data:`MIX_WEIGHTS` (``"luminance"``, ``"red"``, ``"green"``, ``"blue"``)."""
-    if mix == "max":
-        return rgb.max(axis=-1)
-    return rgb @ np.asarray(MIX_WEIGHTS[mix], dtype=np.float32)
-
-
-MIX_CENTRE_MIN = 32
-"""Windows at least this many px across judge the channel mixes on their central half (below: the whole)."""
-
-
-def _best_mix(rgb: np.ndarray, polarity: str, noise_floor: float) -> str:
-    """Name of the mix in :data:`MIX_WEIGHTS` whose grey window gives the mark the most contrast, judged on
-    the window's central half (each side a quarter in) when it is at least :data:`MIX_CENTRE_MIN` px across:
-    the user boxes the mark, and the box's margins may hold the bright aerial image area beside a notch,
-    which is brightest in whichever channel its colour favours (a red RC20 midside mark next to cyan water
-    picked blue on the whole box)."""
-    h, w = rgb.shape[:2]
-    if min(h, w) >= MIX_CENTRE_MIN:
-        rgb = rgb[h // 4:h - h // 4, w // 4:w - w // 4]
-    scores = [
-        mark_contrast(channel_mix(rgb, mix), polarity, noise_floor=noise_floor) for mix in MIX_WEIGHTS
-    ]
-    return list(MIX_WEIGHTS)[int(np.argmax(scores))]
-
-
-def _rgb_window(window: np.ndarray) -> np.ndarray:
-    """Return ``window`` if it is a non-empty ``(h, w)`` or ``(h, w, 3)`` array, else raise."""
-    array = np.asarray(window)
-    if array.size == 0 or not (array.ndim == 2 or (array.ndim == 3 and array.shape[2] == 3)):
-        raise AerofidInputError(
-            f"window of shape {array.shape} is not a non-empty grey (h, w) or RGB (h, w, 3) array; "
-            "read it with Raster.read_window()"
-        )
-    return array
-
-
-def choose_channel_mix(window: np.ndarray, polarity: str = "bright") -> str:
-    """The channel mix (``"luminance"``, ``"red"``, ``"green"`` or ``"blue"``) that ``to_grey(window,
-    "auto", polarity)`` uses for an RGB window: the one with the largest :func:`mark_contrast`, the noise
-    floored at one quantisation step of the window's dtype. Ties go to luminance."""
-    _check_choice(polarity, POLARITIES, "polarity")
-    array = _rgb_window(window)
-    if array.ndim == 2:
-        raise AerofidInputError("window is grey; a channel mix needs an RGB (h, w, 3) window")
-    return _best_mix(normalise(array), polarity, _noise_floor(array.dtype))
-
-
-def to_grey(window: np.ndarray, policy: str = "auto", polarity: str = "bright") -> np.ndarray:
-    """Turn a window into float32 grey levels in [0, 1] by a colour policy.
-
-    Args:
-        window: ``(h, w)`` grey or ``(h, w, 3)`` RGB samples, as :meth:`Raster.read_window` returns them.
-        policy: one of :data:`COLOUR_POLICIES`. ``"auto"`` picks, per window, the mix among luminance,
-            red, green and blue that gives the mark the most contrast (:func:`choose_channel_mix`): colour
-            scans often print the marks in red on a black film border, where luminance loses most of the
-            contrast. ``"max"`` takes the brightest channel of each pixel. Grey windows ignore the policy.
-        polarity: ``"bright"`` (mark brighter than its surround, most fiducials) or ``"dark"``; only
-            ``"auto"`` uses it.
-    """
-    _check_choice(policy, COLOUR_POLICIES, "colour policy")
-    _check_choice(polarity, POLARITIES, "polarity")
-    array = _rgb_window(window)
-    grey = normalise(array)
-    if array.ndim == 2:
-        return grey
-    mix = _best_mix(grey, polarity, _noise_floor(array.dtype)) if policy == "auto" else policy
-    return channel_mix(grey, mix)
-
-
-def _check_choice(value: str, choices: Sequence[str], what: str) -> None:
-    """Raise :class:`AerofidInputError` unless ``value`` is one of ``choices``."""
-    if value not in choices:
-        raise AerofidInputError(f"unknown {what} {value!r}; use one of {', '.join(choices)}")
 
 
 # --------------------------------------------------------------------------------------------------
@@ -468,7 +329,7 @@ class _TiffSegmentReader:
 
     def close(self) -> None:
         """Drop the page and file handle (the :class:`Raster` closes the file itself)."""
-        self._page = self._filehandle = None
+        del self._page, self._filehandle
 
 
 class Raster:
@@ -508,8 +369,8 @@ class Raster:
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""
         try:
-            self._tif = tifffile.TiffFile(self.path)
-            page = self._tif.pages[0]
+            tif = self._tif = tifffile.TiffFile(self.path)
+            page = tif.pages.first
         except Exception as exc:  # tifffile raises many types for corrupt files
             self.close()
             raise AerofidInputError(
@@ -517,7 +378,7 @@ class Raster:
             ) from exc
         try:
             self._describe_tiff_page(page)
-            self._reader = self._tiff_reader(page)
+            self._reader = self._tiff_reader(tif, page)
         except AerofidInputError:
             self.close()
             raise
@@ -547,16 +408,16 @@ class Raster:
                 "aerofid reads grey or RGB TIFFs: convert the scan to one of these"
             )
 
-    def _tiff_reader(self, page: tifffile.TiffPage) -> _ArrayReader | _TiffSegmentReader:
+    def _tiff_reader(self, tif: tifffile.TiffFile, page: tifffile.TiffPage) -> _ArrayReader | _TiffSegmentReader:
         """The cheapest reader that can window ``page``: memory map, segments, or whole-page decode."""
         if page.is_memmappable:
-            file_dtype = np.dtype(self._tif.byteorder + page.dtype.char)
+            file_dtype = np.dtype(tif.byteorder + self.dtype.char)
             return _ArrayReader(
                 lambda: _hwc(
                     np.memmap(self.path, file_dtype, "r", offset=page.dataoffsets[0], shape=page.shaped)
                 )
             )
-        segments = _TiffSegmentReader(self._tif, page)
+        segments = _TiffSegmentReader(tif, page)
         if page.jpegheader is None and len(page.dataoffsets) == segments.expected_segments():
             return segments
         return _ArrayReader(lambda: _hwc(page.asarray(squeeze=False)))

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from aerofid.errors import AerofidInputError
+from aerofid.orientation.measurements import finite_number
 
 #: Largest plausible |coordinate| of a fiducial, mm (the largest film formats are 23 x 46 cm).
 MAX_FIDUCIAL_MM = 500.0
@@ -49,7 +50,7 @@ class Fiducial:
     style: str | None = None
 
     def to_dict(self) -> dict:
-        d = {"x": self.x_mm, "y": self.y_mm}
+        d: dict[str, Any] = {"x": self.x_mm, "y": self.y_mm}
         if self.style:
             d["style"] = self.style
         return d
@@ -201,31 +202,11 @@ class Camera:
 
 # ---------------------------------------------------------------------------------------------------
 def _validate(cam: Camera) -> None:
+    """Raise an input error naming the problem unless the certificate is plausible."""
     where = f" in {cam.source!r}" if cam.source else ""
     if cam.y_axis not in ("up", "down"):
         raise AerofidInputError(f"'y_axis' must be 'up' or 'down', not {cam.y_axis!r}{where}")
-    names = [f.name for f in cam.fiducials]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise AerofidInputError(f"duplicate fiducial name(s) {', '.join(dup)}{where}")
-    if len(cam.fiducials) < 3:
-        raise AerofidInputError(
-            f"camera {cam.name!r} has {len(cam.fiducials)} fiducial(s); at least 3 are needed{where}")
-    for f in cam.fiducials:
-        for v in (f.x_mm, f.y_mm):
-            if not math.isfinite(v) or abs(v) > MAX_FIDUCIAL_MM:
-                raise AerofidInputError(
-                    f"fiducial {f.name!r} at ({f.x_mm}, {f.y_mm}) mm is implausible (|x|, |y| <= "
-                    f"{MAX_FIDUCIAL_MM:g} mm expected){where}")
-    xy = np.array([[f.x_mm, f.y_mm] for f in cam.fiducials])
-    for i in range(len(xy)):
-        for j in range(i + 1, len(xy)):
-            if np.hypot(*(xy[i] - xy[j])) < 1e-3:
-                raise AerofidInputError(f"fiducials {names[i]!r} and {names[j]!r} have the same coordinates{where}")
-    centred = xy - xy.mean(axis=0)
-    sv = np.linalg.svd(centred, compute_uv=False)
-    if sv[-1] < 1e-6 * max(sv[0], 1e-12):
-        raise AerofidInputError(f"the fiducials of camera {cam.name!r} are collinear{where}")
+    _validate_fiducials(cam, where)
     if cam.focal_length_mm is not None and not (FOCAL_RANGE_MM[0] <= cam.focal_length_mm <= FOCAL_RANGE_MM[1]):
         raise AerofidInputError(f"focal length {cam.focal_length_mm} mm is implausible{where}")
     if cam.pixel_size_um is not None and not (PIXEL_SIZE_RANGE_UM[0] <= cam.pixel_size_um <= PIXEL_SIZE_RANGE_UM[1]):
@@ -235,20 +216,32 @@ def _validate(cam: Camera) -> None:
             raise AerofidInputError(f"principal point {label} {pp} mm is implausible{where}")
 
 
-def _number(v: Any, what: str, where: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-        raise AerofidInputError(f"{what} must be a number, not {v!r}{where}")
-    try:
-        x = float(v)
-    except ValueError:
-        raise AerofidInputError(f"{what} must be a number, not {v!r}{where}") from None
-    if not math.isfinite(x):
-        raise AerofidInputError(f"{what} must be a finite number, not {v!r}{where}")
-    return x
+def _validate_fiducials(cam: Camera, where: str) -> None:
+    """Unique names, at least 3, plausible coordinates, no two alike, not collinear."""
+    names = [f.name for f in cam.fiducials]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise AerofidInputError(f"duplicate fiducial name(s) {', '.join(dup)}{where}")
+    if len(cam.fiducials) < 3:
+        raise AerofidInputError(
+            f"camera {cam.name!r} has {len(cam.fiducials)} fiducial(s); at least 3 are needed{where}")
+    for f in cam.fiducials:
+        if not all(math.isfinite(v) and abs(v) <= MAX_FIDUCIAL_MM for v in (f.x_mm, f.y_mm)):
+            raise AerofidInputError(
+                f"fiducial {f.name!r} at ({f.x_mm}, {f.y_mm}) mm is implausible (|x|, |y| <= "
+                f"{MAX_FIDUCIAL_MM:g} mm expected){where}")
+    xy = np.array([[f.x_mm, f.y_mm] for f in cam.fiducials])
+    for i in range(len(xy)):
+        for j in range(i + 1, len(xy)):
+            if np.hypot(*(xy[i] - xy[j])) < 1e-3:
+                raise AerofidInputError(f"fiducials {names[i]!r} and {names[j]!r} have the same coordinates{where}")
+    sv = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
+    if sv[-1] < 1e-6 * max(sv[0], 1e-12):
+        raise AerofidInputError(f"the fiducials of camera {cam.name!r} are collinear{where}")
 
 
 def _opt_number(v: Any, what: str, where: str) -> float | None:
-    return None if v is None else _number(v, what, where)
+    return None if v is None else finite_number(v, what, where)
 
 
 def _opt_pair(v: Any, what: str, where: str) -> tuple[float, float] | None:
@@ -258,7 +251,7 @@ def _opt_pair(v: Any, what: str, where: str) -> tuple[float, float] | None:
         v = [v.get("x"), v.get("y")]
     if not isinstance(v, (list, tuple)) or len(v) != 2:
         raise AerofidInputError(f"{what} must be [x_mm, y_mm]{where}")
-    return _number(v[0], what, where), _number(v[1], what, where)
+    return finite_number(v[0], what, where), finite_number(v[1], what, where)
 
 
 def _fiducial(name: str, v: Any, where: str) -> Fiducial:
@@ -272,5 +265,5 @@ def _fiducial(name: str, v: Any, where: str) -> Fiducial:
         v = [v.get("x"), v.get("y")]
     if not isinstance(v, (list, tuple)) or len(v) != 2:
         raise AerofidInputError(f"fiducial {name!r} must be [x_mm, y_mm] or {{x, y}}, not {v!r}{where}")
-    return Fiducial(name.strip(), _number(v[0], f"fiducial {name!r} x", where),
-                    _number(v[1], f"fiducial {name!r} y", where), style)
+    return Fiducial(name.strip(), finite_number(v[0], f"fiducial {name!r} x", where),
+                    finite_number(v[1], f"fiducial {name!r} y", where), style)

@@ -193,7 +193,7 @@ class SimilarityTransform(AffineTransform):
     (True, [0.02, 0.0, -100.0, 100.0])
     """
 
-    reflected: bool = field(default=False)  # type: ignore[assignment]
+    reflected: bool = field(default=False)
     model: ClassVar[str] = "similarity"
     n_params: ClassVar[int] = 4
     min_points: ClassVar[int] = 2

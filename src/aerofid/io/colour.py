@@ -1,0 +1,153 @@
+"""Grey levels from scan windows: normalisation to [0, 1] and the colour policy (which channel mix turns an
+RGB window into grey, chosen per window by the contrast it gives the mark). Pure functions on arrays; reading
+windows lives in :mod:`aerofid.io.raster`."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from aerofid.conventions import POLARITIES, Polarity
+from aerofid.errors import AerofidInputError
+from aerofid.robust import MAD_TO_SIGMA
+
+__all__ = [
+    "COLOUR_POLICIES",
+    "MIX_WEIGHTS",
+    "channel_mix",
+    "choose_channel_mix",
+    "mark_contrast",
+    "normalise",
+    "to_grey",
+]
+
+COLOUR_POLICIES = ("auto", "luminance", "red", "green", "blue", "max")
+
+#: Weights of the channel mixes that ``to_grey(policy="auto")`` chooses among. Luminance uses the
+#: ITU-R BT.601 luma weights, as OpenCV and Pillow do.
+MIX_WEIGHTS = {
+    "luminance": (0.299, 0.587, 0.114),
+    "red": (1.0, 0.0, 0.0),
+    "green": (0.0, 1.0, 0.0),
+    "blue": (0.0, 0.0, 1.0),
+}
+#: Noise floor (grey levels in [0, 1]) for float windows, which have no quantisation step.
+FLOAT_NOISE_FLOOR = 1e-6
+
+
+
+
+def normalise(window: np.ndarray) -> np.ndarray:
+    """Return ``window`` as float32 grey levels in [0, 1].
+
+    Integer samples are divided by the largest value of their dtype (255 for uint8, 65535 for uint16; a
+    16-bit file that holds 12-bit data is still divided by 65535: the bit depth is not guessed). Float
+    samples are returned unchanged, as float32.
+    """
+    array = np.asarray(window)
+    if array.dtype.kind in "ui":
+        return array.astype(np.float32) / np.float32(np.iinfo(array.dtype).max)
+    if array.dtype.kind == "f":
+        return array.astype(np.float32, copy=False)
+    raise AerofidInputError(
+        f"cannot use samples of type {array.dtype} as grey levels; give integer or float samples"
+    )
+
+
+def _noise_floor(dtype: np.dtype) -> float:
+    """Smallest noise level worth believing for samples of ``dtype``, in [0, 1] grey levels."""
+    if dtype.kind in "ui":
+        return 1.0 / float(np.iinfo(dtype).max)
+    return FLOAT_NOISE_FLOOR
+
+
+def mark_contrast(grey: np.ndarray, polarity: Polarity = "bright", *, noise_floor: float) -> float:
+    """Contrast of a mark in a grey window relative to the window's robust noise.
+
+    For ``polarity="bright"`` the signal is the 99th percentile minus the median; for ``"dark"`` it is the
+    median minus the 1st percentile. The noise is the median absolute deviation of the window, scaled to a
+    Gaussian sigma (x 1.4826) and floored at ``noise_floor`` so that a flat background does not divide by 0.
+    """
+    _check_choice(polarity, POLARITIES, "polarity")
+    low, median, high = np.percentile(grey, (1.0, 50.0, 99.0))
+    signal = high - median if polarity == "bright" else median - low
+    noise = MAD_TO_SIGMA * float(np.median(np.abs(grey - median)))
+    return float(signal) / max(noise, noise_floor)
+
+
+def channel_mix(rgb: np.ndarray, mix: str) -> np.ndarray:
+    """Mix an ``(h, w, 3)`` float window to grey: ``"max"`` of the channels, or a weighted sum from
+    :data:`MIX_WEIGHTS` (``"luminance"``, ``"red"``, ``"green"``, ``"blue"``)."""
+    if mix == "max":
+        return rgb.max(axis=-1)
+    return rgb @ np.asarray(MIX_WEIGHTS[mix], dtype=np.float32)
+
+
+MIX_CENTRE_MIN = 32
+"""Windows at least this many px across judge the channel mixes on their central half (below: the whole)."""
+
+
+def _best_mix(rgb: np.ndarray, polarity: Polarity, noise_floor: float) -> str:
+    """Name of the mix in :data:`MIX_WEIGHTS` whose grey window gives the mark the most contrast, judged on
+    the window's central half (each side a quarter in) when it is at least :data:`MIX_CENTRE_MIN` px across:
+    the user boxes the mark, and the box's margins may hold the bright aerial image area beside a notch,
+    which is brightest in whichever channel its colour favours (a red RC20 midside mark next to cyan water
+    picked blue on the whole box)."""
+    h, w = rgb.shape[:2]
+    if min(h, w) >= MIX_CENTRE_MIN:
+        rgb = rgb[h // 4:h - h // 4, w // 4:w - w // 4]
+    scores = [
+        mark_contrast(channel_mix(rgb, mix), polarity, noise_floor=noise_floor) for mix in MIX_WEIGHTS
+    ]
+    return list(MIX_WEIGHTS)[int(np.argmax(scores))]
+
+
+def _rgb_window(window: np.ndarray) -> np.ndarray:
+    """Return ``window`` if it is a non-empty ``(h, w)`` or ``(h, w, 3)`` array, else raise."""
+    array = np.asarray(window)
+    if array.size == 0 or not (array.ndim == 2 or (array.ndim == 3 and array.shape[2] == 3)):
+        raise AerofidInputError(
+            f"window of shape {array.shape} is not a non-empty grey (h, w) or RGB (h, w, 3) array; "
+            "read it with Raster.read_window()"
+        )
+    return array
+
+
+def choose_channel_mix(window: np.ndarray, polarity: Polarity = "bright") -> str:
+    """The channel mix (``"luminance"``, ``"red"``, ``"green"`` or ``"blue"``) that ``to_grey(window,
+    "auto", polarity)`` uses for an RGB window: the one with the largest :func:`mark_contrast`, the noise
+    floored at one quantisation step of the window's dtype. Ties go to luminance."""
+    _check_choice(polarity, POLARITIES, "polarity")
+    array = _rgb_window(window)
+    if array.ndim == 2:
+        raise AerofidInputError("window is grey; a channel mix needs an RGB (h, w, 3) window")
+    return _best_mix(normalise(array), polarity, _noise_floor(array.dtype))
+
+
+def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "bright") -> np.ndarray:
+    """Turn a window into float32 grey levels in [0, 1] by a colour policy.
+
+    Args:
+        window: ``(h, w)`` grey or ``(h, w, 3)`` RGB samples, as :meth:`Raster.read_window` returns them.
+        policy: one of :data:`COLOUR_POLICIES`. ``"auto"`` picks, per window, the mix among luminance,
+            red, green and blue that gives the mark the most contrast (:func:`choose_channel_mix`): colour
+            scans often print the marks in red on a black film border, where luminance loses most of the
+            contrast. ``"max"`` takes the brightest channel of each pixel. Grey windows ignore the policy.
+        polarity: ``"bright"`` (mark brighter than its surround, most fiducials) or ``"dark"``; only
+            ``"auto"`` uses it.
+    """
+    _check_choice(policy, COLOUR_POLICIES, "colour policy")
+    _check_choice(polarity, POLARITIES, "polarity")
+    array = _rgb_window(window)
+    grey = normalise(array)
+    if array.ndim == 2:
+        return grey
+    mix = _best_mix(grey, polarity, _noise_floor(array.dtype)) if policy == "auto" else policy
+    return channel_mix(grey, mix)
+
+
+def _check_choice(value: str, choices: Sequence[str], what: str) -> None:
+    """Raise :class:`AerofidInputError` unless ``value`` is one of ``choices``."""
+    if value not in choices:
+        raise AerofidInputError(f"unknown {what} {value!r}; use one of {', '.join(choices)}")

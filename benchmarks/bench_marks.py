@@ -27,8 +27,7 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
 from aerofid import synth, testing  # noqa: E402
-from aerofid.detect.params import MethodParams  # noqa: E402
-from aerofid.detect.registry import METHODS as REGISTRY  # noqa: E402
+from aerofid.locate import make_detector  # noqa: E402
 
 cv2.setNumThreads(1)
 
@@ -40,16 +39,11 @@ LABEL = {"cross": "cross", "panel": "cloth panel (aerial ground)", "ring_x_dot":
 RADIUS = testing.MARK_RADIUS
 
 
-def method_params(method: str, mark: str) -> MethodParams:
-    """The method's default parameters, with ``mark`` for the methods that take one (``hough``, ``auto``)."""
-    p = REGISTRY[method].params_type()
-    return p.replace(mark=mark) if "mark" in p.names() else p
-
-
 def run_method(method: str, img: np.ndarray, mark: str):
-    params = method_params(method, mark)
+    """The method as ``locate`` configures it (default parameters, ``mark`` for those that take one)."""
+    detector = make_detector(method, mark, {})
     t = time.perf_counter()
-    d = REGISTRY[method].detect(img, params)
+    d = detector(img)
     return d, time.perf_counter() - t
 
 

@@ -20,7 +20,14 @@ from aerofid.orientation.correspondence import (
     match_fiducials,
 )
 from aerofid.orientation.interior import orient
-from aerofid.orientation.transform import ProjectiveTransform
+from aerofid.orientation.transform import (
+    MODELS,
+    TRANSFORMS,
+    AffineTransform,
+    ProjectiveTransform,
+    SimilarityTransform,
+    transform_class,
+)
 from conftest import realdata_path
 
 # --- Seed 004 (Sohn et al.), table 3 (calibrated mm and Hough crossing points) ---------------------
@@ -91,6 +98,7 @@ def _hartzell(frame: str):
     cam = Camera.from_dict({"name": "dec_1", "fiducials": {str(int(r[0])): [r[1], r[2]] for r in known}})
     # the lab's image coordinates have y up (negative rows); ours are rows: y = -value
     pts = {str(int(r[0])): [r[1], -r[2]] for r in obs}
+    assert len(pts) == len(cam.fiducials) == 8   # every fiducial measured: the loops below check 8 marks
     return cam, pts
 
 
@@ -361,3 +369,54 @@ def test_match_fiducials_noise_free_symmetric_square_is_ambiguous():
     px = ProjectiveTransform(SCAN)(sq)
     corr = match_fiducials(px, sq, "affine")
     assert corr.status == "ambiguous"
+
+
+# --- Transformation objects ------------------------------------------------------------------------------
+@pytest.mark.parametrize("model", MODELS)
+def test_fit_returns_the_model_transform_whose_params_rebuild_it(model):
+    fit = adjust(SEED_PX, SEED_MM, model)
+    T = fit.transform
+    assert type(T) is TRANSFORMS[model] and T.model == model and len(T.params) == T.n_params
+    back = type(T).from_params(T.params, T.reflected)
+    np.testing.assert_array_equal(back.matrix, T.matrix)
+    # residuals are the lengths of the corrections v = adjusted - calibrated
+    np.testing.assert_allclose(T.residuals(SEED_PX, SEED_MM), np.hypot(*fit.v.reshape(-1, 2).T), rtol=1e-9, atol=1e-9)
+
+
+def test_inverse_keeps_the_model_and_maps_back():
+    T = SimilarityTransform.from_params([0.021, 0.001, -110.0, 120.0], reflected=True)
+    Ti = T.inverse
+    assert type(Ti) is SimilarityTransform and Ti.reflected and Ti.matrix[2, 2] == 1.0
+    np.testing.assert_allclose(Ti(T(SEED_PX)), SEED_PX, atol=1e-9)
+    A = AffineTransform([[0.021, 0.0001, -110.0], [0.0002, -0.021, 120.0]])
+    assert A.matrix.shape == (3, 3) and type(A.inverse) is AffineTransform
+    np.testing.assert_allclose(A.inverse.matrix[2], [0, 0, 1], atol=1e-15)
+
+
+def test_jacobian_of_a_projective_transform_matches_finite_differences():
+    T = ProjectiveTransform([[0.021, 0.0003, -110.0], [0.0002, -0.021, 120.0], [2e-7, -1e-7, 1.0]])
+    x = np.array([3000.0, 4000.0])
+    h = 1e-3
+    numeric = np.stack([(T(x + d) - T(x - d))[0] / (2 * h) for d in (np.array([h, 0]), np.array([0, h]))], axis=1)
+    np.testing.assert_allclose(T.jacobian(x), numeric, rtol=1e-7)
+
+
+def test_transform_matrix_is_read_only_and_unknown_model_is_a_clear_error():
+    T = AffineTransform(np.eye(3))
+    with pytest.raises(ValueError):
+        T.matrix[0, 0] = 2.0
+    with pytest.raises(AerofidInputError, match="similarity, affine, projective"):
+        transform_class("helmert")
+    with pytest.raises(AerofidInputError, match="unknown model"):
+        orient(seed_camera(), dict(zip(SEED_NAMES, SEED_PX)), "helmert")
+
+
+def test_interior_orientation_exposes_the_transform_and_its_matrices():
+    res = orient(seed_camera(), dict(zip(SEED_NAMES, SEED_PX)))
+    assert isinstance(res.transform, AffineTransform)
+    np.testing.assert_array_equal(res.pixel_to_mm, res.transform.matrix)
+    np.testing.assert_array_equal(res.mm_to_pixel, res.transform.inverse.matrix)
+    np.testing.assert_array_equal(res.params, adjust(SEED_PX, SEED_MM).params)
+    np.testing.assert_allclose(res.to_pixel(res.to_mm(SEED_PX)), SEED_PX, atol=1e-9)
+    d = res.to_dict()
+    assert d["pixel_to_mm"] == res.pixel_to_mm[:2].tolist() and d["mm_to_pixel"] == res.mm_to_pixel[:2].tolist()

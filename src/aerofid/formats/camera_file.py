@@ -19,7 +19,34 @@ from aerofid.orientation.camera import Camera
 
 
 def read_camera(path: str | Path) -> Camera:
-    """Read a camera file: ``.json``, ``.yaml``/``.yml`` or MicMac ``.xml`` (MeasuresCamera)."""
+    """Read a camera file: ``.json``, ``.yaml``/``.yml`` or MicMac ``.xml`` (MeasuresCamera).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file; its extension says the format (anything but ``.xml``, ``.yaml`` and ``.yml`` is JSON).
+
+    Returns
+    -------
+    Camera
+
+    Raises
+    ------
+    AerofidInputError
+        The file is missing or unreadable, not valid JSON/YAML/XML, has duplicate keys, or describes an
+        implausible camera (see :class:`aerofid.orientation.camera.Camera`).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "rc30.yaml").write_text(
+    ...     "name: RC30\\nfocal_length_mm: 152.85\\nfiducials:\\n"
+    ...     "  UL: [-106, 106]\\n  UR: [106, 106]\\n  LL: [-106, -106]\\n  LR: [106, -106]\\n")
+    >>> cam = read_camera(folder / "rc30.yaml")
+    >>> cam.names, cam.focal_length_mm, cam.y_axis
+    (('UL', 'UR', 'LL', 'LR'), 152.85, 'up')
+    """
     path = Path(path)
     if not path.is_file():
         raise AerofidInputError(f"camera file {str(path)!r} does not exist")
@@ -41,7 +68,23 @@ def read_camera(path: str | Path) -> Camera:
 
 
 def write_camera(path: str | Path, camera: Camera) -> None:
-    """Write ``camera`` as JSON, YAML (by extension) or MicMac MeasuresCamera ``.xml``, atomically."""
+    """Write ``camera`` as JSON, YAML (by extension) or MicMac MeasuresCamera ``.xml``, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file: ``.yaml``/``.yml``, ``.xml`` (MicMac keeps only the fiducials), anything else JSON.
+    camera : Camera
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> cam = Camera.from_dict({"name": "c", "fiducials": {"P1": [-100, 0], "P2": [100, 0], "P3": [0, 100]}})
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "c.json"
+    >>> write_camera(path, cam)
+    >>> read_camera(path) == cam
+    True
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".xml":

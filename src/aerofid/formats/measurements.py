@@ -30,7 +30,34 @@ from aerofid.orientation.measurements import (
 
 
 def read_measurements(path: str | Path, image: str | None = None) -> Measurements:
-    """Read measurements from ``.json``, ``.csv``/``.txt`` or MicMac ``.xml`` (by extension)."""
+    """Read measurements from ``.json``, ``.csv``/``.txt``/``.tsv`` or MicMac ``.xml`` (by extension).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (formats: module docstring).
+    image : str or None
+        MicMac: which image's measures to take when the file holds several; CSV: the image's name (default:
+        from a ``MeasuresIm-<image>.csv`` file name, else empty).
+
+    Returns
+    -------
+    Measurements
+
+    Raises
+    ------
+    AerofidInputError
+        Missing or unreadable file, unknown extension, bad numbers, duplicate or missing names.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "MeasuresIm-scan.tif.csv"
+    >>> _ = path.write_text("name,x,y\\nP1,167.5,212.5\\nP2,5215,234\\nP3,148.5,5259.5\\n")
+    >>> m = read_measurements(path)
+    >>> m.names, m.image, m.xy[1].tolist()
+    (('P1', 'P2', 'P3'), 'scan.tif', [5215.0, 234.0])
+    """
     path = Path(path)
     if not path.is_file():
         raise AerofidInputError(f"measurements file {str(path)!r} does not exist")
@@ -53,7 +80,21 @@ def read_measurements(path: str | Path, image: str | None = None) -> Measurement
 
 
 def write_measurements(path: str | Path, m: Measurements) -> None:
-    """Write measurements as ``.json``, ``.csv`` or MicMac ``.xml`` (by extension), atomically."""
+    """Write measurements as ``.json``, ``.csv``/``.txt`` or MicMac ``.xml`` (by extension), atomically.
+
+    Numbers are written in full (the shortest text that reads back to the same float), so a round trip
+    is exact. MicMac files need named points.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> m = Measurements(np.array([[167.5, 212.5], [5215.0, 234.0]]), ("P1", "P2"), "scan.tif")
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "m.json"
+    >>> write_measurements(path, m)
+    >>> back = read_measurements(path)
+    >>> back.names == m.names and bool((back.xy == m.xy).all())
+    True
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".xml":

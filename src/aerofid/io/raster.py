@@ -477,5 +477,37 @@ class Raster:
 
 
 def open_raster(path: str | os.PathLike[str]) -> Raster:
-    """Open a scan (TIFF/BigTIFF/GeoTIFF, JPEG or PNG) for windowed reading; see :class:`Raster`."""
+    """Open a scan (TIFF/BigTIFF/GeoTIFF, JPEG or PNG) for windowed reading.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its format is recognised from its first bytes.
+
+    Returns
+    -------
+    Raster
+        Use it as a context manager (or call :meth:`Raster.close`) and read windows with
+        :meth:`Raster.read_window`.
+
+    Raises
+    ------
+    AerofidInputError
+        Missing, unreadable, unsupported or corrupt file (one line saying what to do).
+
+    Examples
+    --------
+    A tiled 16-bit TIFF, of which one window is read:
+
+    >>> import tempfile, pathlib, tifffile
+    >>> image = np.arange(300 * 200, dtype=np.uint16).reshape(300, 200)
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "scan.tif"
+    >>> tifffile.imwrite(path, image, tile=(64, 64))
+    >>> with open_raster(path) as scan:
+    ...     window = scan.read_window((10, 20, 50, 60))         # (x0, y0, x1, y1), x1 and y1 exclusive
+    ...     print(scan.width, scan.height, scan.bands, scan.tiled)
+    200 300 1 True
+    >>> bool((window == image[20:60, 10:50]).all())
+    True
+    """
     return Raster(path)

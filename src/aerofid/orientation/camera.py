@@ -58,16 +58,39 @@ class Fiducial:
 
 @dataclass(frozen=True)
 class Camera:
-    """A camera's calibration certificate as far as interior orientation needs it.
+    """A camera's calibration certificate as far as interior orientation needs it; validated when made.
 
-    Attributes:
-        name: camera name (make, model, serial, report number...).
-        fiducials: the calibrated fiducials, in file order.
-        focal_length_mm: calibrated focal length, or None.
-        ppa_mm: principal point of autocollimation (x, y) in mm, or None.
-        pbs_mm: principal point of best symmetry (x, y) in mm, or None.
-        pixel_size_um: nominal scan pixel size, or None.
-        y_axis: ``"up"`` (certificate convention) or ``"down"`` (image-like, e.g. MicMac's corner origin).
+    Attributes
+    ----------
+    name : str
+        Camera name (make, model, serial, report number...).
+    fiducials : tuple of Fiducial
+        The calibrated fiducials, in file order (at least 3, unique names, not collinear).
+    focal_length_mm : float or None
+        Calibrated focal length.
+    ppa_mm, pbs_mm : tuple of float or None
+        Principal point of autocollimation / of best symmetry (x, y) in mm.
+    pixel_size_um : float or None
+        Nominal scan pixel size.
+    y_axis : str
+        ``"up"`` (certificate convention) or ``"down"`` (image-like, e.g. MicMac's corner origin).
+    source : str
+        The file it was read from (not compared).
+
+    Raises
+    ------
+    AerofidInputError
+        An implausible certificate (duplicate names, fewer than 3 fiducials, coordinates beyond 500 mm,
+        coincident or collinear fiducials, implausible focal length or pixel size).
+
+    Examples
+    --------
+    >>> cam = Camera.from_dict({"name": "RC10", "principal_point": {"ppa": [0.01, -0.02]},
+    ...                         "fiducials": {"1": [-106, -106], "2": [106, 106], "3": [-106, 106], "4": [106, -106]}})
+    >>> cam.names, cam.xy_mm.shape, cam.principal_point_mm
+    (('1', '2', '3', '4'), (4, 2), ((0.01, -0.02), 'ppa'))
+    >>> cam.fiducial_centre_mm()
+    (0.0, 0.0)
     """
 
     name: str

@@ -15,12 +15,24 @@ from aerofid.errors import AerofidInputError
 
 @dataclass(frozen=True)
 class Measurements:
-    """Measured fiducial centres of one scan.
+    """Measured fiducial centres of one scan; validated when made.
 
-    Attributes:
-        xy: n x 2 pixel coordinates (x = column, y = row).
-        names: the fiducial name of each point, or None when the points are unnamed.
-        image: the scan's file name (may be empty).
+    Attributes
+    ----------
+    xy : numpy.ndarray
+        n x 2 pixel coordinates (x = column, y = row), finite; anything array-like is converted.
+    names : tuple of str or None
+        The fiducial name of each point (unique), or None when the points are unnamed.
+    image : str
+        The scan's file name (may be empty).
+
+    Examples
+    --------
+    >>> m = Measurements.from_any({"P1": (167.5, 212.5), "P2": (5215.0, 234.0)}, image="scan.tif")
+    >>> m.named, m.names, m.xy.shape
+    (True, ('P1', 'P2'), (2, 2))
+    >>> Measurements.from_any([[1.0, 2.0], [3.0, 4.0]]).names is None
+    True
     """
 
     xy: np.ndarray = field(compare=False)

@@ -57,11 +57,6 @@ class Measurements:
     def named(self) -> bool:
         return self.names is not None
 
-    def as_dict(self) -> dict[str, tuple[float, float]]:
-        if self.names is None:
-            raise AerofidInputError("the measured points have no names")
-        return {n: (float(x), float(y)) for n, (x, y) in zip(self.names, self.xy)}
-
     def to_dict(self) -> dict:
         if self.names is None:
             pts: Any = [[float(x), float(y)] for x, y in self.xy]

@@ -9,6 +9,8 @@ import sys
 import numpy as np
 import pytest
 
+from aerofid import orient, read_camera, read_measurements
+
 SEED_CAM = {"name": "Wild RC30 (seed 004)", "focal_length_mm": 152.85, "pixel_size_um": 42,
             "fiducials": {"UL": [-106.000, 106.000], "UR": [105.996, 105.999], "LL": [-106.001, -106.004],
                           "LR": [105.999, -105.999]}}
@@ -152,9 +154,6 @@ def test_ambiguous_correspondence_exit_1_with_json(files, tmp_path):
 
 
 def test_python_api_mirrors_cli(files):
-    from aerofid import read_camera, read_measurements
-    from aerofid.orientation.interior import orient
-
     cam, meas = files
     res = orient(read_camera(cam), read_measurements(meas))
     r = run("--camera", cam, "--measurements", meas, "--json")

@@ -14,7 +14,7 @@ import pytest
 import aerofid
 from aerofid.formats.camera_file import read_camera
 from aerofid.io.raster import open_raster
-from aerofid.orientation.interior import adjust, apply_transform
+from aerofid.orientation.adjustment import adjust
 from conftest import realdata_path
 
 FRAME = "unbc_bc_wild_rc20/15BCC02013_114.jpg"
@@ -63,7 +63,7 @@ def test_corner_marks_fit_the_calibration_and_midsides_the_spans(centres):
     fit = adjust(px, mm, "affine")
     rms_px = float(np.sqrt(np.mean(fit.v ** 2))) / PIXEL_MM
     assert rms_px < 0.5  # measured 0.32 px (13.5 um)
-    mid = {k: apply_transform(fit.H, np.array([centres[k]]))[0] for k in MARKS if k.startswith("midside")}
+    mid = {k: fit.transform(np.array([centres[k]]))[0] for k in MARKS if k.startswith("midside")}
     span_x = np.hypot(*(mid["midside R"] - mid["midside L"]))
     span_y = np.hypot(*(mid["midside T"] - mid["midside B"]))
     # the camera file's spans, to within 2 px (measured: 12 and 32 um, i.e. 0.3 and 0.8 px)

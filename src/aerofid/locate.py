@@ -23,7 +23,8 @@ from aerofid.detect.params import MethodParams
 from aerofid.detect.registry import METHODS, route_params
 from aerofid.detect.result import Detection
 from aerofid.errors import AerofidInputError
-from aerofid.io.raster import check_window_size, clip_box, open_raster, to_grey
+from aerofid.io.colour import to_grey
+from aerofid.io.raster import check_window_size, clip_box, open_raster
 
 
 @dataclass(frozen=True)

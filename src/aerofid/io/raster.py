@@ -34,9 +34,6 @@ import tifffile
 
 from aerofid.errors import AerofidInputError
 
-# TRANSITIONAL re-export: aerofid.locate still imports to_grey from here; remove once it imports aerofid.io.colour
-from aerofid.io.colour import to_grey as to_grey  # noqa: F401
-
 __all__ = [
     "WINDOW_LIMIT_BYTES",
     "Raster",

@@ -348,11 +348,16 @@ def test_eight_arrangements_recover_names_and_are_invariant(arr, seed, drop):
 
 
 def test_named_points_from_rotated_scan_are_reassigned_in_auto_mode():
+    """An operator named the points of a scan turned by 180 degrees as if it were upright: each point carries
+    another fiducial's name. ``correspondence="auto"`` gives each point its true name back and says so."""
     pts = synthetic(scan_of((180, False)), names=ASYM)
-    wrong = dict(zip(ASYM, pts.values()))                  # correct names...
+    wrong_names = ["C", "D", "A", "B", "F", "E"]            # what an upright reading would call each point
+    wrong = dict(zip(wrong_names, pts.values()))
     res = orient(asym_camera(), wrong, "affine", correspondence="auto")
     assert [f.name for f in res.fiducials] == list(ASYM)
     assert res.correspondence.best.rotation_deg == 180
+    assert any("names were reassigned" in w for w in res.warnings)
+    assert res.rms_px < 1e-6
 
 
 def test_symmetric_layout_is_reported_ambiguous_not_guessed():

@@ -1,5 +1,6 @@
 """The folder tree is the architecture: the imports between aerofid's modules form no cycle, each layer
-imports only the layers below it, and no import hides inside a function (the way cycles were hidden before).
+imports only the layers below it, no import hides inside a function (the way cycles were hidden before), and
+every function is short enough to read at once.
 
 Layers, lowest first (a module may import its own layer and those below):
 ``conventions, errors, robust`` < ``io`` < ``detect`` < ``orientation`` < ``formats`` < ``locate, synth,
@@ -113,3 +114,19 @@ def test_no_import_inside_a_function(path):
 def test_every_part_has_a_layer():
     parts = {_part(m) for m in _graph()}
     assert parts <= set(LAYER), parts - set(LAYER)
+
+
+MAX_FUNCTION_LINES = 60
+"""A function's body (without its docstring) fits on a screen: each pipeline step is a named function."""
+
+
+@pytest.mark.parametrize("path", sorted(SRC.rglob("*.py")), ids=lambda p: str(p.relative_to(SRC)))
+def test_functions_are_short_enough_to_read_at_once(path):
+    long = []
+    for fn in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
+            body = fn.body[1:] if ast.get_docstring(fn) is not None and len(fn.body) > 1 else fn.body
+            lines = (fn.end_lineno or fn.lineno) - body[0].lineno + 1
+            if lines > MAX_FUNCTION_LINES:
+                long.append(f"{fn.name} ({lines} lines, line {fn.lineno})")
+    assert not long, long

@@ -24,7 +24,7 @@ from aerofid.detect.registry import METHODS, route_params
 from aerofid.detect.result import Detection
 from aerofid.errors import AerofidInputError
 from aerofid.io.colour import to_grey
-from aerofid.io.raster import check_window_size, clip_box, open_raster
+from aerofid.io.raster import Raster, check_window_size, clip_box, open_raster
 
 
 @dataclass(frozen=True)
@@ -100,9 +100,14 @@ def _as_array(image: np.ndarray) -> np.ndarray:
     return a
 
 
-def read_box(image: str | os.PathLike[str] | np.ndarray,
+def read_box(image: str | os.PathLike[str] | np.ndarray | Raster,
              box: Sequence[float]) -> tuple[np.ndarray, Box, bool, str | None]:
-    """The window of ``image`` under ``box`` (clipped to the image): (window, clipped box, was clipped, path)."""
+    """The window of ``image`` under ``box`` (clipped to the image): (window, clipped box, was clipped, path).
+    ``image`` may be an open :class:`~aerofid.io.raster.Raster` (several boxes, one opening)."""
+    if isinstance(image, Raster):
+        clipped, was = clip_box(box, image.width, image.height)
+        check_window_size(clipped, image.bands, image.dtype.itemsize)
+        return image.read_window(clipped), clipped, was, str(image.path)
     if isinstance(image, str | os.PathLike):
         with open_raster(image) as r:
             clipped, was = clip_box(box, r.width, r.height)
@@ -147,14 +152,15 @@ def _check_choice(value: str, choices: Sequence[str], what: str) -> None:
         raise AerofidInputError(f"unknown {what} {value!r}; use one of {', '.join(choices)}")
 
 
-def locate(image: str | os.PathLike[str] | np.ndarray, box: Sequence[float], mark: str = "auto",
+def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[float], mark: str = "auto",
            method: str = "auto", polarity: str = "bright", colour: str = "auto", **params: Any) -> Location:
     """Locate the mark inside ``box`` of ``image``.
 
     Parameters
     ----------
     image : path or ndarray
-        A path (TIFF/BigTIFF/GeoTIFF, JPEG, PNG) or a 2-D grey / (h, w, 3) RGB numpy array.
+        A path (TIFF/BigTIFF/GeoTIFF, JPEG, PNG), a 2-D grey / (h, w, 3) RGB numpy array, or a scan opened
+        once with :func:`aerofid.io.raster.open_raster` for several boxes.
     box : (x0, y0, x1, y1)
         Full-image pixels, x1 and y1 exclusive; a box partly outside the image is clipped
         (``Location.clipped``), one wholly outside is an error.

@@ -313,6 +313,7 @@ class _Trace:
 
     def found(self, best: Detection, score: float, members: list[Detection]) -> AutoResult:
         return AutoResult(status=FOUND, x=best.x, y=best.y, score=score, sigma=best.sigma, method=best.method,
+                          sigma_x=best.sigma_x, sigma_y=best.sigma_y, cov_xy=best.cov_xy,
                           members=tuple(members), **self.fields())
 
 

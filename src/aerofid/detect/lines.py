@@ -206,8 +206,8 @@ class LinesResult(Detection):
         The two refined lines (empty before the refinement).
     asymmetry : float
         Share of the structure about the intersection that changes under a half turn (NaN if not measured).
-    covariance : ndarray or None
-        2 x 2 covariance of the centre (px^2).
+    covariance : ndarray
+        2 x 2 covariance of the centre (px^2), from ``sigma_x``, ``sigma_y``, ``cov_xy`` (NaN when not found).
     score_parts : ScoreParts or None
         The parts of the score.
     """
@@ -218,7 +218,6 @@ class LinesResult(Detection):
     hough_centre: tuple[float, float] | None = None
     lines: tuple[LineFit, ...] = field(default=(), compare=False, repr=False)
     asymmetry: float = float("nan")
-    covariance: np.ndarray | None = field(default=None, compare=False, repr=False)
     score_parts: ScoreParts | None = None
 
     @property
@@ -676,7 +675,8 @@ def _locate(w: np.ndarray, params: LinesParams, fields: dict[str, Any]) -> Lines
     score = float(np.clip(min(parts.arms, parts.angle, parts.peaks, parts.fit), 0.0, 1.0))
     return LinesResult(status=FOUND, x=float(c[0]), y=float(c[1]), score=score,
                        sigma=float(0.5 * (np.sqrt(cov[0, 0]) + np.sqrt(cov[1, 1]))), method=METHOD,
-                       covariance=cov, score_parts=parts, **fields)
+                       sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
+                       cov_xy=float(cov[0, 1]), score_parts=parts, **fields)
 
 
 def detect(window: np.ndarray, params: LinesParams = DEFAULT) -> LinesResult:
@@ -696,8 +696,9 @@ def detect(window: np.ndarray, params: LinesParams = DEFAULT) -> LinesResult:
     Returns
     -------
     LinesResult
-        The intersection of the two refined lines; ``sigma`` = mean of its two standard deviations propagated
-        from the lines' fitted offsets (each with ``offset_floor``); ``score`` = min(arm balance, angle, peak
+        The intersection of the two refined lines; ``sigma_x``, ``sigma_y``, ``cov_xy`` its covariance
+        propagated from the lines' fitted offsets (each with ``offset_floor``), ``sigma`` = the mean of
+        ``sigma_x`` and ``sigma_y`` (not their RMS); ``score`` = min(arm balance, angle, peak
         balance, fit quality); the binary image, the Hough peaks and the refined lines as typed fields.
 
     Examples

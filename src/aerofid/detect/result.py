@@ -38,7 +38,12 @@ class Detection:
     score : float
         The detector's self-diagnosis in [0, 1] (1 = certain).
     sigma : float
-        Standard deviation of the centre in pixels (per axis), NaN if unknown.
+        Standard deviation of the centre in pixels (per axis), NaN if unknown. Where a method reports
+        per-axis values it is their RMS, ``sqrt((sigma_x^2 + sigma_y^2) / 2)``, unless the method's
+        docstring says otherwise (``symmetry``, ``circles`` and ``lines`` report their mean).
+    sigma_x, sigma_y, cov_xy : float
+        The centre's covariance ``[[sigma_x^2, cov_xy], [cov_xy, sigma_y^2]]`` (window pixels; NaN if
+        unknown): :attr:`covariance`.
     method : str
         Name of the method that produced it.
     reason : str
@@ -55,6 +60,8 @@ class Detection:
     (True, 110.25)
     >>> Detection.not_found("demo", "homogeneous window").to_dict()["status"]
     'not_found'
+    >>> Detection(status="found", x=1.0, y=2.0, sigma_x=0.03, sigma_y=0.04, cov_xy=0.0005).covariance.tolist()
+    [[0.0009, 0.0005], [0.0005, 0.0016]]
     """
 
     status: str = NOT_FOUND
@@ -65,6 +72,15 @@ class Detection:
     method: str = ""
     reason: str = ""
     origin: tuple[float, float] = (0.0, 0.0)
+    sigma_x: float = float("nan")
+    sigma_y: float = float("nan")
+    cov_xy: float = float("nan")
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The centre's 2 x 2 covariance (px^2) ``[[sigma_x^2, cov_xy], [cov_xy, sigma_y^2]]``, NaN where
+        unknown. A translation (:meth:`shifted`) leaves it as it is."""
+        return np.array([[self.sigma_x ** 2, self.cov_xy], [self.cov_xy, self.sigma_y ** 2]], dtype=float)
 
     @property
     def found(self) -> bool:
@@ -83,14 +99,15 @@ class Detection:
 
     def shifted(self: D, dx: float, dy: float) -> D:
         """The same answer in a window whose origin is (-dx, -dy) from this one's (e.g. from a crop back
-        to the window it was cut from)."""
+        to the window it was cut from). The covariance stays: a translation does not change it."""
         return dataclasses.replace(self, x=self.x + dx, y=self.y + dy,
                                    origin=(self.origin[0] + dx, self.origin[1] + dy))
 
     def to_dict(self) -> dict[str, Any]:
         """Scalars only (no arrays), ready for JSON (NaN becomes None)."""
         return {"status": self.status, "x": _num(self.x), "y": _num(self.y), "score": _num(self.score),
-                "sigma": _num(self.sigma), "method": self.method, "reason": self.reason}
+                "sigma": _num(self.sigma), "sigma_x": _num(self.sigma_x), "sigma_y": _num(self.sigma_y),
+                "cov_xy": _num(self.cov_xy), "method": self.method, "reason": self.reason}
 
     def plot(self, fig: Figure, window: np.ndarray) -> None:
         """Draw this method's diagnostic figure into ``fig`` for the ``window`` it saw (window pixels).
@@ -135,9 +152,27 @@ def unusable_window(window: np.ndarray, min_side: int = 8, min_range: float = 0.
     return None
 
 
+def centre_uncertainty(cov: np.ndarray, extra: tuple[float, float] = (0.0, 0.0)) -> dict[str, float]:
+    """The fields ``sigma_x``, ``sigma_y``, ``cov_xy`` and ``sigma`` (their RMS) of a centre whose covariance is
+    ``cov`` (2 x 2, px^2) plus independent per-axis terms ``extra`` (px, added in quadrature to the diagonal:
+    floors, disagreements).
+
+    Examples
+    --------
+    >>> u = centre_uncertainty(np.array([[0.0009, 0.0002], [0.0002, 0.0016]]))
+    >>> round(u["sigma_x"], 4), round(u["sigma_y"], 4), u["cov_xy"], round(u["sigma"], 4)
+    (0.03, 0.04, 0.0002, 0.0354)
+    """
+    c = np.asarray(cov, dtype=float)
+    sx = float(np.sqrt(c[0, 0] + extra[0] ** 2))
+    sy = float(np.sqrt(c[1, 1] + extra[1] ** 2))
+    return {"sigma_x": sx, "sigma_y": sy, "cov_xy": float(0.5 * (c[0, 1] + c[1, 0])),
+            "sigma": float(np.sqrt((sx * sx + sy * sy) / 2.0))}
+
+
 def _num(v: float) -> float | None:
     v = float(v)
     return None if not np.isfinite(v) else v
 
 
-__all__ = ["FOUND", "NOT_FOUND", "Detection", "Refused", "unusable_window"]
+__all__ = ["FOUND", "NOT_FOUND", "Detection", "Refused", "centre_uncertainty", "unusable_window"]

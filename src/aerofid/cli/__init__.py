@@ -1,7 +1,8 @@
 """Command-line interface: a thin layer over the Python API.
 
-Exit status: 0 when the job succeeded (a mark was found), 1 when it ran but found nothing, 2 on bad input
-(one line ``error: ...`` on stderr, no traceback, nothing written).
+Exit status: 0 when the job succeeded (every mark was found), 1 when it ran but did not (a mark not found, an
+ambiguous orientation), 2 on bad input (one line ``error: ...`` on stderr, no traceback, nothing written).
+``aerofid`` (the console script), ``python -m aerofid`` and ``python -m aerofid.cli`` are the same command.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""``python -m aerofid.cli``."""
+"""``python -m aerofid.cli``: the ``aerofid`` command (as ``python -m aerofid``)."""
 
 from aerofid.cli import main
 
 if __name__ == "__main__":
-    main()
+    main(prog_name="aerofid")

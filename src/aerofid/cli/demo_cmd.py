@@ -43,9 +43,9 @@ def demo(out_dir: Path, seed: int) -> int:
     for m in scene.marks:
         kind = "external" if m.style == "cross" else "panel"
         r = locate(scan, m.box, mark=kind)
-        write_bytes_atomic(out_dir / f"overlay_{m.name}.png", overlay_png(r))
+        write_bytes_atomic(out_dir / f"overlay_{m.name}.png", overlay_png(r, m.name))
         if m.name == "P1":
-            write_bytes_atomic(out_dir / "diagnostics_P1.png", diagnostic_png(r))
+            write_bytes_atomic(out_dir / "diagnostics_P1.png", diagnostic_png(r, m.name))
         err = float(np.hypot(r.x - m.x, r.y - m.y)) if r.found else float("nan")
         errors.append(err)
         rows.append({"name": m.name, "truth": [m.x, m.y], **r.to_dict(), "error_px": None if not r.found else err})

@@ -1,32 +1,55 @@
-"""``aerofid locate``: the operator's box-in tool on the command line."""
+"""``aerofid locate``: the operator's box-in tool on the command line, one mark or several per call.
+
+The scan is opened once for all the boxes. Every box and output is checked before any mark is searched
+for, and nothing is written unless every mark has been searched for: a run that ends with exit status 2
+writes nothing.
+
+The JSON object (``--json``, ``-o FILE.json``) is what ``aerofid orient --measurements`` reads::
+
+    {"image": "scan.tif", "path": "scans/scan.tif", "status": "found" | "not_found",
+     "found": ["P1", ...], "not_found": ["P5", ...],
+     "points": [{"name": "P1", "status": "found", "x": ..., "y": ..., "sigma": ..., "score": ...,
+                 "method": ..., "mark": ..., "polarity": ..., "box": [...], "requested_box": [...],
+                 "clipped": false, "reason": ""}, ...]}
+
+``status`` is ``found`` when every mark was found. A mark not found has ``x``, ``y`` null and a ``reason``;
+``orient`` leaves it out and names it. With one box, the object also carries that mark's fields at its top
+level (as it did when locate took one box).
+"""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import click
 
-from aerofid.conventions import MARKS, POLARITY_CHOICES
+from aerofid.cli.boxes import NamedBox, collect_boxes
+from aerofid.conventions import FOUND, MARKS, NOT_FOUND, POLARITY_CHOICES
 from aerofid.errors import AerofidInputError
-from aerofid.locate import METHOD_NAMES
+from aerofid.io.colour import COLOUR_POLICIES
+from aerofid.io.raster import Raster, clip_box, open_raster
+from aerofid.locate import METHOD_NAMES, Location
 from aerofid.locate import locate as locate_mark
 
+NAME_FIELD = "{name}"
+"""In an ``--overlay`` or ``--plot`` path, replaced by each mark's name (one file per mark)."""
 
-def parse_box(text: str) -> tuple[float, float, float, float]:
-    """'X0,Y0,X1,Y1' -> four floats."""
-    parts = [p.strip() for p in text.split(",")]
-    if len(parts) != 4:
-        raise AerofidInputError(f"--box {text!r} needs four numbers X0,Y0,X1,Y1 (pixels, x1/y1 exclusive)")
-    try:
-        return tuple(float(p) for p in parts)  # type: ignore[return-value]
-    except ValueError:
-        raise AerofidInputError(f"--box {text!r} has a malformed number; "
-                                "give X0,Y0,X1,Y1 such as 100,200,220,320") from None
+Located = list[tuple[NamedBox, Location]]
 
 
-def parse_params(items: tuple[str, ...]) -> dict:
-    """KEY=VALUE pairs -> dict with int, float, bool or string values."""
-    out: dict = {}
+def parse_params(items: Sequence[str]) -> dict[str, Any]:
+    """NAME=VALUE pairs -> dict with int, float, bool or string values.
+
+    Examples
+    --------
+    >>> parse_params(["window_size=24", "rho_step=0.5", "verify=false"])
+    {'window_size': 24, 'rho_step': 0.5, 'verify': False}
+    """
+    out: dict[str, Any] = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
@@ -46,46 +69,186 @@ def parse_params(items: tuple[str, ...]) -> dict:
     return out
 
 
+@dataclass(frozen=True)
+class Outputs:
+    """The files one call writes: the JSON object, overlays (each showing some marks), diagnostic figures."""
+
+    json: Path | None
+    overlays: tuple[tuple[Path, tuple[str, ...]], ...]
+    plots: tuple[tuple[Path, str], ...]
+
+    def paths(self) -> list[Path]:
+        """Every file to be written."""
+        return ([self.json] if self.json else []) + [p for p, _ in self.overlays] + [p for p, _ in self.plots]
+
+
+def _expand(template: str, names: Sequence[str]) -> list[tuple[Path, tuple[str, ...]]]:
+    """``template`` with ``{name}`` -> one path per mark; without -> one path for all the marks."""
+    if NAME_FIELD in template:
+        return [(Path(template.replace(NAME_FIELD, n)), (n,)) for n in names]
+    return [(Path(template), tuple(names))]
+
+
+def _check_writable(path: Path, image: str) -> None:
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise AerofidInputError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
+    if path.is_dir():
+        raise AerofidInputError(f"cannot write {str(path)!r}: it is a folder; give a file name")
+    if Path(image).exists() and path.exists() and path.resolve() == Path(image).resolve():
+        raise AerofidInputError(f"{str(path)!r} is the scan itself; give another output name")
+
+
+def plan_outputs(names: Sequence[str], image: str, overlay: str | None, plot: str | None,
+                 output: str | None) -> Outputs:
+    """The files to write, checked before any work: folders exist, no file twice, ``{name}`` in ``--plot``
+    when there are several marks, ``--output`` ends in ``.json``."""
+    if output is not None and Path(output).suffix.lower() != ".json":
+        raise AerofidInputError(f"--output {output!r} must end in .json (the measurements aerofid orient reads)")
+    if plot is not None and len(names) > 1 and NAME_FIELD not in plot:
+        raise AerofidInputError(f"--plot {plot!r} makes one figure per mark: put {NAME_FIELD} in it, "
+                                f"e.g. --plot 'diag_{NAME_FIELD}.png'")
+    plots = tuple((p, ns[0]) for p, ns in _expand(plot, names)) if plot is not None else ()
+    outputs = Outputs(Path(output) if output is not None else None,
+                      tuple(_expand(overlay, names)) if overlay is not None else (), plots)
+    seen: set[Path] = set()
+    for path in outputs.paths():
+        if path in seen:
+            raise AerofidInputError(f"two outputs would be written to {str(path)!r}; give each its own name")
+        seen.add(path)
+        _check_writable(path, image)
+    return outputs
+
+
+def _check_box(b: NamedBox, raster: Raster) -> None:
+    """An input error naming the box when it lies wholly outside the scan."""
+    try:
+        clip_box(b.box, raster.width, raster.height)
+    except AerofidInputError as e:
+        raise AerofidInputError(f"{b.source}: {e}") from None
+
+
+def locate_all(image: str, boxes: Sequence[NamedBox], **options: Any) -> Located:
+    """Every box's :class:`~aerofid.locate.Location`, the scan opened once. Every box is checked against the
+    scan before any mark is searched for, and the options and parameters by the first search, before it
+    reads a pixel."""
+    with open_raster(image) as raster:
+        for b in boxes:
+            _check_box(b, raster)
+        return [(b, locate_mark(raster, b.box, **options)) for b in boxes]
+
+
+def located_document(image: str, located: Located) -> dict[str, Any]:
+    """The JSON object of a call (module docstring): every mark with its name, readable by ``orient``."""
+    points = []
+    for b, loc in located:
+        d = loc.to_dict()
+        d.pop("image", None)
+        points.append({"name": b.name, **d})
+    found = [p["name"] for p in points if p["status"] == FOUND]
+    not_found = [p["name"] for p in points if p["status"] != FOUND]
+    doc: dict[str, Any] = {"image": Path(image).name, "path": str(image),
+                           "status": NOT_FOUND if not_found else FOUND, "found": found, "not_found": not_found}
+    if len(points) == 1:
+        doc.update({k: v for k, v in points[0].items() if k not in doc})
+    doc["points"] = points
+    return doc
+
+
+def _label(b: NamedBox, located: Located) -> str | None:
+    """The name to show for ``b``: none for one unnamed box."""
+    return b.name if b.named or len(located) > 1 else None
+
+
+def render_outputs(located: Located, outputs: Outputs) -> dict[Path, bytes]:
+    """The overlay and diagnostic PNGs, in memory (nothing is written here)."""
+    from aerofid.render import diagnostic_png, overlay_png, overlay_sheet_png
+
+    by_name = {b.name: (b, loc) for b, loc in located}
+    files: dict[Path, bytes] = {}
+    for path, names in outputs.overlays:
+        if len(names) == 1:
+            b, loc = by_name[names[0]]
+            files[path] = overlay_png(loc, _label(b, located))
+        else:
+            files[path] = overlay_sheet_png([(n, by_name[n][1]) for n in names])
+    for path, name in outputs.plots:
+        b, loc = by_name[name]
+        files[path] = diagnostic_png(loc, _label(b, located))
+    return files
+
+
+def _echo_text(located: Located) -> None:
+    """One line per mark on stdout (and a summary when there are several); clipped boxes noted on stderr."""
+    width = max(len(b.name) for b, _ in located)
+    for b, loc in located:
+        label = _label(b, located)
+        head = f"{label:<{width}}  " if label else ""
+        if loc.found:
+            click.echo(f"{head}found  x={loc.x:.3f}  y={loc.y:.3f}  sigma={loc.sigma:.3f} px  "
+                       f"score={loc.score:.2f}  method={loc.method}")
+        else:
+            click.echo(f"{head}not found: {loc.reason}")
+    for b, loc in located:
+        if loc.clipped:
+            who = f"box {b.name}" if _label(b, located) else "the box"
+            click.echo(f"note: {who} was clipped to the image: {','.join(map(str, loc.box))}", err=True)
+    if len(located) > 1:
+        missing = [b.name for b, loc in located if not loc.found]
+        click.echo(f"found {len(located) - len(missing)} of {len(located)}"
+                   + (f"; not found: {', '.join(missing)}" if missing else ""))
+
+
 @click.command(name="locate")
 @click.argument("image", type=click.Path(dir_okay=True, path_type=str))
-@click.option("--box", "box_text", required=True, metavar="X0,Y0,X1,Y1",
-              help="Search box in full-image pixels (x = column, y = row, x1/y1 exclusive).")
+@click.option("--box", "box_texts", multiple=True, metavar="[NAME=]X0,Y0,X1,Y1",
+              help="Search box in full-image pixels (x = column, y = row, x1/y1 exclusive), named NAME "
+                   "(unnamed: its position, 1, 2, ...). Repeatable: one mark per box.")
+@click.option("--boxes", "boxes_file", metavar="FILE",
+              help="CSV of boxes, one 'name,x0,y0,x1,y1' a line (header optional; '#' comments).")
 @click.option("--mark", type=click.Choice(MARKS), default="auto", show_default=True,
               help="external = film fiducial, panel = cloth ground panel.")
 @click.option("--method", type=click.Choice(METHOD_NAMES), default="auto", show_default=True)
 @click.option("--polarity", type=click.Choice(POLARITY_CHOICES), default="bright", show_default=True,
               help="Mark brighter (bright) or darker (dark) than its ground, or try both (auto).")
-@click.option("--colour", default="auto", show_default=True,
-              help="RGB to grey: auto, luminance, red, green, blue or max.")
+@click.option("--colour", type=click.Choice(COLOUR_POLICIES), default="auto", show_default=True,
+              help="How RGB becomes grey.")
 @click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
-              help="A method parameter, e.g. window_size=24 or rho_step=0.5 (repeatable).")
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-@click.option("--overlay", type=click.Path(dir_okay=False, path_type=str), help="Write the delineation overlay PNG.")
-@click.option("--plot", type=click.Path(dir_okay=False, path_type=str), help="Write the diagnostic figure PNG.")
-def locate_cmd(image, box_text, mark, method, polarity, colour, params, as_json, overlay, plot) -> int:
-    """Locate the fiducial mark or ground panel inside a box of IMAGE.
+              help="A method parameter, e.g. window_size=24 or rho_step=0.5 (repeatable; with --method auto "
+                   "each goes to the methods that take it).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print one JSON object with every mark (aerofid orient --measurements reads it).")
+@click.option("-o", "--output", metavar="FILE.json", help="Write that JSON object to FILE.json.")
+@click.option("--overlay", metavar="PNG",
+              help="Write the delineation overlay: one PNG showing every box, or one per mark with {name} "
+                   "in the path (e.g. ov_{name}.png).")
+@click.option("--plot", metavar="PNG",
+              help="Write the diagnostic figure (with several boxes put {name} in the path).")
+def locate_cmd(image: str, box_texts: tuple[str, ...], boxes_file: str | None, mark: str, method: str,
+               polarity: str, colour: str, params: tuple[str, ...], as_json: bool, output: str | None,
+               overlay: str | None, plot: str | None) -> int:
+    """Locate the fiducial marks or ground panels inside boxes of IMAGE.
 
-    Exit status 0 when found, 1 when not found, 2 on bad input.
+    Exit status 0 when every mark is found, 1 when any is not found (all are still reported and written),
+    2 on bad input (one line 'error: ...', nothing written).
     """
-    from aerofid.io.atomic import write_bytes_atomic
-    from aerofid.render import diagnostic_png, overlay_png
+    from aerofid.io.atomic import write_bytes_atomic, write_text_atomic
 
-    result = locate_mark(image, parse_box(box_text), mark=mark, method=method, polarity=polarity, colour=colour,
-                    **parse_params(params))
-    if overlay:
-        write_bytes_atomic(overlay, overlay_png(result))
-    if plot:
-        write_bytes_atomic(plot, diagnostic_png(result))
+    boxes = collect_boxes(box_texts, boxes_file)
+    values = parse_params(params)
+    outputs = plan_outputs([b.name for b in boxes], image, overlay, plot, output)
+    located = locate_all(image, boxes, mark=mark, method=method, polarity=polarity, colour=colour, **values)
+    doc = located_document(image, located)
+    files = render_outputs(located, outputs)
+    if outputs.json is not None:
+        write_text_atomic(outputs.json, json.dumps(doc, indent=2) + "\n")
+    for path, data in files.items():
+        write_bytes_atomic(path, data)
     if as_json:
-        click.echo(json.dumps(result.to_dict()))
-    elif result.found:
-        click.echo(f"found  x={result.x:.3f}  y={result.y:.3f}  sigma={result.sigma:.3f} px  "
-                   f"score={result.score:.2f}  method={result.method}")
+        click.echo(json.dumps(doc))
     else:
-        click.echo(f"not found: {result.reason}")
-    if result.clipped and not as_json:
-        click.echo(f"note: the box was clipped to the image: {','.join(map(str, result.box))}", err=True)
-    return 0 if result.found else 1
+        _echo_text(located)
+    return 0 if all(loc.found for _, loc in located) else 1
 
 
 locate = locate_cmd

@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
 
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
-from aerofid.formats.measurements import read_measurements
+from aerofid.formats.measurements import read_measurements_and_not_found
 from aerofid.formats.micmac import write_affine_plane, write_measures_camera, write_measures_im
 from aerofid.io.atomic import write_text_atomic
 from aerofid.orientation.camera import Camera
@@ -32,7 +33,8 @@ REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
 @click.option("--camera", "camera_path", required=True, metavar="CAMERA",
               help="camera file: JSON/YAML certificate or MicMac MeasuresCamera.xml")
 @click.option("--measurements", "-m", "meas_path", metavar="FILE",
-              help="fiducial pixel measurements: JSON, CSV (name,x,y) or MicMac MeasuresIm-*.xml")
+              help="fiducial pixel measurements: JSON (as aerofid locate --json writes it; marks it did not "
+                   "find are left out), CSV (name,x,y) or MicMac MeasuresIm-*.xml")
 @click.option("--model", type=click.Choice(["affine", "similarity", "projective"]), default="affine",
               show_default=True, help="pixel -> mm transformation")
 @click.option("--correspondence", type=click.Choice(["names", "auto"]), default=None,
@@ -55,10 +57,11 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
     if micmac_dir is not None and not Path(micmac_dir).is_dir():
         raise AerofidInputError(f"MicMac folder {micmac_dir!r} does not exist")
     cam = read_camera(camera_path)
-    meas = read_measurements(meas_path)
+    meas, not_found = read_measurements_and_not_found(meas_path)
     image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
     try:
-        res = run_orient(cam, meas, model, correspondence=correspondence, reject=not no_reject, image=image_name)
+        res = _run_orient(cam, meas, not_found, meas_path, model=model, correspondence=correspondence,
+                          reject=not no_reject, image=image_name)
     except AmbiguousCorrespondenceError as e:
         if as_json:
             click.echo(json.dumps({"status": "ambiguous", "error": str(e),
@@ -66,6 +69,9 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         click.echo(f"error: {e}", err=True)
         return 1
 
+    if not_found:
+        click.echo(f"note: {', '.join(not_found)} not found in {meas_path!r}; oriented with the "
+                   f"{len(meas.xy)} found", err=True)
     if output is not None:
         write_text_atomic(output, _report(res, Path(output).suffix.lower()))
     if micmac_dir is not None:
@@ -75,6 +81,20 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
     else:
         click.echo(to_text(res), nl=False)
     return 0
+
+
+def _run_orient(cam: Camera, meas: Measurements, not_found: tuple[str, ...], meas_path: str,
+                **options: Any) -> InteriorOrientation:
+    """:func:`aerofid.orientation.interior.orient`; an input error names the points the measurements file
+    marks as not found (too few fiducials left is the usual cause)."""
+    try:
+        return run_orient(cam, meas, **options)
+    except AmbiguousCorrespondenceError:
+        raise
+    except AerofidInputError as e:
+        if not_found:
+            raise AerofidInputError(f"{e} (not found in {meas_path!r}: {', '.join(not_found)})") from None
+        raise
 
 
 def _report(res: InteriorOrientation, suffix: str) -> str:

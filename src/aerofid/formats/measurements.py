@@ -1,7 +1,9 @@
 """Fiducial pixel measurements: JSON, CSV and MicMac MeasuresIm XML.
 
 * JSON: ``{"image": "scan.tif", "points": {"P1": [x, y], ...}}``; unnamed points as a list
-  ``"points": [[x, y], ...]``; a list of ``{"name", "x", "y"}`` objects is accepted too.
+  ``"points": [[x, y], ...]``; a list of ``{"name", "x", "y"}`` objects is accepted too. This is what
+  ``aerofid locate --json`` writes: a point whose ``"status"`` is not ``"found"`` (a mark locate did not
+  find) is left out, and :func:`read_measurements_and_not_found` names it.
 * CSV: ``name,x,y`` (a header line is optional; ``#`` starts a comment); ``x,y`` for unnamed points.
   Commas, semicolons, tabs or blanks separate the fields.
 * XML: MicMac ``MeasuresIm-<image>.xml`` (``SetOfMesureAppuisFlottants`` / ``MesureAppuiFlottant1Im`` /
@@ -14,8 +16,9 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +46,7 @@ def read_measurements(path: str | Path, image: str | None = None) -> Measurement
     Returns
     -------
     Measurements
+        The measured points; points marked not found (JSON ``"status"``) are left out.
 
     Raises
     ------
@@ -58,12 +62,46 @@ def read_measurements(path: str | Path, image: str | None = None) -> Measurement
     >>> m.names, m.image, m.xy[1].tolist()
     (('P1', 'P2', 'P3'), 'scan.tif', [5215.0, 234.0])
     """
+    return read_measurements_and_not_found(path, image)[0]
+
+
+def read_measurements_and_not_found(path: str | Path,
+                                    image: str | None = None) -> tuple[Measurements, tuple[str, ...]]:
+    """Like :func:`read_measurements`, and the names of the points the file marks as not found.
+
+    A JSON file written by ``aerofid locate --json`` lists every mark it searched for, each with a
+    ``"status"``; the marks it did not find have no coordinates and are left out of the measurements.
+
+    Returns
+    -------
+    measurements : Measurements
+        The found points.
+    not_found : tuple of str
+        The names of the points left out, in file order (empty for CSV and MicMac files).
+
+    Raises
+    ------
+    AerofidInputError
+        As :func:`read_measurements`; also when no point of the file was found.
+
+    Examples
+    --------
+    >>> import json, tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "located.json"
+    >>> _ = path.write_text(json.dumps({"image": "scan.tif", "points": [
+    ...     {"name": "P1", "status": "found", "x": 167.5, "y": 212.5},
+    ...     {"name": "P2", "status": "not_found", "x": None, "y": None},
+    ...     {"name": "P3", "status": "found", "x": 148.5, "y": 5259.5}]}))
+    >>> m, not_found = read_measurements_and_not_found(path)
+    >>> m.names, not_found
+    (('P1', 'P3'), ('P2',))
+    """
     path = Path(path)
     if not path.is_file():
         raise AerofidInputError(f"measurements file {str(path)!r} does not exist")
     suffix = path.suffix.lower()
     if suffix == ".xml":
-        return read_measures_im(path, image=image)
+        return read_measures_im(path, image=image), ()
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
@@ -73,9 +111,10 @@ def read_measurements(path: str | Path, image: str | None = None) -> Measurement
             data = json.loads(text)
         except json.JSONDecodeError as e:
             raise AerofidInputError(f"measurements file {str(path)!r} is not valid JSON: {e}") from None
-        return measurements_from_json(data, str(path))
+        data, not_found = _without_not_found(data, str(path))
+        return measurements_from_json(data, str(path)), not_found
     if suffix in (".csv", ".txt", ".tsv"):
-        return _from_csv_text(text, str(path), image or _image_from_name(path))
+        return _from_csv_text(text, str(path), image or _image_from_name(path)), ()
     raise AerofidInputError(f"unknown measurements format {suffix!r}: use .json, .csv or MicMac .xml")
 
 
@@ -109,6 +148,28 @@ def write_measurements(path: str | Path, m: Measurements) -> None:
         write_text_atomic(path, "\n".join(lines) + "\n")
     else:
         raise AerofidInputError(f"unknown measurements format {suffix!r}: use .json, .csv or MicMac .xml")
+
+
+def _is_not_found(point: Any) -> bool:
+    return isinstance(point, Mapping) and "status" in point and point["status"] != "found"
+
+
+def _without_not_found(data: Any, source: str) -> tuple[Any, tuple[str, ...]]:
+    """``data`` without the points whose ``"status"`` is not ``"found"``, and their names."""
+    if not isinstance(data, Mapping) or "points" not in data:
+        return data, ()
+    pts = data["points"]
+    if isinstance(pts, Mapping):
+        gone = tuple(str(k) for k, v in pts.items() if _is_not_found(v))
+        kept: Any = {k: v for k, v in pts.items() if not _is_not_found(v)}
+    elif isinstance(pts, list):
+        gone = tuple(str(p.get("name", f"point {i + 1}")) for i, p in enumerate(pts) if _is_not_found(p))
+        kept = [p for p in pts if not _is_not_found(p)]
+    else:
+        return data, ()
+    if gone and not kept:
+        raise AerofidInputError(f"no point of {source!r} was found (not found: {', '.join(gone)})")
+    return {**data, "points": kept}, gone
 
 
 def _image_from_name(path: Path) -> str:

@@ -17,7 +17,8 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
 
 LAYER = {"conventions": 0, "errors": 0, "robust": 0, "io": 1, "detect": 2, "orientation": 2, "formats": 3,
-         "synth": 4, "testing": 5, "locate": 5, "render": 6, "cli": 7, "__init__": 8, "__main__": 9}
+         "synth": 4, "methods": 4, "testing": 5, "find": 5, "locate": 6, "render": 7, "cli": 8, "__init__": 9,
+         "__main__": 10}
 """Each top-level part of the package and its layer."""
 INDEPENDENT = {frozenset({"detect", "orientation"}), frozenset({"detect", "formats"})}
 """Parts that must not import each other although their layers would allow it."""

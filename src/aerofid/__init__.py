@@ -2,11 +2,13 @@
 
 Public API:
     locate(image, box, mark="auto", method="auto", **params) -> Location
+    find_marks(image, region=None, mark="auto", ...) -> MarkSearch (every mark in a region)
     read_camera(path) -> Camera;  read_measurements(path) -> Measurements
     orient(camera, measurements, model="affine", ...) -> InteriorOrientation
 """
 
 from aerofid.errors import AerofidInputError
+from aerofid.find import MarkSearch, find_marks
 from aerofid.formats.camera_file import read_camera, write_camera
 from aerofid.formats.measurements import read_measurements, write_measurements
 from aerofid.locate import Location, locate
@@ -20,6 +22,6 @@ from aerofid.orientation.transform import AffineTransform, ProjectiveTransform, 
 __version__ = "0.1.0"
 
 __all__ = ["AerofidInputError", "AffineTransform", "AmbiguousCorrespondenceError", "Camera", "Fiducial",
-           "InteriorOrientation", "Location", "Measurements", "ProjectiveTransform", "SimilarityTransform",
-           "__version__", "locate", "orient", "read_camera", "read_measurements", "write_camera",
-           "write_measurements"]
+           "InteriorOrientation", "Location", "MarkSearch", "Measurements", "ProjectiveTransform",
+           "SimilarityTransform", "__version__", "find_marks", "locate", "orient", "read_camera", "read_measurements",
+           "write_camera", "write_measurements"]

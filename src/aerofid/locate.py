@@ -1,30 +1,44 @@
 """``aerofid.locate``: the operator's box in, the mark's sub-pixel centre (or an explicit "not found") out.
 
-The box is clipped to the image, only its window is read (tiled TIFFs decode only the tiles it touches),
-colour is reduced to grey by a policy that keeps the mark's contrast, dark marks are inverted so every
-detector sees a bright mark, and the chosen method (:mod:`aerofid.detect.registry`) runs on the window.
-Coordinates everywhere: x = column, y = row, the centre of the top-left pixel is (0, 0); boxes (x0, y0, x1,
-y1) with x1, y1 exclusive.
+The box says where the centre may be, not which pixels may be read: :func:`locate` is the search of
+:mod:`aerofid.find` on the box (screening for candidates, each measured on a window of its own size read
+around it, clipped only by the image, then re-centred on its answer) plus the one-mark rule: exactly one mark
+(its accessories apart: index dots, digits) must have its centre in the box; several are "not found" with
+their positions. Colour is reduced to grey by a policy that keeps the mark's contrast, dark marks are
+inverted so every detector sees a bright mark. Coordinates everywhere: x = column, y = row, the centre of
+the top-left pixel is (0, 0); boxes (x0, y0, x1, y1) with x1, y1 exclusive.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import FOUND, MARKS, POLARITY_CHOICES, Box, Polarity
-from aerofid.detect import auto
-from aerofid.detect.params import MethodParams
-from aerofid.detect.registry import METHODS, route_params
+from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity
 from aerofid.detect.result import Detection
+from aerofid.detect.screen import Candidate
 from aerofid.errors import AerofidInputError
-from aerofid.io.colour import to_grey
-from aerofid.io.raster import Raster, check_window_size, clip_box, open_raster
+from aerofid.find import (
+    ACCESSORY_RATIO,
+    ImageSource,
+    Located,
+    MarkSearch,
+    Measurer,
+    measure_candidates,
+    one_per_mark,
+    open_image,
+    screen_region,
+)
+from aerofid.io.colour import COLOUR_POLICIES
+from aerofid.io.raster import Raster, clip_box
+from aerofid.methods import METHOD_NAMES, check_choice, check_polarity, make_detector
+
+LOCATE_CANDIDATES = 8
+"""At most this many screening candidates are measured in one box."""
 
 
 @dataclass(frozen=True)
@@ -40,17 +54,24 @@ class Location:
     score : float
         The detector's confidence in [0, 1] (for ``hough``: the similarity metric of seed 001).
     sigma : float
-        Standard deviation of the centre per axis (px).
+        Standard deviation of the centre per axis (px): sqrt((sigma_x^2 + sigma_y^2) / 2).
+    sigma_x, sigma_y, cov_xy : float
+        The centre's covariance matrix [[sigma_x^2, cov_xy], [cov_xy, sigma_y^2]] (px^2).
     method, mark, polarity : str
         The method whose centre is returned, the kind of mark asked for, the polarity that answered.
     box : tuple of int
-        The box actually searched (clipped to the image; ``clipped`` says whether it had to be).
+        The box the centre was sought in (clipped to the image; ``clipped`` says whether it had to be).
     requested_box : tuple of float
         The box as given.
     detection : Detection
-        The method's full typed answer (in window pixels; the window's top-left pixel is ``box[:2]``).
+        The method's full typed answer, moved to full-image pixels (its ``origin`` is the top-left pixel of
+        the window it saw, ``window_box``).
     window : ndarray
         The grey window the detector saw (mark bright).
+    window_box : tuple of int
+        Where that window lies in the image.
+    search : MarkSearch
+        How the box was searched: screening candidates, every measurement, marks and accessories.
     """
 
     status: str
@@ -66,90 +87,37 @@ class Location:
     clipped: bool
     reason: str = ""
     image: str | None = None
+    sigma_x: float = float("nan")
+    sigma_y: float = float("nan")
+    cov_xy: float = float("nan")
+    window_box: Box | None = None
     detection: Detection | None = field(default=None, repr=False, compare=False)
     window: np.ndarray | None = field(default=None, repr=False, compare=False)
+    search: MarkSearch | None = field(default=None, repr=False, compare=False)
 
     @property
     def found(self) -> bool:
         """True when a mark was located."""
         return self.status == FOUND
 
+    @property
+    def covariance(self) -> np.ndarray:
+        """The centre's 2 x 2 covariance matrix (px^2; NaN when unknown)."""
+        return np.array([[self.sigma_x ** 2, self.cov_xy], [self.cov_xy, self.sigma_y ** 2]])
+
     def to_dict(self) -> dict[str, Any]:
         """Scalars only, ready for JSON (NaN becomes None)."""
         def num(v: float) -> float | None:
             return None if v is None or not np.isfinite(v) else float(v)
 
-        return {
-            "status": self.status, "x": num(self.x), "y": num(self.y), "score": num(self.score),
-            "sigma": num(self.sigma), "method": self.method, "mark": self.mark, "polarity": self.polarity,
-            "box": list(self.box), "requested_box": list(self.requested_box), "clipped": self.clipped,
-            "reason": self.reason, "image": self.image,
-        }
-
-
-def _as_array(image: np.ndarray) -> np.ndarray:
-    a = np.asarray(image)
-    if a.ndim == 3 and a.shape[2] == 4:
-        a = a[:, :, :3]
-    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 3)):
-        raise AerofidInputError(f"image array has shape {a.shape}; give a 2-D grey or (h, w, 3) RGB array")
-    if a.size == 0:
-        raise AerofidInputError("image array is empty")
-    if not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)) or a.dtype == bool:
-        raise AerofidInputError(f"image array has dtype {a.dtype}; give unsigned integers or floats")
-    return a
-
-
-def read_box(image: str | os.PathLike[str] | np.ndarray | Raster,
-             box: Sequence[float]) -> tuple[np.ndarray, Box, bool, str | None]:
-    """The window of ``image`` under ``box`` (clipped to the image): (window, clipped box, was clipped, path).
-    ``image`` may be an open :class:`~aerofid.io.raster.Raster` (several boxes, one opening)."""
-    if isinstance(image, Raster):
-        clipped, was = clip_box(box, image.width, image.height)
-        check_window_size(clipped, image.bands, image.dtype.itemsize)
-        return image.read_window(clipped), clipped, was, str(image.path)
-    if isinstance(image, str | os.PathLike):
-        with open_raster(image) as r:
-            clipped, was = clip_box(box, r.width, r.height)
-            check_window_size(clipped, r.bands, r.dtype.itemsize)
-            return r.read_window(clipped), clipped, was, str(Path(image))
-    a = _as_array(image)
-    clipped, was = clip_box(box, a.shape[1], a.shape[0])
-    x0, y0, x1, y1 = clipped
-    return a[y0:y1, x0:x1], clipped, was, None
-
-
-Detector = Callable[[np.ndarray], Detection]
-"""One configured method: grey window (mark bright) -> its answer."""
-
-
-METHOD_NAMES = ("auto", *METHODS)
-"""What ``method`` may be: ``auto`` or one of the seeds' methods (:data:`aerofid.detect.registry.METHODS`)."""
-
-
-def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Detector:
-    """The configured method ``method_name`` for ``mark`` with the user's ``params`` (checked now, before
-    any pixel is read: unknown names and bad values are one-line input errors naming the valid ones).
-    ``auto`` routes each parameter to the methods that take it (:func:`~aerofid.detect.registry.route_params`)."""
-    _check_choice(method_name, METHOD_NAMES, "method")
-    if method_name == "auto":
-        types: dict[str, type[MethodParams]] = {"auto": auto.AutoParams}
-        types.update({m: METHODS[m].params_type for m in METHODS})
-        routed = route_params({"mark": mark, **params}, types)
-        auto_params = routed.pop("auto")
-        assert isinstance(auto_params, auto.AutoParams)
-        return lambda grey: auto.detect(grey, auto_params, methods=routed)
-    m = METHODS[method_name]
-    values = dict(params)
-    if "mark" in m.params_type.names():
-        values["mark"] = mark
-    p = m.params_type.from_mapping(values, method_name)
-    return lambda grey: m.detect(grey, p)
-
-
-def _check_choice(value: str, choices: Sequence[str], what: str) -> None:
-    if value not in choices:
-        raise AerofidInputError(f"unknown {what} {value!r}; use one of {', '.join(choices)}")
+        out: dict[str, Any] = {"status": self.status, "x": num(self.x), "y": num(self.y), "score": num(self.score),
+               "sigma": num(self.sigma), "sigma_x": num(self.sigma_x), "sigma_y": num(self.sigma_y),
+               "cov_xy": num(self.cov_xy), "method": self.method, "mark": self.mark, "polarity": self.polarity,
+               "box": list(self.box), "requested_box": list(self.requested_box), "clipped": self.clipped,
+               "reason": self.reason, "image": self.image}
+        if self.search is not None:
+            out["candidates"] = [c.to_dict() for c in self.search.candidates]
+        return out
 
 
 def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[float], mark: str = "auto",
@@ -162,8 +130,9 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
         A path (TIFF/BigTIFF/GeoTIFF, JPEG, PNG), a 2-D grey / (h, w, 3) RGB numpy array, or a scan opened
         once with :func:`aerofid.io.raster.open_raster` for several boxes.
     box : (x0, y0, x1, y1)
-        Full-image pixels, x1 and y1 exclusive; a box partly outside the image is clipped
-        (``Location.clipped``), one wholly outside is an error.
+        Where the mark's centre lies: full-image pixels, x1 and y1 exclusive, from tight (the mark plus a
+        few px) to many times the mark's size. Pixels around it are read as context. A box partly outside the
+        image is clipped (``Location.clipped``), one wholly outside is an error.
     mark : {"auto", "external", "panel"}
         A film fiducial, a cloth ground panel, or let the detector decide.
     method : {"auto", "hough", "symmetry", "circles", "lines"}
@@ -184,7 +153,8 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
     Returns
     -------
     Location
-        "not found" is a status, never an exception.
+        "not found" is a status, never an exception: also when the box holds several marks (the reason
+        names how many and where; accessories such as index dots beside a mark do not count).
 
     Raises
     ------
@@ -201,33 +171,69 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
     >>> r.found, bool(np.hypot(r.x - truth.x, r.y - truth.y) < 0.1)
     (True, True)
     """
-    _check_choice(mark, MARKS, "mark")
-    _check_choice(polarity, POLARITY_CHOICES, "polarity")
+    check_choice(method, METHOD_NAMES, "method")
+    check_polarity(polarity)
+    check_choice(colour, COLOUR_POLICIES, "colour")
     detector = make_detector(method, mark, params)
-    window, clipped, was_clipped, path = read_box(image, _box_tuple(box))
+    requested = _box_tuple(box)
     polarities: tuple[Polarity, ...] = ("bright", "dark") if polarity == "auto" else (polarity,)  # type: ignore[assignment]
-    best: tuple[Detection, Polarity, np.ndarray] | None = None
-    for pol in polarities:
-        grey = to_grey(window, colour, pol)
-        if pol == "dark":
-            grey = 1.0 - grey
-        det = detector(grey)
-        if best is None or _better(det, best[0]):
-            best = (det, pol, grey)
-    assert best is not None
-    det, chosen, grey = best
-    x0, y0 = clipped[0], clipped[1]
-    return Location(status=det.status, x=det.x + x0, y=det.y + y0, score=det.score, sigma=det.sigma,
-                    method=det.method, mark=mark, polarity=chosen, box=clipped,
-                    requested_box=tuple(float(v) for v in _box_tuple(box)),  # type: ignore[arg-type]
-                    clipped=was_clipped, reason=det.reason, image=path, detection=det, window=grey)
+    with open_image(image) as source:
+        region, was_clipped = clip_box(requested, source.width, source.height)
+        search = search_box(source, region, Measurer(source, detector, polarities, colour))
+    return one_mark(search, mark, requested, was_clipped)
 
 
-def _better(a: Detection, b: Detection) -> bool:
-    """Is ``a`` a more reliable answer than ``b``? Found beats not found, then the higher score."""
-    if a.found != b.found:
-        return a.found
-    return a.score > b.score
+def search_box(source: ImageSource, region: Box, measurer: Measurer) -> MarkSearch:
+    """The search of :func:`aerofid.find.find_marks` on one box, with the box's centre as a last candidate
+    (a tight box: the mark fills it)."""
+    w, h = region[2] - region[0], region[3] - region[1]
+    candidates, f = screen_region(source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
+                                  max_radius=max(w, h) / 2.0 + 2.0, max_candidates=LOCATE_CANDIDATES)
+    centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0, radius=min(w, h) / 2.0,
+                       strength=0.0)
+    attempts = measure_candidates(measurer, (*candidates, centre))
+    found = [a for a in attempts if a.found and region[0] - 0.5 <= a.x < region[2] - 0.5
+             and region[1] - 0.5 <= a.y < region[3] - 0.5]
+    marks, accessories = one_per_mark(found)
+    path = None if source.path is None else str(source.path)
+    return MarkSearch(region, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path)
+
+
+def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_clipped: bool) -> Location:
+    """The one-mark rule: exactly one mark in the box is the answer; none or several is "not found". Marks less
+    than :data:`~aerofid.find.ACCESSORY_RATIO` the size of the largest (dust, printed dots) do not count."""
+    if len(search.marks) > 1:
+        big = max(m.extent for m in search.marks)
+        search = replace(search, marks=tuple(m for m in search.marks if m.extent >= ACCESSORY_RATIO * big),
+                         accessories=search.accessories + tuple(m for m in search.marks
+                                                                if m.extent < ACCESSORY_RATIO * big))
+    if len(search.marks) == 1:
+        return _location(search.marks[0], search, mark, requested, was_clipped, FOUND, "")
+    if search.marks:
+        where = ", ".join(f"({m.x:.1f}, {m.y:.1f})" for m in search.marks)
+        reason = f"{len(search.marks)} marks in the box, at {where}: draw the box round one of them"
+        return _location(search.marks[0], search, mark, requested, was_clipped, NOT_FOUND, reason)
+    if not search.attempts:
+        return _location(None, search, mark, requested, was_clipped, NOT_FOUND,
+                         "nothing in the box stands out of its ground as a mark")
+    first = search.attempts[0]
+    return _location(first, search, mark, requested, was_clipped, NOT_FOUND, first.detection.reason)
+
+
+def _location(got: Located | None, search: MarkSearch, mark: str, requested: tuple[float, ...],
+              was_clipped: bool, status: str, reason: str) -> Location:
+    nan = float("nan")
+    det = got.detection if got is not None else None
+    ok = status == FOUND and det is not None
+    return Location(
+        status=status, x=det.x if ok else nan, y=det.y if ok else nan,  # type: ignore[union-attr]
+        score=det.score if det is not None else 0.0, sigma=det.sigma if ok else nan,  # type: ignore[union-attr]
+        sigma_x=det.sigma_x if ok else nan, sigma_y=det.sigma_y if ok else nan,  # type: ignore[union-attr]
+        cov_xy=det.cov_xy if ok else nan, method=det.method if det is not None else "",  # type: ignore[union-attr]
+        mark=mark, polarity=got.polarity if got is not None else "bright", box=search.region,
+        requested_box=tuple(float(v) for v in requested),  # type: ignore[arg-type]
+        clipped=was_clipped, reason=reason, image=search.path, window_box=got.box if got is not None else None,
+        detection=det, window=got.window if got is not None else None, search=search)
 
 
 def _box_tuple(box: Sequence[float]) -> tuple[float, ...]:
@@ -238,4 +244,4 @@ def _box_tuple(box: Sequence[float]) -> tuple[float, ...]:
     return t
 
 
-__all__ = ["METHOD_NAMES", "Location", "locate", "make_detector", "read_box"]
+__all__ = ["METHOD_NAMES", "Location", "locate", "one_mark", "search_box"]

@@ -1,0 +1,237 @@
+"""Screening a region for mark candidates: where a centrally symmetric, compact mark may be, at which scale.
+
+The seed methods locate one mark in a window a few times its size; a loose box or a whole frame is many
+times larger and holds film border, notches, printed digits and the image itself. Screening is the cheap
+first stage of a coarse-to-fine search (aerofid's, no seed has it; Cho & Kim's weak constraint, seed 002
+section 2.1, that every mark is *symmetric about its centre*, is what it looks for): it costs a few
+multiply-adds per pixel of a reduced image, and only its candidates go to the detectors.
+
+On each level of an image pyramid (block means, factor 2 per level) and for each radius r of
+:data:`RADII` (level pixels), with g the grey levels minus their local mean (a box of side 2 r_max + 1):
+
+- the **point symmetry** of the disc of radius r about c, the normalised correlation of the disc with its
+  half turn, ``S = sum_d g(c+d) g(c-d) / sum_d g(c+d)^2`` over the disc (1 for a centrally symmetric
+  pattern, -1 for a step edge through c, about 0 for noise);
+- its **isotropy** ``1 - (l1 - l2) / (l1 + l2)`` from the eigenvalues of the structure tensor summed over
+  the disc (0 for a straight line or edge, which are symmetric about each of their points, about 1 for a
+  '+', an X, a ring or a dot);
+- its **contrast**: the RMS of g over the disc in units of the local noise (the robust first-difference
+  noise of the plainest of the 3 x 3 blocks of :data:`BLOCK` level pixels around c), so that a mark on
+  plain film border outranks texture of the same contrast in the image.
+
+The strength of c at radius r is ``max(0, (1 + k) S - k) * isotropy * contrast`` (``k`` =
+:data:`SYMMETRY_WEIGHT`: only nearly perfect symmetry counts); the candidates are its local maxima above
+``min_strength``, strongest first, one per mark (maxima closer than the larger radius are one candidate, the
+stronger kept). A candidate is a hint for the detectors, never an answer.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+RADII = (3, 5, 7)
+"""Disc radii (level pixels) screened on each pyramid level; level k covers radii 3 * 2^k .. 7 * 2^k of the
+input."""
+SYMMETRY_WEIGHT = 3.0
+"""k in ``(1 + k) S - k``: a disc scores only when its symmetry S exceeds k / (1 + k) = 0.75."""
+BLOCK = 16
+"""Side (level pixels) of the blocks over which the local noise is estimated."""
+MIN_STRENGTH = 5.0
+"""Least strength of a candidate (a symmetric, isotropic disc whose RMS contrast is the local noise)."""
+MEDIAN_MAX_DIFFERENCE = 1.0518 * np.sqrt(2.0)
+"""Median of max(|dx|, |dy|) for white noise of unit sigma: each first difference has sigma sqrt(2), and the
+median t of the larger of two half-normals solves (2 Phi(t) - 1)^2 = 1/2, t = 1.0518."""
+MERGE_SHARE = 0.25
+"""Two candidates closer than this share of the larger radius are one structure (module docstring)."""
+MIN_LEVEL_SIDE = 2 * RADII[-1] + 3
+"""A pyramid level smaller than this on either side is not screened."""
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """Where a mark may be: centre (input pixels), the radius of the disc that scored, its strength."""
+
+    x: float
+    y: float
+    radius: float
+    strength: float
+    inner: float = 0.0
+    """The smallest radius of the structure screened here (a centre dot inside a ring); ``radius`` when
+    only one scale scored."""
+
+    def to_dict(self) -> dict[str, float]:
+        return {"x": round(self.x, 2), "y": round(self.y, 2), "radius": round(self.radius, 2),
+                "inner": round(self.inner or self.radius, 2), "strength": round(self.strength, 3)}
+
+
+def half_disc_offsets(radius: int) -> np.ndarray:
+    """The offsets (dx, dy) of a disc of ``radius`` px with one of each pair {d, -d} (d != 0), as an (n, 2)
+    int array; with the centre excluded, each unordered pair of opposite pixels appears once."""
+    dy, dx = np.mgrid[0:radius + 1, -radius:radius + 1]
+    keep = (dx * dx + dy * dy <= radius * radius) & ((dy > 0) | (dx > 0))
+    return np.stack([dx[keep], dy[keep]], axis=1)
+
+
+def disc_kernel(radius: int) -> np.ndarray:
+    """A float32 disc of ones of ``radius`` px (the pixels whose centres lie within it)."""
+    dy, dx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    return (dx * dx + dy * dy <= radius * radius).astype(np.float32)
+
+
+def symmetric_energy(g: np.ndarray, radii: tuple[int, ...] = RADII) -> np.ndarray:
+    """``sum_{d in disc(r)} g(c+d) g(c-d)`` for each r of ``radii`` (stacked on axis 0), zero-padded outside
+    ``g``. The sum runs over the half disc and is doubled (each opposite pair appears twice in the full disc);
+    the centre pixel's own term g(c)^2 is added."""
+    h, w = g.shape
+    rmax = max(radii)
+    pad = np.pad(g.astype(np.float32), rmax)
+    rings = np.zeros((len(radii), h, w), np.float32)
+    tmp = np.empty((h, w), np.float32)
+    offsets = half_disc_offsets(rmax)
+    ring_of = np.searchsorted(np.asarray(radii) ** 2, (offsets ** 2).sum(axis=1))
+    for (dx, dy), k in zip(offsets, ring_of, strict=True):
+        a = pad[rmax + dy:rmax + dy + h, rmax + dx:rmax + dx + w]
+        b = pad[rmax - dy:rmax - dy + h, rmax - dx:rmax - dx + w]
+        np.multiply(a, b, out=tmp)
+        rings[k] += tmp
+    out = 2.0 * np.cumsum(rings, axis=0)
+    out += g[None] * g[None]
+    return out
+
+
+def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.ndarray:
+    """Per pixel, the white-noise sigma of the plainest of the 3 x 3 blocks of ``block`` px around it: the
+    median absolute first difference of each block (horizontal and vertical, scaled to a sigma), the minimum
+    over the neighbouring blocks (a mark beside a strong edge is judged by its plain side), bilinearly
+    interpolated. Floored at ``floor`` (one quantisation step: flat JPEG black has almost no noise, and its
+    specks would outrank the mark)."""
+    h, w = img.shape
+    dx = np.abs(np.diff(img, axis=1, append=img[:, -1:]))
+    dy = np.abs(np.diff(img, axis=0, append=img[-1:, :]))
+    bh, bw = -(-h // block), -(-w // block)
+    d = np.maximum(dx, dy)
+    d = np.pad(d, ((0, bh * block - h), (0, bw * block - w)), mode="edge")
+    blocks = d.reshape(bh, block, bw, block).transpose(0, 2, 1, 3).reshape(bh, bw, -1)
+    med = np.median(blocks, axis=2).astype(np.float32) / np.float32(MEDIAN_MAX_DIFFERENCE)
+    sigma = cv2.erode(med, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
+    up = cv2.resize(sigma, (bw * block, bh * block), interpolation=cv2.INTER_LINEAR)[:h, :w]
+    return np.maximum(up, np.float32(floor))
+
+
+def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
+                  k: float = SYMMETRY_WEIGHT, noise_floor: float = 1e-4) -> np.ndarray:
+    """The screening strength (module docstring) of every pixel of ``img`` for each of ``radii`` (axis 0);
+    zero where the disc is not wholly inside ``img``."""
+    img = img.astype(np.float32)
+    rmax = max(radii)
+    g = img - cv2.blur(img, (2 * rmax + 1, 2 * rmax + 1), borderType=cv2.BORDER_REFLECT)
+    g = cv2.GaussianBlur(g, (0, 0), 0.7, borderType=cv2.BORDER_REFLECT)
+    sym = symmetric_energy(g, radii)
+    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0)
+    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1)
+    noise = local_noise(img, floor=noise_floor)
+    out = np.zeros_like(sym)
+    for i, r in enumerate(radii):
+        kern = disc_kernel(r)
+        energy = cv2.filter2D(g * g, -1, kern, borderType=cv2.BORDER_CONSTANT)
+        s = sym[i] / np.maximum(energy, 1e-12)
+        jxx = cv2.filter2D(gx * gx, -1, kern, borderType=cv2.BORDER_CONSTANT)
+        jyy = cv2.filter2D(gy * gy, -1, kern, borderType=cv2.BORDER_CONSTANT)
+        jxy = cv2.filter2D(gx * gy, -1, kern, borderType=cv2.BORDER_CONSTANT)
+        iso = 1.0 - np.sqrt((jxx - jyy) ** 2 + 4 * jxy ** 2) / np.maximum(jxx + jyy, 1e-12)
+        m = np.clip((1 + k) * s - k, 0, None) * iso * np.sqrt(energy) / noise
+        m[:r], m[-r:], m[:, :r], m[:, -r:] = 0, 0, 0, 0
+        out[i] = m
+    return out
+
+
+def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RADII,
+                     min_strength: float = MIN_STRENGTH, noise_floor: float = 1e-4) -> list[Candidate]:
+    """The local maxima of the strength of one pyramid level, in input pixels (``scale`` input pixels per
+    level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``)."""
+    maps = strength_maps(img, radii, noise_floor=noise_floor)
+    found = []
+    for r, m in zip(radii, maps, strict=True):
+        peak = m == cv2.dilate(m, disc_kernel(r).astype(np.uint8))
+        ys, xs = np.nonzero(peak & (m >= min_strength))
+        for x, y in zip(xs, ys, strict=True):
+            found.append(Candidate(x=(x + 0.5) * scale - 0.5, y=(y + 0.5) * scale - 0.5, radius=r * scale,
+                                   strength=float(m[y, x])))
+    return found
+
+
+def reduce2(img: np.ndarray) -> np.ndarray:
+    """The next pyramid level: means of 2 x 2 blocks (a last odd row or column is dropped)."""
+    h, w = (img.shape[0] // 2) * 2, (img.shape[1] // 2) * 2
+    a = img[:h, :w]
+    return 0.25 * (a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2])
+
+
+def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_radius: float | None = None,
+           max_candidates: int = 32, min_strength: float = MIN_STRENGTH,
+           noise_floor: float = 1e-4) -> tuple[Candidate, ...]:
+    """Candidates for mark centres in ``img`` (grey, either polarity), strongest first.
+
+    Parameters
+    ----------
+    img : ndarray
+        2-D grey levels, possibly already reduced from the full image by ``scale``.
+    scale : float
+        Full-image pixels per pixel of ``img``; candidates are returned in full-image pixels of ``img``'s
+        region (``(i + 0.5) * scale - 0.5``) with radii in full-image pixels.
+    min_radius, max_radius : float
+        The radii (full-image px) of the marks sought; levels that cannot hold them are skipped.
+    max_candidates : int
+        At most this many candidates (the strongest).
+    min_strength : float
+        Least strength (module docstring).
+    noise_floor : float
+        Least local noise (grey levels of ``img``): one quantisation step of the scan's samples.
+
+    Examples
+    --------
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("ring_cross", size=40, window=300, centre=(180.3, 110.6),
+    ...                          rng=np.random.default_rng(1))
+    >>> best = screen(scene.image)[0]
+    >>> bool(abs(best.x - 180.3) < 3 and abs(best.y - 110.6) < 3)
+    True
+    """
+    found: list[Candidate] = []
+    level = np.asarray(img, np.float32)
+    s = float(scale)
+    while min(level.shape) >= MIN_LEVEL_SIDE:
+        if max_radius is not None and RADII[0] * s > max_radius:
+            break
+        if RADII[-1] * s >= min_radius:
+            found.extend(level_candidates(level, s, RADII, min_strength, noise_floor))
+        level = reduce2(level)
+        s *= 2.0
+    return merge_candidates(found, max_candidates)
+
+
+def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:
+    """One candidate per place, strongest first. A weaker candidate is the same structure seen at another scale
+    when its centre lies within :data:`MERGE_SHARE` of the larger radius of a stronger one's (a ring and its
+    centre dot) or
+    within the smaller radius (two scales of one blob): it is merged into the stronger one, which keeps the
+    largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale."""
+    kept: list[Candidate] = []
+    for c in sorted(found, key=lambda c: -c.strength):
+        for i, k in enumerate(kept):
+            d = float(np.hypot(c.x - k.x, c.y - k.y))
+            if d <= max(MERGE_SHARE * max(c.radius, k.radius), min(c.radius, k.radius)):
+                finer = c if c.radius < (k.inner or k.radius) else k
+                kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
+                                  inner=min(k.inner or k.radius, c.inner or c.radius))
+                break
+        else:
+            if len(kept) < max_candidates:
+                kept.append(replace(c, inner=c.inner or c.radius))
+    return tuple(kept)
+
+
+__all__ = ["Candidate", "half_disc_offsets", "local_noise", "merge_candidates", "screen", "strength_maps"]

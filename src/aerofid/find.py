@@ -1,0 +1,397 @@
+"""``aerofid.find_marks``: every mark in a region of a scan (or the whole scan), coarse to fine.
+
+The search (aerofid's; the seeds locate one mark in a window the operator drew round it):
+
+1. **Screen** (:mod:`aerofid.detect.screen`): the region, with a margin of context around it, is read reduced
+   by block means (so that at most :data:`SCREEN_PIXELS` pixels are held, whatever the region's size) and
+   screened for centrally symmetric, compact structure on an image pyramid. Cost grows with the region's
+   area only here, a few multiply-adds per reduced pixel.
+2. **Measure** each candidate (strongest first, at most ``max_candidates``) with the chosen method on a
+   window read around it at full resolution, as large as the candidate's scale needs (clipped only by the
+   image, never by the region: the region says where a centre may be, not which pixels may be read).
+3. **Re-centre**: a found mark is measured again on a window centred on its own centre, sized by its own
+   extent (the method's model of it), so that the answer does not depend on where the region's edges or
+   the candidate fell (box-to-box spread, issue 9).
+4. **One answer per mark**: answers closer than the larger mark's extent are one mark (the better kept); a
+   mark much smaller than a neighbouring one and beside it (printed index dots or digits, a centre dot,
+   the end of an arm) is an *accessory* of it, not a mark of its own.
+
+:func:`aerofid.locate` is this search on the operator's box plus the one-mark rule.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any, Protocol
+
+import numpy as np
+
+from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity
+from aerofid.detect.result import Detection
+from aerofid.detect.screen import Candidate, merge_candidates, screen
+from aerofid.errors import AerofidInputError
+from aerofid.io.colour import COLOUR_POLICIES, to_grey
+from aerofid.io.raster import Raster, clip_box, open_raster
+from aerofid.methods import check_choice, check_polarity, make_detector
+
+SCREEN_PIXELS = 2_000_000
+"""Most pixels of the reduced region that screening holds (a power-of-two reduction is chosen to fit)."""
+CONTEXT = 64
+"""Pixels of context screened around a region (at most; clipped by the image)."""
+FIRST_WINDOW = (2.5, 8)
+"""Half-size of the first window around a candidate: 2.5 x its radius + 8 px."""
+RECENTRED_WINDOW = (2.5, 8)
+"""Half-size of the re-centred window: 1.5 x the mark's extent + 8 px."""
+RECENTRE_ROUNDS = 3
+"""At most this many re-centred measurements per mark."""
+LADDER_STEP = 0.6
+"""Ratio of successive window sizes tried on one candidate."""
+MIN_HALF = 12
+"""Smallest half-size of a measuring window (px)."""
+MAX_HALF = 320
+"""Largest half-size of a measuring window (px): marks larger than ~250 px across are not sought."""
+ACCESSORY_RATIO = 0.5
+"""A mark whose extent is below this fraction of a neighbour's is its accessory..."""
+ACCESSORY_REACH = 3.0
+"""... when it lies within this many of the neighbour's extents of its centre."""
+WEAK_CANDIDATE = 0.4
+"""Once a mark is found, candidates weaker than this fraction of its screening strength are not measured
+(a second mark of the same kind screens about as strong)."""
+
+
+class ImageSource(Protocol):
+    """What the search reads: an open :class:`~aerofid.io.raster.Raster` or an array presented as one."""
+
+    width: int
+    height: int
+    dtype: np.dtype
+    path: Any
+
+    def read_window(self, box: Sequence[int]) -> np.ndarray: ...
+
+    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray: ...
+
+
+class _ArraySource:
+    """Interim: an array as an image source (to be replaced by io's)."""
+
+    def __init__(self, a: np.ndarray):
+        a = np.asarray(a)
+        if a.ndim == 3 and a.shape[2] == 4:
+            a = a[:, :, :3]
+        if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 3)):
+            raise AerofidInputError(f"image array has shape {a.shape}; give a 2-D grey or (h, w, 3) RGB array")
+        if a.size == 0:
+            raise AerofidInputError("image array is empty")
+        if not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)) or a.dtype == bool:
+            raise AerofidInputError(f"image array has dtype {a.dtype}; give unsigned integers or floats")
+        self.a, self.path, self.dtype = a, None, a.dtype
+        self.height, self.width = a.shape[:2]
+
+    def read_window(self, box: Sequence[int]) -> np.ndarray:
+        x0, y0, x1, y1 = box
+        return self.a[y0:y1, x0:x1]
+
+    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray:
+        return _block_mean(np.asarray(self.read_window(box), np.float32), factor)
+
+
+def _block_mean(w: np.ndarray, f: int) -> np.ndarray:
+    if f == 1:
+        return w
+    h, wd = w.shape[:2]
+    H, W = -(-h // f) * f, -(-wd // f) * f
+    pad = [(0, H - h), (0, W - wd)] + ([(0, 0)] if w.ndim == 3 else [])
+    ones = np.pad(np.ones((h, wd), np.float32), pad[:2])
+    p = np.pad(w, pad)
+    s = p.reshape(H // f, f, W // f, f, *w.shape[2:]).sum(axis=(1, 3))
+    n = ones.reshape(H // f, f, W // f, f).sum(axis=(1, 3))
+    return s / (n[..., None] if w.ndim == 3 else n)
+
+
+class _RasterSource:
+    def __init__(self, r: Raster):
+        self.r = r
+        self.path, self.dtype, self.width, self.height = r.path, r.dtype, r.width, r.height
+
+    def read_window(self, box: Sequence[int]) -> np.ndarray:
+        return self.r.read_window(box)
+
+    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray:
+        return _block_mean(self.r.read_window(box).astype(np.float32), factor)
+
+
+@contextlib.contextmanager
+def open_image(image: Any) -> Iterator[Any]:
+    """Interim."""
+    if isinstance(image, Raster):
+        yield _RasterSource(image)
+    elif isinstance(image, str | os.PathLike):
+        with open_raster(image) as r:
+            yield _RasterSource(r)
+    else:
+        yield _ArraySource(image)
+
+
+@dataclass(frozen=True)
+class Located:
+    """One measured mark (full-image pixels): the detector's answer moved to the image, the window it saw."""
+
+    detection: Detection
+    polarity: Polarity
+    box: Box
+    window: np.ndarray = field(repr=False, compare=False)
+    candidate: Candidate | None = None
+
+    @property
+    def found(self) -> bool:
+        return self.detection.found
+
+    @property
+    def x(self) -> float:
+        return self.detection.x
+
+    @property
+    def y(self) -> float:
+        return self.detection.y
+
+    @property
+    def extent(self) -> float:
+        """The mark's radius by its method's model, else the screening radius, else a quarter of the window."""
+        e = self.detection.extent
+        if e is not None and math.isfinite(e) and e > 0:
+            return float(e)
+        if self.candidate is not None:
+            return self.candidate.radius
+        return min(self.box[2] - self.box[0], self.box[3] - self.box[1]) / 4.0
+
+
+@dataclass(frozen=True)
+class MarkSearch:
+    """The answer of :func:`find_marks`: the marks found (strongest first) and how the search went.
+
+    Iterating over it, ``len`` and indexing reach :attr:`marks`.
+    """
+
+    region: Box
+    marks: tuple[Located, ...]
+    accessories: tuple[Located, ...]
+    attempts: tuple[Located, ...]
+    candidates: tuple[Candidate, ...]
+    reduction: int
+    path: str | None = None
+
+    def __iter__(self) -> Iterator[Located]:
+        return iter(self.marks)
+
+    def __len__(self) -> int:
+        return len(self.marks)
+
+    def __getitem__(self, i: int) -> Located:
+        return self.marks[i]
+
+
+@dataclass(frozen=True)
+class Measurer:
+    """Measures a mark on a window of ``source`` around a point: the configured detector, colour policy and
+    polarities (the more reliable answer of the polarities wins)."""
+
+    source: ImageSource
+    detector: Any
+    polarities: tuple[Polarity, ...]
+    colour: str = "auto"
+
+    def at(self, x: float, y: float, half: float, candidate: Candidate | None = None) -> Located:
+        """The detector's answer on the window of half-size ``half`` centred on the pixel nearest (x, y)."""
+        h = int(min(max(math.ceil(half), MIN_HALF), MAX_HALF))
+        cx, cy = int(round(x)), int(round(y))
+        box, _ = clip_box((cx - h, cy - h, cx + h + 1, cy + h + 1), self.source.width, self.source.height)
+        samples = self.source.read_window(box)
+        best: Located | None = None
+        for pol in self.polarities:
+            grey = to_grey(samples, self.colour, pol)
+            if pol == "dark":
+                grey = 1.0 - grey
+            det = self.detector(grey).shifted(box[0], box[1])
+            got = Located(det, pol, box, grey, candidate)
+            if best is None or better(got.detection, best.detection):
+                best = got
+        assert best is not None
+        return best
+
+    def candidate(self, c: Candidate) -> Located:
+        """Steps 2 and 3 of the search for one candidate: windows from the candidate's largest radius down to
+        its smallest (:func:`window_ladder`) until one is found, then re-centred windows sized by the mark's
+        own extent until the size settles."""
+        first: Located | None = None
+        for half in window_ladder(c.radius, c.inner or c.radius):
+            got = self.at(c.x, c.y, half, c)
+            first = first or got
+            if got.found:
+                return self.recentre(got, c)
+        assert first is not None
+        return first
+
+    def recentre(self, got: Located, c: Candidate | None) -> Located:
+        """Step 3: measure again on a window centred on the answer, of half-size from its extent."""
+        half = RECENTRED_WINDOW[0] * got.extent + RECENTRED_WINDOW[1]
+        for _ in range(RECENTRE_ROUNDS):
+            again = self.at(got.x, got.y, half, c)
+            if not again.found:
+                return again
+            settled = RECENTRED_WINDOW[0] * again.extent + RECENTRED_WINDOW[1]
+            got = again
+            if abs(settled - half) <= 0.15 * half:
+                break
+            half = settled
+        return got
+
+
+def window_ladder(radius: float, inner: float) -> list[float]:
+    """Half-sizes of the windows tried on a candidate: FIRST_WINDOW of its radius, then 0.6 times smaller
+    each, down to FIRST_WINDOW of ``inner`` (at least :data:`MIN_HALF`)."""
+    low = max(FIRST_WINDOW[0] * inner + FIRST_WINDOW[1], MIN_HALF)
+    half = max(FIRST_WINDOW[0] * radius + FIRST_WINDOW[1], low)
+    out = [half]
+    while out[-1] * LADDER_STEP >= low * 0.9:
+        out.append(out[-1] * LADDER_STEP)
+    return out
+
+
+def better(a: Detection, b: Detection) -> bool:
+    """Is ``a`` a more reliable answer than ``b``? Found beats not found, then the higher score."""
+    if a.found != b.found:
+        return a.found
+    return a.score > b.score
+
+
+def reduction_for(width: int, height: int, budget: int = SCREEN_PIXELS) -> int:
+    """The smallest power of two f with (width / f) * (height / f) <= ``budget``."""
+    f = 1
+    while math.ceil(width / f) * math.ceil(height / f) > budget:
+        f *= 2
+    return f
+
+
+def screen_region(source: ImageSource, region: Box, colour: str, polarity: Polarity,
+                  min_radius: float, max_radius: float | None,
+                  max_candidates: int) -> tuple[tuple[Candidate, ...], int]:
+    """Step 1: candidates whose centres lie in ``region`` (full-image pixels), and the reduction used."""
+    margin = int(min(CONTEXT, max_radius if max_radius is not None else CONTEXT))
+    x0, y0, x1, y1 = region
+    ctx, _ = clip_box((x0 - margin, y0 - margin, x1 + margin, y1 + margin), source.width, source.height)
+    f = reduction_for(ctx[2] - ctx[0], ctx[3] - ctx[1])
+    reduced = source.read_reduced(ctx, f)
+    step = 1.0 / float(np.iinfo(source.dtype).max) if source.dtype.kind in "ui" else 1e-4
+    if source.dtype.kind in "ui":
+        reduced = reduced * np.float32(step)
+    found: list[Candidate] = []
+    for grey in screening_greys(reduced.astype(np.float32), colour, polarity):
+        found += screen(grey, scale=f, min_radius=min_radius, max_radius=max_radius,
+                        max_candidates=4 * max_candidates, noise_floor=step / f)
+    found = list(merge_candidates(found, 4 * max_candidates))
+    inside = [replace(c, x=c.x + ctx[0], y=c.y + ctx[1]) for c in found]
+    inside = [c for c in inside if x0 - 0.5 <= c.x < x1 - 0.5 and y0 - 0.5 <= c.y < y1 - 0.5]
+    return tuple(inside[:max_candidates]), f
+
+
+def screening_greys(reduced: np.ndarray, colour: str, polarity: Polarity) -> list[np.ndarray]:
+    """The grey images screened: with ``colour="auto"`` an RGB region is screened in each channel (the policy
+    that picks one mix per measuring window cannot judge a region of many things: a red mark beside cyan
+    water), else the policy's one grey image."""
+    if reduced.ndim == 3 and colour == "auto":
+        return [np.ascontiguousarray(reduced[:, :, i]) for i in range(3)]
+    return [to_grey(reduced, colour, polarity)]
+
+
+def one_per_mark(found: list[Located]) -> tuple[list[Located], list[Located]]:
+    """Step 4: (marks, accessories) from the found answers."""
+    marks: list[Located] = []
+    for a in sorted(found, key=lambda a: -a.detection.score):
+        if all(math.hypot(a.x - m.x, a.y - m.y) > max(a.extent, m.extent) for m in marks):
+            marks.append(a)
+    accessories = [a for a in marks if any(
+        a.extent < ACCESSORY_RATIO * m.extent and math.hypot(a.x - m.x, a.y - m.y) < ACCESSORY_REACH * m.extent
+        for m in marks if m is not a)]
+    return [m for m in marks if all(m is not a for a in accessories)], accessories
+
+
+def measure_candidates(measurer: Measurer, candidates: Sequence[Candidate]) -> list[Located]:
+    """Step 2-3 for each candidate, strongest first, skipping those much weaker than a mark already found
+    (:data:`WEAK_CANDIDATE`) and those inside a mark already measured (its parts: arms, ring, centre dot)."""
+    attempts: list[Located] = []
+    strongest = 0.0
+    for c in candidates:
+        if c.strength < WEAK_CANDIDATE * strongest:
+            continue
+        done = [a for a in attempts if a.found]
+        if any(math.hypot(c.x - a.x, c.y - a.y) < a.extent for a in done):
+            continue
+        got = measurer.candidate(c)
+        attempts.append(got)
+        if got.found:
+            strongest = max(strongest, c.strength)
+    return attempts
+
+
+def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequence[float] | None = None,
+               mark: str = "auto", method: str = "auto", polarity: str = "bright", colour: str = "auto",
+               min_radius: float = 2.0, max_radius: float | None = None, max_candidates: int = 16,
+               **params: Any) -> MarkSearch:
+    """Every mark in ``region`` of ``image`` (or the whole image), each with its sub-pixel centre and sigma.
+
+    Parameters
+    ----------
+    image : path, ndarray or open raster
+        As :func:`aerofid.locate` takes it.
+    region : (x0, y0, x1, y1), optional
+        Where the marks' centres may lie (full-image pixels, x1 and y1 exclusive); the whole image if None.
+        Pixels around it are read as context.
+    mark, method, polarity, colour, **params
+        As :func:`aerofid.locate`.
+    min_radius, max_radius : float
+        The marks' radii sought (px); a large region is screened reduced, and marks much smaller than the
+        reduction cannot be seen (:attr:`MarkSearch.reduction`).
+    max_candidates : int
+        At most this many candidates are measured.
+
+    Returns
+    -------
+    MarkSearch
+        ``marks`` (found, one per mark, accessories apart), every attempt, the screening candidates.
+
+    Examples
+    --------
+    >>> import numpy as np, aerofid
+    >>> from aerofid import synth
+    >>> frame = synth.demo_frame(np.random.default_rng(0), size=900, mark_size=40)
+    >>> got = aerofid.find_marks(frame.image, (0, 0, 900, 150), mark="external")
+    >>> len(got)
+    3
+    """
+    check_polarity(polarity)
+    check_choice(colour, COLOUR_POLICIES, "colour")
+    detector = make_detector(method, mark, params)
+    polarities: tuple[Polarity, ...] = ("bright", "dark") if polarity == "auto" else (polarity,)  # type: ignore[assignment]
+    with open_image(image) as source:
+        area = (0, 0, source.width, source.height) if region is None else clip_box(region, source.width,
+                                                                                  source.height)[0]
+        candidates, f = screen_region(source, area, colour, polarities[0], min_radius, max_radius,
+                                      max_candidates)
+        measurer = Measurer(source, detector, polarities, colour)
+        attempts = measure_candidates(measurer, candidates)
+        found = [a for a in attempts if a.found and _inside(a, area)]
+        marks, accessories = one_per_mark(found)
+        path = None if source.path is None else str(source.path)
+    return MarkSearch(area, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path)
+
+
+def _inside(a: Located, box: Box) -> bool:
+    return box[0] - 0.5 <= a.x < box[2] - 0.5 and box[1] - 0.5 <= a.y < box[3] - 0.5
+
+
+__all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "find_marks"]

@@ -1,0 +1,71 @@
+"""The configured method: a method's name, the kind of mark and the user's parameters -> one detector.
+
+A detector is a function of one grey window (float32 on [0, 1], mark bright) returning the method's typed
+answer in window pixels (:class:`~aerofid.detect.result.Detection`). Parameters are checked here, before any
+pixel is read: unknown names and bad values are one-line input errors naming the valid ones.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from aerofid.conventions import MARKS, POLARITY_CHOICES
+from aerofid.detect import auto
+from aerofid.detect.params import MethodParams
+from aerofid.detect.registry import METHODS, route_params
+from aerofid.detect.result import Detection
+from aerofid.errors import AerofidInputError
+
+Detector = Callable[[np.ndarray], Detection]
+"""One configured method: grey window (mark bright) -> its answer."""
+
+METHOD_NAMES = ("auto", *METHODS)
+"""What ``method`` may be: ``auto`` or one of the seeds' methods (:data:`aerofid.detect.registry.METHODS`)."""
+
+
+def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Detector:
+    """The configured method ``method_name`` for ``mark`` with the user's ``params``.
+
+    ``auto`` routes each parameter to the methods that take it (:func:`~aerofid.detect.registry.route_params`).
+
+    Examples
+    --------
+    >>> make_detector("hough", "external", {"window_size": 24}) is not None
+    True
+    >>> make_detector("hough", "external", {"size": 24})  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    aerofid.errors.AerofidInputError: unknown parameter 'size' for method 'hough'; valid: ...
+    """
+    check_choice(method_name, METHOD_NAMES, "method")
+    check_choice(mark, MARKS, "mark")
+    if method_name == "auto":
+        types: dict[str, type[MethodParams]] = {"auto": auto.AutoParams}
+        types.update({m: METHODS[m].params_type for m in METHODS})
+        routed = route_params({"mark": mark, **params}, types)
+        auto_params = routed.pop("auto")
+        assert isinstance(auto_params, auto.AutoParams)
+        return lambda grey: auto.detect(grey, auto_params, methods=routed)
+    m = METHODS[method_name]
+    values = dict(params)
+    if "mark" in m.params_type.names():
+        values["mark"] = mark
+    p = m.params_type.from_mapping(values, method_name)
+    return lambda grey: m.detect(grey, p)
+
+
+def check_choice(value: str, choices: Sequence[str], what: str) -> None:
+    """Raise one :class:`AerofidInputError` line unless ``value`` is one of ``choices``."""
+    if value not in choices:
+        raise AerofidInputError(f"unknown {what} {value!r}; use one of {', '.join(choices)}")
+
+
+def check_polarity(polarity: str) -> None:
+    """``polarity`` must be one of :data:`aerofid.conventions.POLARITY_CHOICES`."""
+    check_choice(polarity, POLARITY_CHOICES, "polarity")
+
+
+__all__ = ["METHOD_NAMES", "Detector", "check_choice", "check_polarity", "make_detector"]

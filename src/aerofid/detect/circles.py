@@ -680,6 +680,9 @@ class _Trace:
     competitor: tuple[float, float, float, float] | None = None
     expected_rms: float = float("nan")
     score_parts: Mapping[str, float] | None = None
+    sigma_x: float = float("nan")
+    sigma_y: float = float("nan")
+    cov_xy: float = float("nan")
 
     def fields(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -700,10 +703,11 @@ def detect(window: np.ndarray, params: CirclesParams = DEFAULT) -> CirclesResult
     Returns
     -------
     CirclesResult
-        The adjusted common centre, ``sigma`` = mean of its two standard deviations from the adjustment (times
-        sqrt(``EDGE_CORRELATION``)), ``score`` = min(circumference support / 0.9, fit quality, concentricity),
-        and the intermediate results as typed fields; ``extent`` is the largest circle's radius + 1 px. A window
-        without two concentric circles gives ``status="not_found"`` with the reason.
+        The adjusted common centre; ``sigma_x``, ``sigma_y``, ``cov_xy`` = its covariance from the adjustment
+        (times ``EDGE_CORRELATION``), ``sigma`` = the mean of ``sigma_x`` and ``sigma_y`` (not their RMS);
+        ``score`` = min(circumference support / 0.9, fit quality, concentricity), and the intermediate results
+        as typed fields; ``extent`` is the largest circle's radius + 1 px. A window without two concentric
+        circles gives ``status="not_found"`` with the reason.
 
     Examples
     --------
@@ -786,6 +790,9 @@ def _run(w: np.ndarray, p: CirclesParams, t: _Trace,
                        f"{fit.sigma0 / expected:.1f} times what the noise explains: not a clean pair of "
                        f"concentric circles")
     sx, sy = fit.sigma_xy
+    # the adjustment's covariance of the centre, scaled for the correlated edge points
+    t.sigma_x, t.sigma_y = float(sx * np.sqrt(EDGE_CORRELATION)), float(sy * np.sqrt(EDGE_CORRELATION))
+    t.cov_xy = float(fit.cov[0, 1] * EDGE_CORRELATION)
     # score: circumference support, fit quality (edge residual RMS vs what the noise explains), concentricity
     t.score_parts = parts = {"coverage": min(1.0, min(cover) / 0.9),
                              "fit": float(min(1.0, 2.0 * expected / max(fit.sigma0, 1e-9))),

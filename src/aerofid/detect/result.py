@@ -152,27 +152,9 @@ def unusable_window(window: np.ndarray, min_side: int = 8, min_range: float = 0.
     return None
 
 
-def centre_uncertainty(cov: np.ndarray, extra: tuple[float, float] = (0.0, 0.0)) -> dict[str, float]:
-    """The fields ``sigma_x``, ``sigma_y``, ``cov_xy`` and ``sigma`` (their RMS) of a centre whose covariance is
-    ``cov`` (2 x 2, px^2) plus independent per-axis terms ``extra`` (px, added in quadrature to the diagonal:
-    floors, disagreements).
-
-    Examples
-    --------
-    >>> u = centre_uncertainty(np.array([[0.0009, 0.0002], [0.0002, 0.0016]]))
-    >>> round(u["sigma_x"], 4), round(u["sigma_y"], 4), u["cov_xy"], round(u["sigma"], 4)
-    (0.03, 0.04, 0.0002, 0.0354)
-    """
-    c = np.asarray(cov, dtype=float)
-    sx = float(np.sqrt(c[0, 0] + extra[0] ** 2))
-    sy = float(np.sqrt(c[1, 1] + extra[1] ** 2))
-    return {"sigma_x": sx, "sigma_y": sy, "cov_xy": float(0.5 * (c[0, 1] + c[1, 0])),
-            "sigma": float(np.sqrt((sx * sx + sy * sy) / 2.0))}
-
-
 def _num(v: float) -> float | None:
     v = float(v)
     return None if not np.isfinite(v) else v
 
 
-__all__ = ["FOUND", "NOT_FOUND", "Detection", "Refused", "centre_uncertainty", "unusable_window"]
+__all__ = ["FOUND", "NOT_FOUND", "Detection", "Refused", "unusable_window"]

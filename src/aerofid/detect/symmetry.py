@@ -33,8 +33,9 @@ Every step works on absolute differences of a linear filter, so the method is bl
 mark on dark ground and a dark mark on bright ground give the same centre.
 
 The returned ``score`` is ``R_self`` (clipped to [0, 1]) evaluated at the final sub-pixel centre, so a found
-mark has ``score >= rself_threshold`` (0.5). ``sigma`` is a propagated standard deviation (see
-:func:`centre_sigma`); the benchmark ``benchmarks/bench_symmetry.py`` checks it against observed errors.
+mark has ``score >= rself_threshold`` (0.5). ``sigma_x``, ``sigma_y``, ``cov_xy`` are a propagated covariance
+(see :func:`centre_covariance`) and ``sigma`` the mean of ``sigma_x`` and ``sigma_y``; the benchmark
+``benchmarks/bench_symmetry.py`` checks it against observed errors.
 
 Deviations from, and readings of, the paper are marked "Reading:" in the docs of :class:`SymmetryParams`.
 """
@@ -337,8 +338,6 @@ class SymmetryResult(Detection):
     signal_std: float = _diag(float("nan"))
     faint_limit: float = _diag(float("nan"))
     """Faintness test (seed 3.4): the grey-level std near the centre, net of noise, and its limit."""
-    sigma_x: float = _diag(float("nan"))
-    sigma_y: float = _diag(float("nan"))
 
     def plot(self, fig: Figure, window: np.ndarray) -> None:
         """The window with the fiducial area's bounds L1, L2 (rows), p1, p2 and the axis L3 (columns), the
@@ -394,6 +393,7 @@ class _Trace:
     faint_limit: float = float("nan")
     sigma_x: float = float("nan")
     sigma_y: float = float("nan")
+    cov_xy: float = float("nan")
 
     def fields(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -415,7 +415,8 @@ def detect(window: np.ndarray, params: SymmetryParams = DEFAULT) -> SymmetryResu
     -------
     SymmetryResult
         The centre in window pixels, ``score = R_self`` of eq. (13) at the final centre (clipped to [0, 1]),
-        ``sigma`` in px, and every stage's intermediate results as typed fields. A window without a centrally
+        ``sigma_x``, ``sigma_y``, ``cov_xy`` (px, px^2), ``sigma`` = the mean of ``sigma_x`` and ``sigma_y``
+        (not their RMS), and every stage's intermediate results as typed fields. A window without a centrally
         symmetric mark gives ``status="not_found"`` with the reason (never an exception).
 
     Examples
@@ -477,9 +478,11 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     if p.point_refine:
         xs, ys = _refine(img, xs, ys, r, p, t)
     score = _verify_centre(img, xs, ys, r, noise, p, t)
-    sx, sy = centre_sigma(img, xs, ys, r, noise, p.sigma_inefficiency, p.sigma_floor)
+    cov = centre_covariance(img, xs, ys, r, noise, p.sigma_inefficiency, p.sigma_floor)
     # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
-    t.sigma_x, t.sigma_y = float(np.hypot(sx, xs - x15)), float(np.hypot(sy, ys - y15))
+    t.sigma_x = float(np.hypot(np.sqrt(cov[0, 0]), xs - x15))
+    t.sigma_y = float(np.hypot(np.sqrt(cov[1, 1]), ys - y15))
+    t.cov_xy = float(cov[0, 1])
     return float(xs), float(ys), float(np.clip(score, 0.0, 1.0))
 
 
@@ -980,7 +983,16 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
 
 def centre_sigma(img: np.ndarray, xc: float, yc: float, r: int, noise: float, inefficiency: float,
                  floor: float) -> tuple[float, float]:
-    """Standard deviation of the centre per axis, (sigma_x, sigma_y).
+    """Standard deviation of the centre per axis, (sigma_x, sigma_y): the square roots of the diagonal of
+    :func:`centre_covariance`."""
+    cov = centre_covariance(img, xc, yc, r, noise, inefficiency, floor)
+    return float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
+
+
+def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: float, inefficiency: float,
+                      floor: float) -> np.ndarray:
+    """Covariance of the centre (2 x 2, px^2): per axis the variances below, and between the axes the
+    noise part's covariance.
 
     Noise: mirror symmetry about ``c`` pairs ``I(c + u)`` with ``I(c - u)``; a small shift ``dc`` changes each
     difference by ``2 I'(c + u) dc`` while the noise of a difference is ``sqrt(2) noise``; least squares over
@@ -992,6 +1004,12 @@ def centre_sigma(img: np.ndarray, xc: float, yc: float, r: int, noise: float, in
     about the true centre. The disagreement between the symmetric centres found with bilinear and with cubic
     resampling (one Gauss-Newton step each, :func:`_mirror_step`) measures that and is added in quadrature,
     with ``floor`` for the discretisation of eq. (14).
+
+    Between the axes: the correlation of the noise part is that of the inverse of the normal matrix
+    ``[[sum I_x^2, sum I_x I_y], [sum I_x I_y, sum I_y^2]]``, ``-sum(I_x I_y) / sqrt(sum I_x^2 sum I_y^2)``
+    (white noise adds nothing to ``sum I_x I_y``); it scales the noise parts of the two standard deviations
+    (the sampling and floor terms are independent per axis). A mark that is long along a diagonal (a '+'
+    with one long arm at 45 degrees) has gradients across that arm, and its centre's x and y errors correlate.
     """
     sub = _resample(img, xc, yc, r + 1).astype(np.float64)
     gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])
@@ -999,13 +1017,14 @@ def centre_sigma(img: np.ndarray, xc: float, yc: float, r: int, noise: float, in
     nn = gx.size * noise ** 2 * 0.5
     ex = max(float((gx * gx).sum()) - nn, 1e-12)
     ey = max(float((gy * gy).sum()) - nn, 1e-12)
+    rho = float(np.clip(-float((gx * gy).sum()) / np.sqrt(ex * ey), -1.0, 1.0))
     alias = np.abs(_mirror_step(img, xc, yc, r, 1) - _mirror_step(img, xc, yc, r, 3))
-    sx = float(np.sqrt((inefficiency * noise) ** 2 / ex + alias[0] ** 2 + floor ** 2))
-    sy = float(np.sqrt((inefficiency * noise) ** 2 / ey + alias[1] ** 2 + floor ** 2))
-    return sx, sy
+    vx, vy = (inefficiency * noise) ** 2 / ex, (inefficiency * noise) ** 2 / ey
+    cxy = rho * float(np.sqrt(vx * vy))
+    return np.array([[vx + alias[0] ** 2 + floor ** 2, cxy], [cxy, vy + alias[1] ** 2 + floor ** 2]])
 
 
 __all__ = ["DEFAULT", "METHOD", "AxisProfile", "FiducialArea", "Profiles", "SelfDiagnosis", "SubpixelStage",
-           "SymmetryParams", "SymmetryResult", "axis_peak", "centre_sigma", "detect", "fiducial_area", "high_pass",
-           "kernel_radius", "ncc", "point_symmetry_centre", "search_range", "self_diagnosis", "simplified_log",
-           "subpixel_centre", "symmetry_accumulation", "symmetry_profile"]
+           "SymmetryParams", "SymmetryResult", "axis_peak", "centre_covariance", "centre_sigma", "detect",
+           "fiducial_area", "high_pass", "kernel_radius", "ncc", "point_symmetry_centre", "search_range",
+           "self_diagnosis", "simplified_log", "subpixel_centre", "symmetry_accumulation", "symmetry_profile"]

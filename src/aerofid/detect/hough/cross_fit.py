@@ -73,6 +73,9 @@ class CrossFit:
     """Robust spread of the residuals on the mark (model coverage > 0.5) over the noise of its
     surroundings (at least ``MODEL_TOLERANCE`` x the amplitude): about 1 when the model explains the
     mark, larger for a feature that only resembles it."""
+    cov_xy: float = float("nan")
+    """Covariance of the centre's x and y (px^2): with ``sigma_x``, ``sigma_y`` the centre's 2 x 2 block of
+    sigma0^2 (J^T J)^+."""
 
     @property
     def arm_balance(self) -> float:
@@ -347,6 +350,7 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     noise, misfit = _noise_and_misfit(pt, sol, sigma0)
     xc, yc, t1, t2, l1, l2, wd, s, a = (float(v) for v in sol[:9])
     return CrossFit(x=xc, y=yc, sigma_x=float(np.sqrt(cov[0, 0])), sigma_y=float(np.sqrt(cov[1, 1])),
+                    cov_xy=float(0.5 * (cov[0, 1] + cov[1, 0])),
                     theta1=float(np.rad2deg(t1)), theta2=float(np.rad2deg(t2)), length1=l1, length2=l2,
                     width=wd, blur=s, amplitude=a, sigma0=sigma0, noise=noise,
                     arm_contrast=_arm_contrast(pt, sol), at_bound=_at_bound(sol, lo, hi), patch_half=float(pt.half),

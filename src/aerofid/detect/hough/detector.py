@@ -249,8 +249,10 @@ def detect(window: np.ndarray, params: HoughParams = DEFAULT) -> HoughResult:
     Returns
     -------
     HoughResult
-        Centre in window pixels; ``score`` = the similarity metric (clipped to [0, 1]); ``sigma`` = the cross
-        fit's standard deviation of the centre, or the rho cell's rho_step / sqrt(12) with ``verify=False``.
+        Centre in window pixels; ``score`` = the similarity metric (clipped to [0, 1]); ``sigma_x``,
+        ``sigma_y``, ``cov_xy`` = the cross fit's covariance of the centre, or the rho cell's
+        rho_step / sqrt(12) per axis (``cov_xy`` 0) with ``verify=False``; ``sigma`` = their RMS,
+        sqrt((sigma_x^2 + sigma_y^2) / 2).
 
     Examples
     --------
@@ -275,11 +277,15 @@ def detect(window: np.ndarray, params: HoughParams = DEFAULT) -> HoughResult:
         return HoughResult.not_found(METHOD, result.reason, candidates=result.candidates, rejected=result.rejected)
     if isinstance(result.verified, Verified):
         v = result.verified
-        x, y, sigma, refinement = v.x, v.y, v.refinement.sigma, v.refinement
+        x, y, refinement = v.x, v.y, v.refinement
+        sx, sy, cxy = refinement.sigma_x, refinement.sigma_y, refinement.cov_xy
     else:  # verification off: the Hough centre, quantised by the rho cells
-        x, y, sigma, refinement = best.x, best.y, params.rho_step / np.sqrt(12.0), None
+        x, y, refinement = best.x, best.y, None
+        sx = sy = params.rho_step / np.sqrt(12.0)
+        cxy = 0.0
     return HoughResult(status=FOUND, x=float(x), y=float(y), score=float(np.clip(best.metric, 0.0, 1.0)),
-                       sigma=float(sigma), method=METHOD, candidates=result.candidates, rejected=result.rejected,
+                       sigma=float(np.sqrt((sx * sx + sy * sy) / 2.0)), sigma_x=float(sx), sigma_y=float(sy),
+                       cov_xy=float(cxy), method=METHOD, candidates=result.candidates, rejected=result.rejected,
                        analysis=best.analysis, window_origin=best.origin, model=best.model,
                        model_name=best.model_name, stage=best.stage, metric=float(best.metric),
                        refinement=refinement)

@@ -52,12 +52,16 @@ LADDER_STEP = 0.6
 """Ratio of successive window sizes tried on one candidate."""
 MIN_HALF = 12
 """Smallest half-size of a measuring window (px)."""
+MAX_MARK_RADIUS = 160.0
+"""Largest mark radius (px) sought when the caller gives none: fiducials and panels are a few to ~150 px."""
 MAX_HALF = 320
-"""Largest half-size of a measuring window (px): marks larger than ~250 px across are not sought."""
+"""Largest half-size of a measuring window (px)."""
 ACCESSORY_RATIO = 0.5
 """A mark whose extent is below this fraction of a neighbour's is its accessory..."""
-ACCESSORY_REACH = 3.0
-"""... when it lies within this many of the neighbour's extents of its centre."""
+ACCESSORY_REACH = 8.0
+"""... when it lies within this many of the neighbour's extents of its centre (index dots and digits sit 1-2
+extents from an RC20 corner mark; dust on the film border a few more; two fiducials of one frame lie a hundred
+extents apart)."""
 WEAK_CANDIDATE = 0.4
 """Once a mark is found, candidates weaker than this fraction of its screening strength are not measured
 (a second mark of the same kind screens about as strong)."""
@@ -340,7 +344,7 @@ def measure_candidates(measurer: Measurer, candidates: Sequence[Candidate]) -> l
 
 def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequence[float] | None = None,
                mark: str = "auto", method: str = "auto", polarity: str = "bright", colour: str = "auto",
-               min_radius: float = 2.0, max_radius: float | None = None, max_candidates: int = 16,
+               min_radius: float = 2.0, max_radius: float = MAX_MARK_RADIUS, max_candidates: int = 16,
                **params: Any) -> MarkSearch:
     """Every mark in ``region`` of ``image`` (or the whole image), each with its sub-pixel centre and sigma.
 

@@ -24,6 +24,7 @@ from aerofid.detect.screen import Candidate
 from aerofid.errors import AerofidInputError
 from aerofid.find import (
     ACCESSORY_RATIO,
+    MAX_MARK_RADIUS,
     ImageSource,
     Located,
     MarkSearch,
@@ -37,8 +38,11 @@ from aerofid.io.colour import COLOUR_POLICIES
 from aerofid.io.raster import Raster, clip_box
 from aerofid.methods import METHOD_NAMES, check_choice, check_polarity, make_detector
 
-LOCATE_CANDIDATES = 8
-"""At most this many screening candidates are measured in one box."""
+LOCATE_CANDIDATES = (8, 32)
+"""At most this many screening candidates are measured in one box: the first for boxes up to
+:data:`CANDIDATE_AREA` px, more in proportion to the area beyond, up to the second."""
+CANDIDATE_AREA = 512 * 512
+"""Box area (px) per :data:`LOCATE_CANDIDATES`[0] candidates."""
 
 
 @dataclass(frozen=True)
@@ -187,9 +191,11 @@ def search_box(source: ImageSource, region: Box, measurer: Measurer) -> MarkSear
     """The search of :func:`aerofid.find.find_marks` on one box, with the box's centre as a last candidate
     (a tight box: the mark fills it)."""
     w, h = region[2] - region[0], region[3] - region[1]
+    n = int(min(max(LOCATE_CANDIDATES[0] * w * h / CANDIDATE_AREA, LOCATE_CANDIDATES[0]), LOCATE_CANDIDATES[1]))
     candidates, f = screen_region(source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
-                                  max_radius=max(w, h) / 2.0 + 2.0, max_candidates=LOCATE_CANDIDATES)
-    centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0, radius=min(w, h) / 2.0,
+                                  max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n)
+    centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0,
+                       radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS),
                        strength=0.0)
     attempts = measure_candidates(measurer, (*candidates, centre))
     found = [a for a in attempts if a.found and region[0] - 0.5 <= a.x < region[2] - 0.5
@@ -200,13 +206,17 @@ def search_box(source: ImageSource, region: Box, measurer: Measurer) -> MarkSear
 
 
 def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_clipped: bool) -> Location:
-    """The one-mark rule: exactly one mark in the box is the answer; none or several is "not found". Marks less
-    than :data:`~aerofid.find.ACCESSORY_RATIO` the size of the largest (dust, printed dots) do not count."""
+    """The one-mark rule: exactly one mark in the box is the answer; none or several is "not found". Accessories
+    of a mark (:func:`aerofid.find.one_per_mark`) do not count, nor does a mark both smaller (extent below
+    :data:`~aerofid.find.ACCESSORY_RATIO` of the largest's) and less confident (lower score) than the largest
+    (a dust speck on the film border beside a fiducial); one that is smaller but more confident does (the
+    fiducials of a whole frame against a dial of its data strip)."""
     if len(search.marks) > 1:
-        big = max(m.extent for m in search.marks)
-        search = replace(search, marks=tuple(m for m in search.marks if m.extent >= ACCESSORY_RATIO * big),
-                         accessories=search.accessories + tuple(m for m in search.marks
-                                                                if m.extent < ACCESSORY_RATIO * big))
+        top = max(search.marks, key=lambda m: m.extent)
+        minor = tuple(m for m in search.marks if m.extent < ACCESSORY_RATIO * top.extent
+                      and m.detection.score < top.detection.score)
+        search = replace(search, marks=tuple(m for m in search.marks if m not in minor),
+                         accessories=search.accessories + minor)
     if len(search.marks) == 1:
         return _location(search.marks[0], search, mark, requested, was_clipped, FOUND, "")
     if search.marks:

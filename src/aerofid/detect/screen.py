@@ -149,15 +149,17 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
 
 
 def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RADII,
-                     min_strength: float = MIN_STRENGTH, noise_floor: float = 1e-4) -> list[Candidate]:
-    """The local maxima of the strength of one pyramid level, in input pixels (``scale`` input pixels per
-    level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``)."""
+                     min_strength: float = MIN_STRENGTH, noise_floor: float = 1e-4,
+                     limit: int = 256) -> list[Candidate]:
+    """The ``limit`` strongest local maxima of the strength of one pyramid level per radius, in input pixels
+    (``scale`` input pixels per level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``)."""
     maps = strength_maps(img, radii, noise_floor=noise_floor)
     found = []
     for r, m in zip(radii, maps, strict=True):
         peak = m == cv2.dilate(m, disc_kernel(r).astype(np.uint8))
         ys, xs = np.nonzero(peak & (m >= min_strength))
-        for x, y in zip(xs, ys, strict=True):
+        order = np.argsort(-m[ys, xs], kind="stable")[:limit]
+        for x, y in zip(xs[order], ys[order], strict=True):
             found.append(Candidate(x=(x + 0.5) * scale - 0.5, y=(y + 0.5) * scale - 0.5, radius=r * scale,
                                    strength=float(m[y, x])))
     return found
@@ -207,7 +209,7 @@ def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_rad
         if max_radius is not None and RADII[0] * s > max_radius:
             break
         if RADII[-1] * s >= min_radius:
-            found.extend(level_candidates(level, s, RADII, min_strength, noise_floor))
+            found.extend(level_candidates(level, s, RADII, min_strength, noise_floor, 4 * max_candidates))
         level = reduce2(level)
         s *= 2.0
     return merge_candidates(found, max_candidates)
@@ -220,17 +222,23 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
     within the smaller radius (two scales of one blob): it is merged into the stronger one, which keeps the
     largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale."""
     kept: list[Candidate] = []
+    xy = np.empty((0, 2))
+    radius = np.empty(0)
     for c in sorted(found, key=lambda c: -c.strength):
-        for i, k in enumerate(kept):
-            d = float(np.hypot(c.x - k.x, c.y - k.y))
-            if d <= max(MERGE_SHARE * max(c.radius, k.radius), min(c.radius, k.radius)):
-                finer = c if c.radius < (k.inner or k.radius) else k
-                kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
-                                  inner=min(k.inner or k.radius, c.inner or c.radius))
-                break
-        else:
-            if len(kept) < max_candidates:
-                kept.append(replace(c, inner=c.inner or c.radius))
+        d = np.hypot(xy[:, 0] - c.x, xy[:, 1] - c.y)
+        same = np.flatnonzero(d <= np.maximum(MERGE_SHARE * np.maximum(radius, c.radius), np.minimum(radius, c.radius)))
+        if same.size:
+            i = int(same[0])
+            k = kept[i]
+            finer = c if c.radius < (k.inner or k.radius) else k
+            kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
+                              inner=min(k.inner or k.radius, c.inner or c.radius))
+            xy[i] = (finer.x, finer.y)
+            radius[i] = kept[i].radius
+        elif len(kept) < max_candidates:
+            kept.append(replace(c, inner=c.inner or c.radius))
+            xy = np.vstack([xy, [c.x, c.y]])
+            radius = np.append(radius, c.radius)
     return tuple(kept)
 
 

@@ -13,7 +13,15 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
   ``page.dataoffsets`` / ``page.databytecounts``;
 * a TIFF layout that cannot be windowed (segments that do not tile the image as the tags say, NDPI-style
   JPEG) is decoded whole on the first read and kept in memory;
-* a JPEG or PNG is decoded whole when opened (OpenCV cannot read a window of it) and kept in memory.
+* a JPEG or PNG is decoded whole when opened (OpenCV cannot read a window of it) and kept in memory, if its
+  decoded size (read from the header first) fits :data:`aerofid.io.jpeg.DECODE_BUDGET_BYTES`; a larger JPEG is
+  never decoded whole (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced decode), a larger
+  PNG is refused.
+
+:meth:`Raster.read_reduced` reads a window reduced by block means in horizontal strips (whole tile rows of a
+tiled TIFF), so its memory stays bounded whatever the box (:mod:`aerofid.io.reduce`). A numpy array is read
+through the same interface by :class:`aerofid.io.array.ArrayRaster`; :func:`aerofid.io.array.open_image` opens a
+path, an array or an open raster alike.
 
 Pixel conventions: x = column, y = row, boxes are ``(x0, y0, x1, y1)`` with x1, y1
 exclusive. Every bad input raises :class:`aerofid.errors.AerofidInputError` with a one-line message.
@@ -21,18 +29,18 @@ exclusive. Every bad input raises :class:`aerofid.errors.AerofidInputError` with
 
 from __future__ import annotations
 
-import functools
 import math
 import operator
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import cv2
 import numpy as np
 import tifffile
 
 from aerofid.errors import AerofidInputError
+from aerofid.io import jpeg
+from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
 
 __all__ = [
     "WINDOW_LIMIT_BYTES",
@@ -46,8 +54,6 @@ __all__ = [
 SUPPORTED_FORMATS = "TIFF/BigTIFF/GeoTIFF, JPEG or PNG"
 WINDOW_LIMIT_BYTES = 1_000_000_000
 
-#: How many decoded JPEG/PNG files stay in memory between calls.
-DECODED_CACHE = 2
 _TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 _JPEG_MAGIC = b"\xff\xd8\xff"
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -231,36 +237,15 @@ def _hwc(shaped: np.ndarray) -> np.ndarray:
     return shaped[:, 0].transpose(1, 2, 0, 3).reshape(rows, cols, planes * contig)
 
 
-def _decode_with_cv2(path: Path) -> np.ndarray:
-    """Decode a whole JPEG or PNG file into a (rows, columns, samples) array, colour in RGB(A) order."""
-    try:
-        image = cv2.imdecode(np.fromfile(path, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    except (OSError, cv2.error) as exc:
-        raise AerofidInputError(f"cannot decode {path}: {_one_line(exc)}; re-export the scan") from exc
-    if image is None:
-        raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
-    if image.ndim == 2:
-        return image[:, :, None]
-    if image.shape[2] in (3, 4):
-        return image[:, :, [2, 1, 0]]
-    return image
-
-
-@functools.lru_cache(maxsize=DECODED_CACHE)
-def _decoded(path: str, mtime_ns: int, size: int) -> np.ndarray:
-    """:func:`_decode_with_cv2`, cached by path, modification time and size; the array is read-only."""
-    image = _decode_with_cv2(Path(path))
-    image.setflags(write=False)
-    return image
-
-
 class _ArrayReader:
     """Windows of a (rows, columns, samples) array that is made on first need and then kept: a whole
-    decoded image, or a memory map of the file."""
+    decoded image, or a memory map of the file (``mapped``), which :meth:`release` unmaps between the strips
+    of a reduced read so that the pages it touched do not pile up."""
 
-    def __init__(self, load: Callable[[], np.ndarray]):
+    def __init__(self, load: Callable[[], np.ndarray], mapped: bool = False):
         self._load = load
         self._array: np.ndarray | None = None
+        self.mapped = mapped
 
     def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
         """Samples of the window ``box`` (a view of the kept array)."""
@@ -268,6 +253,11 @@ class _ArrayReader:
             self._array = self._load()
         x0, y0, x1, y1 = box
         return self._array[y0:y1, x0:x1]
+
+    def release(self) -> None:
+        """Forget a memory map (it is unmapped once no window views it; the next read maps it again)."""
+        if self.mapped:
+            self._array = None
 
     def close(self) -> None:
         """Drop the array (and with it any memory map)."""
@@ -345,7 +335,7 @@ class Raster:
         self.path = Path(path)
         self.format = _file_format(self.path)
         self._tif: tifffile.TiffFile | None = None
-        self._reader: _ArrayReader | _TiffSegmentReader | None = None
+        self._reader: _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader | None = None
         self._invert = False
         if self.format == "tiff":
             self._open_tiff()
@@ -353,15 +343,29 @@ class Raster:
             self._open_cv2()
 
     def _open_cv2(self) -> None:
-        """Decode a JPEG or PNG whole; it stays in memory for all window reads, and the last few decoded
-        files are kept (:func:`_decoded`) so that locating several marks in one JPEG decodes it once."""
-        st = self.path.stat()
-        image = _decoded(str(self.path.resolve()), st.st_mtime_ns, st.st_size)
-        self.height, self.width, samples = image.shape
-        self.bands = _bands_for_samples(samples, self.path)
-        self.dtype = _check_dtype(image.dtype, self.path)
+        """Read a JPEG's or PNG's size from its header; decode it whole if that fits the budget
+        (:data:`aerofid.io.jpeg.DECODE_BUDGET_BYTES`), else (a JPEG only) keep it for reduced reads."""
+        header = jpeg.read_header(self.path, self.format)
         self.tiled = False
-        self._reader = _ArrayReader(lambda: image)
+        if jpeg.decodes_whole(header):
+            st = self.path.stat()
+            image = jpeg.decode_whole(str(self.path.resolve()), st.st_mtime_ns, st.st_size)
+            self.height, self.width, samples = image.shape
+            self.bands = _bands_for_samples(samples, self.path)
+            self.dtype = _check_dtype(image.dtype, self.path)
+            self._reader = _ArrayReader(lambda: image)
+            return
+        too_large = (
+            f"{self.path} is a {header.width} x {header.height} {self.format.upper()} of "
+            f"{header.decoded_bytes / 1e9:.1f} GB decoded, more than the {jpeg.DECODE_BUDGET_BYTES / 1e9:.1f} GB "
+            "that aerofid decodes whole"
+        )
+        if self.format != "jpeg" or header.itemsize != 1:
+            raise AerofidInputError(f"{too_large}; convert it to a tiled TIFF (e.g. gdal_translate -co TILED=YES)")
+        self.width, self.height = header.width, header.height
+        self.bands = _bands_for_samples(header.samples, self.path)
+        self.dtype = np.dtype(np.uint8)
+        self._reader = jpeg.HugeJpegReader(self.path, header, self.bands)
 
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""
@@ -412,12 +416,39 @@ class Raster:
             return _ArrayReader(
                 lambda: _hwc(
                     np.memmap(self.path, file_dtype, "r", offset=page.dataoffsets[0], shape=page.shaped)
-                )
+                ),
+                mapped=True,
             )
         segments = _TiffSegmentReader(tif, page)
         if page.jpegheader is None and len(page.dataoffsets) == segments.expected_segments():
             return segments
         return _ArrayReader(lambda: _hwc(page.asarray(squeeze=False)))
+
+    def _open_reader(self) -> _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader:
+        """The reader, or raise if the raster is closed."""
+        if self._reader is None:
+            raise AerofidInputError(f"{self.path} is closed; open it again with open_raster()")
+        return self._reader
+
+    def _samples(self, box: tuple[int, int, int, int], copy: bool = True) -> np.ndarray:
+        """The window's ``(h, w, bands)`` samples of :attr:`dtype`, alpha dropped, MINISWHITE inverted; a view
+        of a kept array unless ``copy``."""
+        reader = self._open_reader()
+        try:
+            samples = reader.read(box)
+        except AerofidInputError:
+            raise
+        except Exception as exc:  # tifffile, imagecodecs and numpy.memmap raise many types
+            raise AerofidInputError(
+                f"cannot decode window {box} of {self.path}: {_one_line(exc)}; the file may be corrupt or truncated"
+            ) from exc
+        bands = samples[:, :, : self.bands]
+        if not (copy or self._invert):
+            return np.asarray(bands, dtype=self.dtype)
+        window = np.array(bands, dtype=self.dtype)
+        if self._invert:
+            np.subtract(np.iinfo(self.dtype).max, window, out=window)
+        return window
 
     def read_window(self, box: Sequence[int]) -> np.ndarray:
         """Read the samples of a window.
@@ -431,24 +462,62 @@ class Raster:
 
         Raises:
             AerofidInputError: the raster is closed; the box is not four integers, is empty, reaches outside
-                the image or would need more than about 1 GB; the file cannot be decoded.
+                the image or would need more than about 1 GB; the file cannot be decoded (or is a JPEG too
+                large to decode whole).
         """
-        if self._reader is None:
-            raise AerofidInputError(f"{self.path} is closed; open it again with open_raster()")
+        self._open_reader()
         window_box = _window_box(box, self.width, self.height)
         check_window_size(window_box, self.bands, self.dtype.itemsize, WINDOW_LIMIT_BYTES)
-        try:
-            samples = self._reader.read(window_box)
-        except Exception as exc:  # tifffile, imagecodecs and numpy.memmap raise many types
-            raise AerofidInputError(
-                f"cannot decode window {window_box} of {self.path}: {_one_line(exc)}; "
-                "the file may be corrupt or truncated"
-            ) from exc
-        bands = samples[:, :, 0] if self.bands == 1 else samples[:, :, :3]
-        window = np.array(bands, dtype=self.dtype)
-        if self._invert:
-            np.subtract(np.iinfo(self.dtype).max, window, out=window)
-        return window
+        window = self._samples(window_box)
+        return window[:, :, 0] if self.bands == 1 else window
+
+    def _strip_rows(self, r0: int, r1: int, columns: tuple[int, int]) -> np.ndarray:
+        """Rows ``[r0, r1)`` of the image under ``columns``, for :meth:`read_reduced`; a memory map is then
+        released so that each strip's pages are unmapped once the strip is reduced."""
+        reader = self._open_reader()
+        strip = self._samples((columns[0], r0, columns[1], r1), copy=False)
+        if isinstance(reader, _ArrayReader):
+            reader.release()
+        return strip
+
+    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray:
+        """Read a window reduced by block means, in bounded memory whatever the box.
+
+        Parameters
+        ----------
+        box : sequence of int
+            ``(x0, y0, x1, y1)`` integers in full-image pixels, x1 and y1 exclusive, inside the image (as
+            :meth:`read_window` takes).
+        factor : int
+            Side of the square blocks averaged (>= 1; 1 gives :meth:`read_window` as float32).
+
+        Returns
+        -------
+        numpy.ndarray
+            float32 in the file's sample units (not normalised), ``(ceil(h / factor), ceil(w / factor))`` for
+            grey or ``(..., ..., 3)`` for RGB; blocks at the right and bottom edges are the means of the pixels
+            they have. The window is read in strips of at most about 64 MB of samples (whole tile rows of a
+            tiled TIFF; :mod:`aerofid.io.reduce`). A JPEG too large to decode whole is reduced from libjpeg's
+            1/2, 1/4 or 1/8 decode, which is close to the block mean but not exact (:mod:`aerofid.io.jpeg`).
+
+        Raises
+        ------
+        AerofidInputError
+            The raster is closed; the box is not a window inside the image; the factor is not an integer >= 1;
+            the reduced window would need more than about 1 GB; the file cannot be decoded.
+        """
+        reader = self._open_reader()
+        window_box = _window_box(box, self.width, self.height)
+        factor = check_factor(factor)
+        check_reduced_size(window_box, factor, self.bands, WINDOW_LIMIT_BYTES)
+        if isinstance(reader, jpeg.HugeJpegReader):
+            out = reader.read_reduced(window_box, factor)
+        else:
+            step = reader.segment_shape[0] if isinstance(reader, _TiffSegmentReader) else 1
+            columns = (window_box[0], window_box[2])
+            out = reduce_in_strips(lambda r0, r1: self._strip_rows(r0, r1, columns), window_box, factor,
+                                   self.bands, itemsize=self.dtype.itemsize, row_step=step)
+        return out[:, :, 0] if self.bands == 1 else out
 
     def close(self) -> None:
         """Release the file and any cached image; later reads raise :class:`AerofidInputError`."""

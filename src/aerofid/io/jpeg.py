@@ -1,0 +1,236 @@
+"""JPEG and PNG: the declared size from the header, a whole decode (cached) when it fits the memory budget, and
+libjpeg's reduced decode for a JPEG that does not.
+
+OpenCV cannot decode a window of a JPEG or PNG, so :class:`~aerofid.io.raster.Raster` decodes one whole, once,
+when its decoded samples fit :data:`DECODE_BUDGET_BYTES`. The size is read from the header first (the JPEG
+start-of-frame segment, the PNG ``IHDR`` chunk), so nothing is decoded to learn it. A larger JPEG is never
+decoded whole: :class:`HugeJpegReader` answers ``read_reduced`` with libjpeg's decode at 1/2, 1/4 or 1/8 scale
+(``cv2.IMREAD_REDUCED_*``) followed by block means of the rest of the factor, and refuses full-resolution
+windows. A larger PNG is refused (PNG has no reduced decode).
+
+libjpeg's reduced decode is not an exact block mean: it scales the inverse DCT of each 8 x 8 block (at 1/8 it
+keeps only the DC coefficient, the block's mean before colour conversion and chroma upsampling), so it
+differs from the mean of the full decode by a few grey levels near edges; blocks that straddle the 8 x 8 grid
+are weighed by area from the reduced pixels.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import BinaryIO, NamedTuple
+
+import cv2
+import numpy as np
+
+from aerofid.errors import AerofidInputError
+from aerofid.io.reduce import reduce_in_strips
+
+__all__ = [
+    "DECODED_CACHE",
+    "DECODE_BUDGET_BYTES",
+    "HugeJpegReader",
+    "ImageHeader",
+    "decode_whole",
+    "decodes_whole",
+    "read_header",
+]
+
+#: Most bytes of decoded samples for which a JPEG or PNG is decoded whole (and a JPEG's reduced decode).
+DECODE_BUDGET_BYTES = 1_000_000_000
+#: How many decoded JPEG/PNG files stay in memory between calls.
+DECODED_CACHE = 2
+
+_SOF_MARKERS = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}  # start of frame: not DHT, JPG, DAC
+_STANDALONE = frozenset({0x01, *range(0xD0, 0xD8)})  # TEM and RSTn carry no length
+_PNG_SAMPLES = {0: 1, 2: 3, 3: 3, 4: 2, 6: 4}  # colour type -> decoded samples per pixel (palette -> RGB)
+_REDUCED_FLAGS = {
+    (1, 2): cv2.IMREAD_REDUCED_GRAYSCALE_2, (1, 4): cv2.IMREAD_REDUCED_GRAYSCALE_4,
+    (1, 8): cv2.IMREAD_REDUCED_GRAYSCALE_8, (3, 2): cv2.IMREAD_REDUCED_COLOR_2,
+    (3, 4): cv2.IMREAD_REDUCED_COLOR_4, (3, 8): cv2.IMREAD_REDUCED_COLOR_8,
+}
+
+
+class ImageHeader(NamedTuple):
+    """What a JPEG or PNG header declares: size, samples per pixel and bytes per sample once decoded."""
+
+    width: int
+    height: int
+    samples: int
+    itemsize: int
+
+    @property
+    def decoded_bytes(self) -> int:
+        """Bytes of the whole decoded image."""
+        return self.width * self.height * self.samples * self.itemsize
+
+
+def _one_line(exc: BaseException) -> str:
+    """A library exception's message on one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
+    """Walk a JPEG's marker segments up to the first start-of-frame and read the frame's size from it."""
+    bad = AerofidInputError(f"cannot decode {path}: its JPEG header is corrupt or truncated; re-export the scan")
+    file.seek(2)
+    while True:
+        byte = file.read(1)
+        if not byte:
+            raise bad
+        if byte != b"\xff":  # stray bytes between segments, which libjpeg skips too
+            continue
+        marker = file.read(1)
+        while marker == b"\xff":  # fill bytes
+            marker = file.read(1)
+        if not marker or marker[0] in (0xD9, 0xDA):  # end of image or start of scan before any frame
+            raise bad
+        if marker[0] in _STANDALONE:
+            continue
+        length_bytes = file.read(2)
+        if len(length_bytes) < 2 or int.from_bytes(length_bytes, "big") < 2:
+            raise bad
+        body = file.read(int.from_bytes(length_bytes, "big") - 2)
+        if marker[0] in _SOF_MARKERS:
+            if len(body) < 6:
+                raise bad
+            precision, components = body[0], body[5]
+            height, width = int.from_bytes(body[1:3], "big"), int.from_bytes(body[3:5], "big")
+            if width == 0 or height == 0:
+                raise AerofidInputError(f"{path} declares a {width} x {height} JPEG; re-export the scan")
+            return ImageHeader(width, height, 3 if components >= 3 else components, 1 if precision <= 8 else 2)
+
+
+def _png_header(file: BinaryIO, path: Path) -> ImageHeader:
+    """Read a PNG's size, samples and bit depth from its ``IHDR`` chunk."""
+    file.seek(8)
+    chunk = file.read(8 + 13)
+    if len(chunk) < 21 or chunk[4:8] != b"IHDR" or chunk[17] not in _PNG_SAMPLES:
+        raise AerofidInputError(f"cannot decode {path}: its PNG header is corrupt or truncated; re-export the scan")
+    width, height = int.from_bytes(chunk[8:12], "big"), int.from_bytes(chunk[12:16], "big")
+    return ImageHeader(width, height, _PNG_SAMPLES[chunk[17]], 2 if chunk[16] == 16 else 1)
+
+
+def read_header(path: Path, kind: str) -> ImageHeader:
+    """The size a JPEG or PNG declares, read from its header without decoding any pixel.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    kind : str
+        ``"jpeg"`` or ``"png"`` (from the file's first bytes).
+
+    Returns
+    -------
+    ImageHeader
+        Width, height, decoded samples per pixel (a JPEG's 4 CMYK components decode to 3) and bytes per sample.
+
+    Raises
+    ------
+    AerofidInputError
+        The header is missing or corrupt, or the file cannot be read.
+    """
+    try:
+        with path.open("rb") as file:
+            return _jpeg_header(file, path) if kind == "jpeg" else _png_header(file, path)
+    except OSError as exc:
+        raise AerofidInputError(f"cannot read {path}: {_one_line(exc)}; check its permissions") from exc
+
+
+def decodes_whole(header: ImageHeader) -> bool:
+    """Whether the whole decoded image fits :data:`DECODE_BUDGET_BYTES`."""
+    return header.decoded_bytes <= DECODE_BUDGET_BYTES
+
+
+def _decode_with_cv2(path: Path) -> np.ndarray:
+    """Decode a whole JPEG or PNG file into a (rows, columns, samples) array, colour in RGB(A) order."""
+    try:
+        image = cv2.imdecode(np.fromfile(path, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+    except (OSError, cv2.error) as exc:
+        raise AerofidInputError(f"cannot decode {path}: {_one_line(exc)}; re-export the scan") from exc
+    if image is None:
+        raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
+    if image.ndim == 2:
+        return image[:, :, None]
+    if image.shape[2] in (3, 4):  # BGR(A) -> RGB(A) in place: no second copy of a large image
+        cv2.cvtColor(image, cv2.COLOR_BGR2RGB if image.shape[2] == 3 else cv2.COLOR_BGRA2RGBA, dst=image)
+    return image
+
+
+@functools.lru_cache(maxsize=DECODED_CACHE)
+def decode_whole(path: str, mtime_ns: int, size: int) -> np.ndarray:
+    """Decode a whole JPEG or PNG as ``(rows, columns, samples)`` in RGB(A) order, cached by path, modification
+    time and size (so locating several marks in one file decodes it once); the array is read-only."""
+    image = _decode_with_cv2(Path(path))
+    image.setflags(write=False)
+    return image
+
+
+class HugeJpegReader:
+    """A JPEG too large to decode whole: reduced reads through libjpeg's 1/2, 1/4, 1/8 decode, no windows.
+
+    The last reduced decode is kept (one per reader) so that several boxes reduced by the same factor decode
+    the file once.
+    """
+
+    def __init__(self, path: Path, header: ImageHeader, bands: int):
+        self.path = path
+        self.header = header
+        self.bands = bands
+        self._kept: tuple[int, np.ndarray] | None = None
+
+    def _too_large(self) -> str:
+        h = self.header
+        return (f"{self.path} is a {h.width} x {h.height} JPEG, too large to decode whole "
+                f"({h.decoded_bytes / 1e9:.1f} GB, more than the {DECODE_BUDGET_BYTES / 1e9:.1f} GB budget)")
+
+    def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        """Refuse: a full-resolution window would need the whole decode."""
+        raise AerofidInputError(
+            f"{self._too_large()}; convert it to a tiled TIFF (e.g. gdal_translate -co TILED=YES) to read windows"
+        )
+
+    def scale_for(self, factor: int) -> int:
+        """The largest libjpeg scale (8, 4, 2) that divides ``factor`` and whose decode fits the budget."""
+        h = self.header
+        for scale in (8, 4, 2):
+            reduced = -(-h.width // scale) * -(-h.height // scale) * self.bands * h.itemsize
+            if factor % scale == 0 and reduced <= DECODE_BUDGET_BYTES:
+                return scale
+        raise AerofidInputError(
+            f"{self._too_large()}, and reducing by {factor} cannot use libjpeg's 1/2, 1/4 or 1/8 decode within "
+            "the budget; give an even factor (a multiple of 8 needs least memory) or convert the JPEG to a tiled TIFF"
+        )
+
+    def _decoded(self, scale: int) -> np.ndarray:
+        """The whole image decoded at ``1 / scale`` as ``(rows, columns, bands)`` RGB or grey, kept."""
+        if self._kept is not None and self._kept[0] == scale:
+            return self._kept[1]
+        self._kept = None
+        flags = _REDUCED_FLAGS[(self.bands, scale)] | cv2.IMREAD_IGNORE_ORIENTATION
+        try:
+            image = cv2.imread(str(self.path), flags)
+        except cv2.error as exc:
+            raise AerofidInputError(f"cannot decode {self.path}: {_one_line(exc)}; re-export the scan") from exc
+        expected = (-(-self.header.height // scale), -(-self.header.width // scale))
+        if image is None or image.shape[:2] != expected:
+            raise AerofidInputError(f"cannot decode {self.path}: the file is corrupt or truncated; re-export the scan")
+        if image.ndim == 2:
+            image = image[:, :, None]
+        else:
+            cv2.cvtColor(image, cv2.COLOR_BGR2RGB, dst=image)
+        self._kept = (scale, image)
+        return image
+
+    def read_reduced(self, box: tuple[int, int, int, int], factor: int) -> np.ndarray:
+        """Window ``box`` reduced by ``factor`` from libjpeg's reduced decode; ``(rows, cols, bands)`` float32."""
+        scale = self.scale_for(factor)
+        image = self._decoded(scale)
+        c0, c1 = box[0] // scale, -(-box[2] // scale)
+        return reduce_in_strips(lambda r0, r1: image[r0:r1, c0:c1], box, factor, self.bands,
+                                itemsize=1, scale=scale)
+
+    def close(self) -> None:
+        """Drop the kept reduced decode."""
+        self._kept = None

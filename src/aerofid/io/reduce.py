@@ -1,0 +1,213 @@
+"""Block means of a window, read strip by strip so that memory stays bounded (``read_reduced``).
+
+A window of ``h`` x ``w`` pixels reduced by a factor ``f`` has ``ceil(h / f)`` x ``ceil(w / f)`` pixels, each the
+mean of an ``f`` x ``f`` block of the window (blocks at the right and bottom edges are means of the pixels they
+have). The window is read in horizontal strips of at most :data:`STRIP_BYTES` of samples (whole tile rows of a
+tiled TIFF) and each strip is folded into the output in chunks of :data:`CHUNK_SAMPLES`, so peak memory is the
+output plus one strip plus one chunk, whatever the window.
+
+The reduction is linear: ``out = Wy @ window @ Wx.T`` with sparse weight matrices (:func:`block_weights`). The
+same matrices reduce a source that is itself stored reduced by ``scale`` (libjpeg's reduced JPEG decode): each
+source pixel then stands for ``scale`` x ``scale`` pixels of the image, and a block's mean weighs each source
+pixel by the area it shares with the block.
+"""
+
+from __future__ import annotations
+
+import operator
+from collections.abc import Callable, Iterator, Sequence
+
+import numpy as np
+from scipy import sparse
+
+from aerofid.errors import AerofidInputError
+
+__all__ = [
+    "CHUNK_SAMPLES",
+    "STRIP_BYTES",
+    "block_weights",
+    "check_factor",
+    "check_reduced_size",
+    "reduce_in_strips",
+    "reduced_shape",
+]
+
+#: Most bytes of samples read at once by ``read_reduced`` (one strip; a tile row may be more).
+STRIP_BYTES = 64 * 2**20
+#: Most samples of a strip converted to float64 at once while it is folded into the output.
+CHUNK_SAMPLES = 2**21
+
+RowReader = Callable[[int, int], np.ndarray]
+"""``read_rows(r0, r1)``: source rows ``[r0, r1)`` under the window's columns, ``(rows, cols, bands)``."""
+
+
+def check_factor(factor: int) -> int:
+    """Return ``factor`` as an int, or raise :class:`AerofidInputError` if it is not an integer >= 1.
+
+    Parameters
+    ----------
+    factor : int
+        The reduction factor: the side of the square blocks that are averaged.
+
+    Returns
+    -------
+    int
+        ``factor``.
+    """
+    try:
+        value = operator.index(factor)
+    except TypeError as exc:
+        raise AerofidInputError(f"reduction factor {factor!r} is not an integer; give an integer >= 1") from exc
+    if isinstance(factor, bool) or value < 1:
+        raise AerofidInputError(f"reduction factor {factor!r} is not an integer >= 1; give an integer >= 1")
+    return value
+
+
+def reduced_shape(box: Sequence[int], factor: int) -> tuple[int, int]:
+    """``(rows, columns)`` of window ``box`` = ``(x0, y0, x1, y1)`` reduced by ``factor`` (partial blocks count).
+
+    Parameters
+    ----------
+    box : sequence of int
+        ``(x0, y0, x1, y1)``, x1 and y1 exclusive.
+    factor : int
+        Side of the averaged blocks.
+
+    Returns
+    -------
+    tuple of int
+        ``(ceil((y1 - y0) / factor), ceil((x1 - x0) / factor))``.
+    """
+    x0, y0, x1, y1 = box
+    return -(-(y1 - y0) // factor), -(-(x1 - x0) // factor)
+
+
+def check_reduced_size(box: Sequence[int], factor: int, bands: int, limit_bytes: int) -> None:
+    """Raise :class:`AerofidInputError` if the float32 reduced window would need more than ``limit_bytes``.
+
+    Parameters
+    ----------
+    box : sequence of int
+        ``(x0, y0, x1, y1)`` window.
+    factor : int
+        Side of the averaged blocks.
+    bands : int
+        1 (grey) or 3 (RGB).
+    limit_bytes : int
+        The most bytes the output may take.
+    """
+    rows, cols = reduced_shape(box, factor)
+    nbytes = rows * cols * bands * 4
+    if nbytes > limit_bytes:
+        raise AerofidInputError(
+            f"window {tuple(box)} reduced by {factor} would need {nbytes / 1e9:.1f} GB, more than the "
+            f"{limit_bytes / 1e9:.1f} GB limit; give a larger factor or a smaller box"
+        )
+
+
+def block_weights(start: int, stop: int, factor: int, scale: int = 1) -> sparse.csr_array:
+    """Weights that average the pixels ``[start, stop)`` of one axis in blocks of ``factor``.
+
+    Parameters
+    ----------
+    start, stop : int
+        The window along the axis, in image pixels (stop exclusive).
+    factor : int
+        Block length in image pixels; the last block is cut at ``stop``.
+    scale : int, optional
+        Source pixel ``i`` covers image pixels ``[i * scale, (i + 1) * scale)`` (1: the source is the image).
+
+    Returns
+    -------
+    scipy.sparse.csr_array
+        ``(blocks, sources)`` float64; column 0 is source pixel ``start // scale``. Row ``j`` holds the share
+        of block ``j``'s length that each source pixel covers, so every row sums to 1.
+    """
+    n = -(-(stop - start) // factor)
+    block = np.arange(n)
+    b0 = start + block * factor
+    b1 = np.minimum(b0 + factor, stop)
+    rows, cols, values = [], [], []
+    for m in range(-(-factor // scale) + 1):  # the source pixels a block can touch
+        source = b0 // scale + m
+        overlap = np.minimum((source + 1) * scale, b1) - np.maximum(source * scale, b0)
+        keep = overlap > 0
+        rows.append(block[keep])
+        cols.append(source[keep] - start // scale)
+        values.append(overlap[keep] / (b1 - b0)[keep])
+    shape = (n, -(-stop // scale) - start // scale)
+    return sparse.csr_array(
+        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=shape
+    )
+
+
+def _strips(start: int, stop: int, step: int) -> Iterator[tuple[int, int]]:
+    """``[r0, r1)`` ranges covering ``[start, stop)`` with inner boundaries at multiples of ``step``."""
+    r0 = start
+    while r0 < stop:
+        r1 = min((r0 // step + 1) * step, stop)
+        yield r0, r1
+        r0 = r1
+
+
+def _fold(out: np.ndarray, strip: np.ndarray, first: int, wy_rows: sparse.csr_array,
+          wy_columns: sparse.csc_array, wx: sparse.csr_array) -> None:
+    """Add the contribution of ``strip`` (``(rows, cols, bands)`` source rows from ``first`` on, relative to the
+    window) to ``out``, a chunk of :data:`CHUNK_SAMPLES` at a time."""
+    chunk = max(1, CHUNK_SAMPLES // max(strip[0].size, 1))
+    for c0 in range(0, strip.shape[0], chunk):
+        c1 = min(c0 + chunk, strip.shape[0])
+        touched = wy_columns.indices[wy_columns.indptr[first + c0] : wy_columns.indptr[first + c1]]
+        if touched.size == 0:
+            continue
+        k0, k1 = int(touched.min()), int(touched.max()) + 1
+        samples = strip[c0:c1].astype(np.float64).reshape(c1 - c0, -1)
+        rows = wy_rows[k0:k1, first + c0 : first + c1] @ samples
+        out[k0:k1] += (wx @ rows.T).T
+
+
+def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, bands: int, *, itemsize: int,
+                     scale: int = 1, row_step: int = 1) -> np.ndarray:
+    """Block means of window ``box`` reduced by ``factor``, read strip by strip.
+
+    Parameters
+    ----------
+    read_rows : callable
+        ``read_rows(r0, r1)`` returns source rows ``[r0, r1)`` under the window's source columns
+        ``[x0 // scale, ceil(x1 / scale))`` as a ``(rows, cols, bands)`` array.
+    box : sequence of int
+        ``(x0, y0, x1, y1)`` window in image pixels, inside the image.
+    factor : int
+        Side of the averaged blocks, in image pixels (>= 1, a multiple of ``scale``).
+    bands : int
+        1 or 3.
+    itemsize : int
+        Bytes per source sample (sizes the strips).
+    scale : int, optional
+        Each source pixel stands for ``scale`` x ``scale`` image pixels (1: the source is the image).
+    row_step : int, optional
+        Strip boundaries fall on multiples of this many source rows (a TIFF's tile length or rows per strip).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(ceil(h / factor), ceil(w / factor), bands)`` float32 in the source's sample units.
+    """
+    x0, y0, x1, y1 = box
+    rows, cols = reduced_shape(box, factor)
+    out = np.zeros((rows, cols * bands), np.float32)
+    src_cols = -(-x1 // scale) - x0 // scale
+    src0, src1 = y0 // scale, -(-y1 // scale)
+    row_bytes = max(src_cols * bands * itemsize, 1)
+    step = row_step * max(1, STRIP_BYTES // (row_step * row_bytes))
+    wy = block_weights(y0, y1, factor, scale)
+    wy_columns = sparse.csc_array(wy)
+    wx = sparse.csr_array(sparse.kron(block_weights(x0, x1, factor, scale), sparse.identity(bands)))
+    for r0, r1 in _strips(src0, src1, step):
+        strip = read_rows(r0, r1)
+        if factor == 1:
+            out.reshape(rows, cols, bands)[r0 - src0 : r1 - src0] = strip
+        else:
+            _fold(out, strip, r0 - src0, wy, wy_columns, wx)
+        del strip  # a memory-mapped strip is unmapped before the next is read
+    return out.reshape(rows, cols, bands)

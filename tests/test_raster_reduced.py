@@ -1,0 +1,521 @@
+"""Tests of bounded-memory reduced reads (``read_reduced``: :mod:`aerofid.io.reduce`), JPEGs too large to
+decode whole (:mod:`aerofid.io.jpeg`) and arrays read like scans (:mod:`aerofid.io.array`)."""
+
+from __future__ import annotations
+
+import os
+import tracemalloc
+import zlib
+
+import cv2
+import numpy as np
+import pytest
+import tifffile
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aerofid.errors import AerofidInputError
+from aerofid.io import jpeg, reduce
+from aerofid.io.array import ArrayRaster, as_image_array, open_image
+from aerofid.io.raster import Raster, open_raster
+from conftest import realdata_path
+
+HEIGHT, WIDTH = 203, 157  # not multiples of any tile, strip or factor below
+BOXES = [(0, 0, WIDTH, HEIGHT), (3, 5, 100, 77), (31, 47, 97, 150), (WIDTH - 1, HEIGHT - 1, WIDTH, HEIGHT)]
+FACTORS = [1, 2, 3, 8, 64, 500]
+RC20 = "unbc_bc_wild_rc20/15BCC02013_114.jpg"
+
+
+def block_mean(window, factor):
+    """Reference: means of ``factor`` x ``factor`` blocks (edge blocks: of the pixels they have), by NaN padding."""
+    a = np.asarray(window, np.float64)
+    h, w = a.shape[:2]
+    rows, cols = -(-h // factor), -(-w // factor)
+    padded = np.full((rows * factor, cols * factor, *a.shape[2:]), np.nan)
+    padded[:h, :w] = a
+    return np.nanmean(padded.reshape(rows, factor, cols, factor, *a.shape[2:]), axis=(1, 3))
+
+
+def random_image(dtype, bands, seed=0, shape=(HEIGHT, WIDTH)):
+    """Random samples covering the dtype's range (floats in [0, 1])."""
+    rng = np.random.default_rng(seed)
+    full_shape = shape if bands == 1 else (*shape, bands)
+    if np.dtype(dtype).kind == "f":
+        return rng.random(full_shape).astype(dtype)
+    return rng.integers(0, np.iinfo(dtype).max, full_shape, endpoint=True, dtype=dtype)
+
+
+def smooth_image(bands, shape=(HEIGHT, WIDTH)):
+    """A smooth uint8 image whose bands differ, which JPEG keeps close to the original."""
+    y, x = np.mgrid[: shape[0], : shape[1]]
+    planes = [(127 + 100 * np.sin(x / 37 + 2 * k) * np.cos(y / 43 - k)) for k in range(bands)]
+    image = np.stack(planes, axis=-1).round().astype(np.uint8)
+    return image[:, :, 0] if bands == 1 else image
+
+
+def write_tiff(path, image, **kwargs):
+    """Write ``image`` as a TIFF, RGB if it has 3 bands, and return ``path``."""
+    photometric = "rgb" if image.ndim == 3 else "minisblack"
+    tifffile.imwrite(path, image, photometric=photometric, **kwargs)
+    return path
+
+
+def write_cv2(path, rgb_or_grey, *params):
+    """Write an RGB or grey image with OpenCV (which wants BGR) and return ``path``."""
+    image = cv2.cvtColor(rgb_or_grey, cv2.COLOR_RGB2BGR) if rgb_or_grey.ndim == 3 else rgb_or_grey
+    assert cv2.imwrite(str(path), image, list(params))
+    return path
+
+
+def assert_one_line_error(excinfo, *words):
+    message = str(excinfo.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message, message
+
+
+# ------------------------------------------------------------------------------------------------
+# read_reduced equals the block mean of read_window
+# ------------------------------------------------------------------------------------------------
+
+LAYOUTS = [
+    ("tiled-zlib-rgb16", np.uint16, 3, "tif", {"tile": (32, 48), "compression": "zlib"}),
+    ("tiled-grey8", np.uint8, 1, "tif", {"tile": (64, 32), "compression": "lzw"}),
+    ("striped-lzw-grey16", np.uint16, 1, "tif", {"rowsperstrip": 7, "compression": "lzw"}),
+    ("striped-rgb8", np.uint8, 3, "tif", {"rowsperstrip": 16, "compression": "zlib"}),
+    ("memmapped-rgb8", np.uint8, 3, "tif", {}),
+    ("memmapped-bigendian-grey16", np.uint16, 1, "tif", {"byteorder": ">"}),
+    ("tiled-float32", np.float32, 1, "tif", {"tile": (32, 32), "compression": "zlib"}),
+    ("png-rgb16", np.uint16, 3, "png", {}),
+    ("png-grey8", np.uint8, 1, "png", {}),
+]
+
+
+@pytest.fixture(scope="module")
+def layout_files(tmp_path_factory):
+    """Each layout written once: ``{id: (path, image)}``."""
+    directory = tmp_path_factory.mktemp("layouts")
+    files = {}
+    for k, (name, dtype, bands, kind, kwargs) in enumerate(LAYOUTS):
+        image = random_image(dtype, bands, seed=k)
+        path = directory / f"{name}.{kind}"
+        files[name] = (write_tiff(path, image, **kwargs) if kind == "tif" else write_cv2(path, image), image)
+    return files
+
+
+@pytest.mark.parametrize("name", [layout[0] for layout in LAYOUTS])
+def test_read_reduced_is_the_block_mean_of_the_window(layout_files, name):
+    path, image = layout_files[name]
+    with open_raster(path) as raster:
+        for x0, y0, x1, y1 in BOXES:
+            window = raster.read_window((x0, y0, x1, y1))
+            np.testing.assert_array_equal(window, image[y0:y1, x0:x1])
+            for factor in FACTORS:
+                reduced = raster.read_reduced((x0, y0, x1, y1), factor)
+                assert reduced.dtype == np.float32
+                expected = block_mean(window, factor)
+                assert reduced.shape == expected.shape
+                np.testing.assert_allclose(reduced, expected, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["tiled-zlib-rgb16", "memmapped-rgb8", "png-grey8"])
+def test_factor_one_is_read_window_as_float32(layout_files, name):
+    path, _ = layout_files[name]
+    with open_raster(path) as raster:
+        box = (3, 5, 100, 77)
+        reduced = raster.read_reduced(box, 1)
+        assert reduced.dtype == np.float32
+        np.testing.assert_array_equal(reduced, raster.read_window(box).astype(np.float32))
+
+
+def test_partial_edge_blocks_by_hand():
+    image = np.array([[0, 1, 2, 3, 4], [5, 6, 7, 8, 9], [10, 11, 12, 13, 14]], np.uint8)
+    with ArrayRaster(image) as raster:
+        np.testing.assert_allclose(raster.read_reduced((0, 0, 5, 3), 2), [[3, 5, 6.5], [10.5, 12.5, 14]])
+        np.testing.assert_allclose(raster.read_reduced((1, 1, 5, 3), 3), [[9.5, 11.5]])
+        np.testing.assert_allclose(raster.read_reduced((0, 0, 5, 3), 9), [[7]])
+
+
+def test_miniswhite_and_planar_tiffs_are_reduced_as_read(tmp_path):
+    grey = random_image(np.uint8, 1)
+    rgb = random_image(np.uint8, 3, seed=3)
+    white = tmp_path / "white.tif"
+    tifffile.imwrite(white, grey, photometric="miniswhite", tile=(32, 32))
+    planar = tmp_path / "planar.tif"
+    tifffile.imwrite(planar, np.moveaxis(rgb, -1, 0), photometric="rgb", planarconfig="separate", tile=(32, 32))
+    with open_raster(white) as raster:
+        np.testing.assert_allclose(raster.read_reduced((2, 3, 90, 60), 4), block_mean(255 - grey[3:60, 2:90], 4))
+    with open_raster(planar) as raster:
+        np.testing.assert_allclose(raster.read_reduced((2, 3, 90, 60), 4), block_mean(rgb[3:60, 2:90], 4),
+                                   rtol=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(data=st.data())
+def test_any_box_and_factor_equals_the_block_mean(layout_files, data):
+    name = data.draw(st.sampled_from(["tiled-zlib-rgb16", "striped-lzw-grey16", "memmapped-rgb8"]))
+    path, image = layout_files[name]
+    x0 = data.draw(st.integers(0, WIDTH - 1))
+    y0 = data.draw(st.integers(0, HEIGHT - 1))
+    x1 = data.draw(st.integers(x0 + 1, WIDTH))
+    y1 = data.draw(st.integers(y0 + 1, HEIGHT))
+    factor = data.draw(st.integers(1, 40))
+    with open_raster(path) as raster:
+        reduced = raster.read_reduced((x0, y0, x1, y1), factor)
+    np.testing.assert_allclose(reduced, block_mean(image[y0:y1, x0:x1], factor), rtol=1e-6)
+
+
+# ------------------------------------------------------------------------------------------------
+# Strips: whole tile rows, each tile decoded once, memory bounded
+# ------------------------------------------------------------------------------------------------
+
+
+def record_decoded_segments(monkeypatch):
+    """Make every ``TiffPage.decode`` call append the segment index to the returned list."""
+    decoded = []
+    make_decoder = tifffile.TiffPage.__dict__["decode"].func  # the cached_property's function
+
+    def counting_decoder(page):
+        decode = make_decoder(page)
+
+        def counting_decode(data, index, **kwargs):
+            decoded.append(index)
+            return decode(data, index, **kwargs)
+
+        return counting_decode
+
+    monkeypatch.setattr(tifffile.TiffPage, "decode", property(counting_decoder))
+    return decoded
+
+
+def test_strips_are_whole_tile_rows_and_each_tile_is_decoded_once(tmp_path, monkeypatch):
+    image = random_image(np.uint8, 1, shape=(256, 256))
+    path = write_tiff(tmp_path / "tiled.tif", image, tile=(64, 64), compression="zlib")  # 4 x 4 tiles
+    monkeypatch.setattr(reduce, "STRIP_BYTES", 1)  # one tile row per strip
+    monkeypatch.setattr(reduce, "CHUNK_SAMPLES", 100)  # several chunks per strip
+    decoded = record_decoded_segments(monkeypatch)
+    reads = []
+    read = Raster._samples
+
+    def recording_read(self, box, copy=True):
+        reads.append(box)
+        return read(self, box, copy)
+
+    monkeypatch.setattr(Raster, "_samples", recording_read)
+    with open_raster(path) as raster:
+        reduced = raster.read_reduced((10, 30, 200, 250), 3)  # block rows straddle the tile rows
+    np.testing.assert_allclose(reduced, block_mean(image[30:250, 10:200], 3), rtol=1e-6)
+    assert reads == [(10, 30, 200, 64), (10, 64, 200, 128), (10, 128, 200, 192), (10, 192, 200, 250)]
+    assert sorted(decoded) == [r * 4 + c for r in range(4) for c in range(4)]  # each tile once
+
+
+def test_peak_memory_is_bounded_by_the_strip_not_the_box(tmp_path, monkeypatch):
+    n, tile = 4096, 256
+    rng = np.random.default_rng(0)
+    noise = rng.integers(0, 16, (tile, tile, 3), dtype=np.uint8)
+    tiles = (noise + np.uint8(k % 200) for k in range((n // tile) ** 2))
+    path = tmp_path / "big.tif"
+    tifffile.imwrite(path, tiles, shape=(n, n, 3), dtype=np.uint8, tile=(tile, tile), photometric="rgb",
+                     compression="zlib", compressionargs={"level": 1})
+    whole = n * n * 3  # 50 MB of samples; the reduced output is 0.8 MB
+    monkeypatch.setattr(reduce, "STRIP_BYTES", 2 * 2**20)
+    monkeypatch.setattr(reduce, "CHUNK_SAMPLES", 2**17)
+    with open_raster(path) as raster:
+        tracemalloc.start()
+        try:
+            reduced = raster.read_reduced((0, 0, n, n), 8)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        corner = raster.read_window((0, 0, 512, 512))
+    assert reduced.shape == (512, 512, 3)
+    np.testing.assert_allclose(reduced[:64, :64], block_mean(corner, 8), rtol=1e-6)
+    assert peak < whole / 5, f"peak {peak / 1e6:.1f} MB for a {whole / 1e6:.0f} MB image"
+
+
+def mapped_file_bytes():
+    """Bytes of files mapped into this process and resident (Linux ``RssFile``)."""
+    with open("/proc/self/status") as status:
+        line = next(line for line in status if line.startswith("RssFile:"))
+    return int(line.split()[1]) * 1024
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="needs Linux /proc")
+def test_a_memory_mapped_tiff_is_unmapped_strip_by_strip(tmp_path, monkeypatch):
+    n = 4096
+    image = np.broadcast_to(np.arange(n, dtype=np.uint8)[:, None, None], (n, n, 3))
+    path = write_tiff(tmp_path / "raw.tif", np.ascontiguousarray(image))  # 50 MB, uncompressed: memory-mapped
+    monkeypatch.setattr(reduce, "STRIP_BYTES", 2 * 2**20)
+    with open_raster(path) as raster:
+        before = mapped_file_bytes()
+        reduced = raster.read_reduced((0, 0, n, n), 16)
+        grown = mapped_file_bytes() - before
+    np.testing.assert_allclose(reduced[:, 0, 0], np.arange(256) * 16 % 256 + 7.5)
+    assert grown < 10 * 2**20, f"{grown / 2**20:.0f} MB of the file stay mapped"
+
+
+# ------------------------------------------------------------------------------------------------
+# Errors
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("factor", [0, -2, 2.5, "2", None, True])
+def test_bad_factors(layout_files, factor):
+    path, _ = layout_files["tiled-grey8"]
+    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+        raster.read_reduced((0, 0, 10, 10), factor)
+    assert_one_line_error(excinfo, "factor", "integer >= 1")
+
+
+@pytest.mark.parametrize(("box", "words"), [((-1, 0, 10, 10), ("outside",)), ((5, 5, 5, 9), ("empty",)),
+                                            ((0.0, 0, 3, 3), ("integers",))])
+def test_bad_boxes(layout_files, box, words):
+    path, _ = layout_files["tiled-grey8"]
+    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+        raster.read_reduced(box, 2)
+    assert_one_line_error(excinfo, *words)
+
+
+def test_a_reduced_output_over_the_limit_is_refused_before_reading(tmp_path, monkeypatch):
+    path = tmp_path / "sparse.tif"
+
+    def tiles():  # one real tile, then empty ones: a 40000 x 40000 image in a small file
+        yield np.full((256, 256), 7, np.uint8)
+        yield from (None for _ in range(157 * 157 - 1))
+
+    tifffile.imwrite(path, tiles(), shape=(40000, 40000), dtype=np.uint8, tile=(256, 256), compression="zlib")
+    decoded = record_decoded_segments(monkeypatch)
+    with open_raster(path) as raster:
+        with pytest.raises(AerofidInputError) as excinfo:
+            raster.read_reduced((0, 0, 40000, 40000), 1)
+        assert_one_line_error(excinfo, "6.4 GB", "larger factor")
+        with pytest.raises(AerofidInputError, match=r"1\.6 GB.*larger factor"):
+            raster.read_reduced((0, 0, 40000, 40000), 2)
+        assert decoded == []
+        reduced = raster.read_reduced((0, 0, 1000, 10), 10)
+    np.testing.assert_allclose(reduced, [[7] * 25 + [4.2] + [0] * 74], rtol=1e-6)
+    assert decoded == [0, 1, 2, 3]
+
+
+def test_reduced_read_of_a_closed_raster(layout_files):
+    path, _ = layout_files["png-grey8"]
+    raster = open_raster(path)
+    raster.close()
+    with pytest.raises(AerofidInputError, match="closed"):
+        raster.read_reduced((0, 0, 4, 4), 2)
+
+
+# ------------------------------------------------------------------------------------------------
+# JPEG: whole decode when modest, libjpeg's reduced decode when too large
+# ------------------------------------------------------------------------------------------------
+
+
+def jpeg_with_header(width, height, components=3):
+    """The bytes of a JPEG that declares ``width`` x ``height`` (an APP0 segment, a frame, no scan)."""
+    app0 = b"\xff\xe0\x00\x10JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00"
+    specs = b"".join(bytes([k + 1, 0x11, 0]) for k in range(components))
+    sof = (b"\xff\xc0" + (8 + 3 * components).to_bytes(2, "big") + b"\x08" + height.to_bytes(2, "big")
+           + width.to_bytes(2, "big") + bytes([components]) + specs)
+    return b"\xff\xd8" + app0 + sof + b"\xff\xd9"
+
+
+def png_with_header(width, height, colour_type=2):
+    """The bytes of a PNG whose IHDR declares ``width`` x ``height`` 8-bit samples (no image data)."""
+    ihdr = b"IHDR" + width.to_bytes(4, "big") + height.to_bytes(4, "big") + bytes([8, colour_type, 0, 0, 0])
+    return b"\x89PNG\r\n\x1a\n" + (13).to_bytes(4, "big") + ihdr + zlib.crc32(ihdr).to_bytes(4, "big")
+
+
+def test_a_huge_jpeg_is_opened_from_its_header_and_windows_are_refused(tmp_path, monkeypatch):
+    path = tmp_path / "huge.jpg"
+    path.write_bytes(jpeg_with_header(60000, 50000))
+    monkeypatch.setattr(jpeg, "_decode_with_cv2", lambda path: pytest.fail("decoded whole"))
+    with open_raster(path) as raster:
+        assert (raster.width, raster.height, raster.bands, raster.dtype) == (60000, 50000, 3, np.uint8)
+        with pytest.raises(AerofidInputError) as excinfo:
+            raster.read_window((0, 0, 10, 10))
+        assert_one_line_error(excinfo, "60000 x 50000 JPEG", "too large to decode whole", "9.0 GB", "tiled TIFF")
+        with pytest.raises(AerofidInputError) as excinfo:
+            raster.read_reduced((0, 0, 60000, 50000), 8)  # the header is all there is
+        assert_one_line_error(excinfo, "cannot decode", "re-export")
+        with pytest.raises(AerofidInputError) as excinfo:
+            raster.read_reduced((0, 0, 600, 500), 3)
+        assert_one_line_error(excinfo, "reducing by 3", "even factor", "tiled TIFF")
+
+
+def test_a_huge_grey_jpeg_header_gives_one_band(tmp_path):
+    path = tmp_path / "grey.jpg"
+    path.write_bytes(jpeg_with_header(40000, 30000, components=1))
+    with open_raster(path) as raster:
+        assert (raster.width, raster.height, raster.bands) == (40000, 30000, 1)
+
+
+def test_a_huge_png_is_refused_from_its_header(tmp_path):
+    path = tmp_path / "huge.png"
+    path.write_bytes(png_with_header(60000, 60000))
+    with pytest.raises(AerofidInputError) as excinfo:
+        open_raster(path)
+    assert_one_line_error(excinfo, "60000 x 60000 PNG", "10.8 GB", "tiled TIFF")
+
+
+def test_a_jpeg_without_a_frame_cannot_be_decoded(tmp_path):
+    path = tmp_path / "frameless.jpg"
+    path.write_bytes(b"\xff\xd8\xff\xe0\x00\x04ab\xff\xda\x00\x02")
+    with pytest.raises(AerofidInputError) as excinfo:
+        open_raster(path)
+    assert_one_line_error(excinfo, "cannot decode", "header", "re-export")
+
+
+def test_headers_declare_the_size_of_real_files(tmp_path):
+    rgb = write_cv2(tmp_path / "rgb.jpg", smooth_image(3))
+    grey = write_cv2(tmp_path / "grey.png", random_image(np.uint16, 1))
+    assert jpeg.read_header(rgb, "jpeg") == jpeg.ImageHeader(WIDTH, HEIGHT, 3, 1)
+    assert jpeg.read_header(grey, "png") == jpeg.ImageHeader(WIDTH, HEIGHT, 1, 2)
+
+
+@pytest.fixture(params=[1, 3], ids=["grey", "rgb"])
+def jpeg_pair(request, tmp_path, monkeypatch):
+    """A JPEG opened twice: decoded whole, and (with the budget made tiny) through libjpeg's reduced decode."""
+    shape = (600, 808)  # a multiple of 8 by 8: no encoder padding in any 8 x 8 block
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(request.param, shape), cv2.IMWRITE_JPEG_QUALITY, 95)
+    whole = open_raster(path)
+    monkeypatch.setattr(jpeg, "DECODE_BUDGET_BYTES", 400_000)  # less than a whole decode, more than 1/2
+    reduced = open_raster(path)
+    yield whole, reduced
+    whole.close()
+    reduced.close()
+
+
+def test_modest_jpeg_is_decoded_whole_and_reduced_exactly(jpeg_pair):
+    whole, _ = jpeg_pair
+    box = (13, 7, 701, 533)
+    np.testing.assert_allclose(whole.read_reduced(box, 8), block_mean(whole.read_window(box), 8), rtol=1e-6)
+
+
+@pytest.mark.parametrize("factor", [2, 4, 8, 16, 24])
+def test_libjpeg_reduced_decode_is_close_to_the_block_mean(jpeg_pair, factor):
+    whole, huge = jpeg_pair
+    assert huge.bands == whole.bands and (huge.width, huge.height) == (whole.width, whole.height)
+    with pytest.raises(AerofidInputError, match="too large to decode whole"):
+        huge.read_window((0, 0, 8, 8))
+    for box, mean_tolerance in [((0, 0, 808, 600), 0.5), ((16, 64, 808, 520), 0.5), ((13, 7, 701, 533), 1.0)]:
+        expected = block_mean(whole.read_window(box), factor)
+        got = huge.read_reduced(box, factor)
+        assert got.shape == expected.shape and got.dtype == np.float32
+        error = np.abs(got - expected)
+        assert error.mean() < mean_tolerance and error.max() < 6, (box, error.mean(), error.max())
+
+
+def test_odd_factors_are_refused_and_the_reduced_decode_is_kept(jpeg_pair, monkeypatch):
+    _, huge = jpeg_pair
+    calls = []
+    imread = cv2.imread
+    monkeypatch.setattr(jpeg.cv2, "imread", lambda *args: calls.append(args[1]) or imread(*args))
+    for factor in (1, 3, 5):
+        with pytest.raises(AerofidInputError, match=f"reducing by {factor}"):
+            huge.read_reduced((0, 0, 100, 100), factor)
+    huge.read_reduced((0, 0, 800, 600), 8)
+    huge.read_reduced((8, 8, 100, 100), 16)  # 8 divides 16: the same reduced decode
+    huge.read_reduced((8, 8, 100, 100), 4)
+    assert len(calls) == 2 and calls[0] != calls[1]
+
+
+def test_the_reduced_decode_respects_the_budget(tmp_path, monkeypatch):
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(3, (400, 400)))
+    monkeypatch.setattr(jpeg, "DECODE_BUDGET_BYTES", 400 * 400 * 3 // 16 - 1)  # 1/4 decode is just too big
+    with open_raster(path) as raster:
+        assert raster.read_reduced((0, 0, 400, 400), 8).shape == (50, 50, 3)
+        with pytest.raises(AerofidInputError, match="reducing by 4"):
+            raster.read_reduced((0, 0, 400, 400), 4)
+
+
+def test_real_rc20_jpeg_reduced_decode_is_close_to_the_block_mean(monkeypatch):
+    path = realdata_path(RC20)
+    with open_raster(path) as whole:
+        expected = whole.read_reduced((0, 0, whole.width, whole.height), 8)
+    monkeypatch.setattr(jpeg, "DECODE_BUDGET_BYTES", 50_000_000)
+    with open_raster(path) as huge:
+        assert isinstance(huge._reader, jpeg.HugeJpegReader)
+        got = huge.read_reduced((0, 0, huge.width, huge.height), 8)
+    error = np.abs(got - expected)[:, :-1]  # the last column (4 pixels wide) includes the encoder's padding
+    assert error.mean() < 0.5 and error.max() < 6
+
+
+# ------------------------------------------------------------------------------------------------
+# Arrays read like scans, and open_image
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float32, np.float64])
+@pytest.mark.parametrize("bands", [1, 3])
+def test_array_raster_reads_like_a_raster(dtype, bands):
+    image = random_image(np.uint16, bands).astype(dtype)
+    with ArrayRaster(image) as raster:
+        assert (raster.path, raster.format, raster.tiled) == (None, "array", False)
+        assert (raster.width, raster.height, raster.bands, raster.dtype) == (WIDTH, HEIGHT, bands, np.dtype(dtype))
+        for x0, y0, x1, y1 in BOXES:
+            window = raster.read_window((x0, y0, x1, y1))
+            np.testing.assert_array_equal(window, image[y0:y1, x0:x1])
+            assert not np.shares_memory(window, image)
+            for factor in (1, 3, 8):
+                np.testing.assert_allclose(raster.read_reduced((x0, y0, x1, y1), factor),
+                                           block_mean(image[y0:y1, x0:x1], factor), rtol=1e-6)
+    with pytest.raises(AerofidInputError, match="closed"):
+        raster.read_window((0, 0, 1, 1))
+
+
+def test_array_raster_drops_alpha_and_checks_windows():
+    image = random_image(np.uint8, 4)
+    with ArrayRaster(image) as raster:
+        assert raster.bands == 3
+        np.testing.assert_array_equal(raster.read_window((0, 0, 5, 5)), image[:5, :5, :3])
+        with pytest.raises(AerofidInputError, match="outside"):
+            raster.read_window((0, 0, WIDTH + 1, 5))
+        with pytest.raises(AerofidInputError, match="factor"):
+            raster.read_reduced((0, 0, 5, 5), 0)
+
+
+@pytest.mark.parametrize(
+    ("array", "words"),
+    [
+        (np.zeros((4, 4, 2)), ("shape (4, 4, 2)", "RGB")),
+        (np.zeros(5), ("shape (5,)",)),
+        (np.zeros((0, 4)), ("empty", "at least one pixel")),
+        (np.zeros((4, 4), bool), ("dtype bool", "unsigned integers or floats")),
+        (np.array([["a"]]), ("dtype <U1",)),
+        (np.zeros((3, 3), complex), ("dtype complex128",)),
+    ],
+)
+def test_as_image_array_refuses_what_is_not_an_image(array, words):
+    with pytest.raises(AerofidInputError) as excinfo:
+        as_image_array(array)
+    assert_one_line_error(excinfo, *words)
+
+
+def test_as_image_array_accepts_lists_and_keeps_views():
+    assert as_image_array([[1, 2], [3, 4]]).shape == (2, 2)
+    image = np.zeros((4, 4, 4), np.uint8)
+    assert np.shares_memory(as_image_array(image), image)
+
+
+def test_open_image_closes_only_what_it_opened(layout_files):
+    path, image = layout_files["png-grey8"]
+    with open_image(path) as opened:
+        assert isinstance(opened, Raster)
+        np.testing.assert_array_equal(opened.read_window((0, 0, 3, 3)), image[:3, :3])
+    with pytest.raises(AerofidInputError, match="closed"):
+        opened.read_window((0, 0, 1, 1))
+    with open_image(image) as from_array:
+        assert isinstance(from_array, ArrayRaster)
+        np.testing.assert_array_equal(from_array.read_window((0, 0, 3, 3)), image[:3, :3])
+    for mine in (open_raster(path), ArrayRaster(image)):
+        with open_image(mine) as same:
+            assert same is mine
+        np.testing.assert_array_equal(mine.read_window((0, 0, 3, 3)), image[:3, :3])  # still open
+        mine.close()
+
+
+@pytest.mark.parametrize(("image", "words"), [(None, ("NoneType", "path")), (3.5, ("float", "numpy array"))])
+def test_open_image_refuses_other_things(image, words):
+    with pytest.raises(AerofidInputError) as excinfo:
+        open_image(image)
+    assert_one_line_error(excinfo, *words)

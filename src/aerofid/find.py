@@ -21,7 +21,6 @@ The search (aerofid's; the seeds locate one mark in a window the operator drew r
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 from collections.abc import Iterator, Sequence
@@ -33,9 +32,9 @@ import numpy as np
 from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate, merge_candidates, screen
-from aerofid.errors import AerofidInputError
+from aerofid.io.array import open_image
 from aerofid.io.colour import COLOUR_POLICIES, to_grey
-from aerofid.io.raster import Raster, clip_box, open_raster
+from aerofid.io.raster import clip_box
 from aerofid.methods import check_choice, check_polarity, make_detector
 
 SCREEN_PIXELS = 2_000_000
@@ -78,67 +77,6 @@ class ImageSource(Protocol):
     def read_window(self, box: Sequence[int]) -> np.ndarray: ...
 
     def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray: ...
-
-
-class _ArraySource:
-    """Interim: an array as an image source (to be replaced by io's)."""
-
-    def __init__(self, a: np.ndarray):
-        a = np.asarray(a)
-        if a.ndim == 3 and a.shape[2] == 4:
-            a = a[:, :, :3]
-        if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 3)):
-            raise AerofidInputError(f"image array has shape {a.shape}; give a 2-D grey or (h, w, 3) RGB array")
-        if a.size == 0:
-            raise AerofidInputError("image array is empty")
-        if not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)) or a.dtype == bool:
-            raise AerofidInputError(f"image array has dtype {a.dtype}; give unsigned integers or floats")
-        self.a, self.path, self.dtype = a, None, a.dtype
-        self.height, self.width = a.shape[:2]
-
-    def read_window(self, box: Sequence[int]) -> np.ndarray:
-        x0, y0, x1, y1 = box
-        return self.a[y0:y1, x0:x1]
-
-    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray:
-        return _block_mean(np.asarray(self.read_window(box), np.float32), factor)
-
-
-def _block_mean(w: np.ndarray, f: int) -> np.ndarray:
-    if f == 1:
-        return w
-    h, wd = w.shape[:2]
-    H, W = -(-h // f) * f, -(-wd // f) * f
-    pad = [(0, H - h), (0, W - wd)] + ([(0, 0)] if w.ndim == 3 else [])
-    ones = np.pad(np.ones((h, wd), np.float32), pad[:2])
-    p = np.pad(w, pad)
-    s = p.reshape(H // f, f, W // f, f, *w.shape[2:]).sum(axis=(1, 3))
-    n = ones.reshape(H // f, f, W // f, f).sum(axis=(1, 3))
-    return s / (n[..., None] if w.ndim == 3 else n)
-
-
-class _RasterSource:
-    def __init__(self, r: Raster):
-        self.r = r
-        self.path, self.dtype, self.width, self.height = r.path, r.dtype, r.width, r.height
-
-    def read_window(self, box: Sequence[int]) -> np.ndarray:
-        return self.r.read_window(box)
-
-    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray:
-        return _block_mean(self.r.read_window(box).astype(np.float32), factor)
-
-
-@contextlib.contextmanager
-def open_image(image: Any) -> Iterator[Any]:
-    """Interim."""
-    if isinstance(image, Raster):
-        yield _RasterSource(image)
-    elif isinstance(image, str | os.PathLike):
-        with open_raster(image) as r:
-            yield _RasterSource(r)
-    else:
-        yield _ArraySource(image)
 
 
 @dataclass(frozen=True)

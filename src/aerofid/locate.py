@@ -31,9 +31,9 @@ from aerofid.find import (
     Measurer,
     measure_candidates,
     one_per_mark,
-    open_image,
     screen_region,
 )
+from aerofid.io.array import open_image
 from aerofid.io.colour import COLOUR_POLICIES
 from aerofid.io.raster import Raster, clip_box
 from aerofid.methods import METHOD_NAMES, check_choice, check_polarity, make_detector

@@ -47,7 +47,7 @@ RECENTRED_WINDOW = (2.5, 8)
 """Half-size of the re-centred window: 1.5 x the mark's extent + 8 px."""
 RECENTRE_ROUNDS = 3
 """At most this many re-centred measurements per mark."""
-LADDER_STEP = 0.6
+LADDER_STEP = 0.75
 """Ratio of successive window sizes tried on one candidate."""
 MIN_HALF = 12
 """Smallest half-size of a measuring window (px)."""

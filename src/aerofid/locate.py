@@ -195,8 +195,7 @@ def search_box(source: ImageSource, region: Box, measurer: Measurer) -> MarkSear
     candidates, f = screen_region(source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
                                   max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n)
     centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0,
-                       radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS),
-                       strength=0.0)
+                       radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS), strength=0.0, inner=2.0)
     attempts = measure_candidates(measurer, (*candidates, centre))
     found = [a for a in attempts if a.found and region[0] - 0.5 <= a.x < region[2] - 0.5
              and region[1] - 0.5 <= a.y < region[3] - 0.5]

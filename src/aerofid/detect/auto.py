@@ -620,7 +620,8 @@ def second_marks(ctx: _Context, blanked: np.ndarray, group: list[Detection], bes
                  extent: float) -> list[Detection]:
     """Step 3, uniqueness: the answers of the group's methods, ``symmetry`` and ``circles`` on the window
     with the mark blanked out that are another mark: beyond ``extent`` from it, scoring at least
-    ``second_ratio`` of the method's score on the mark, of a similar size (:func:`similar_size`)."""
+    ``second_ratio`` of the method's score on the mark, of a similar size (:func:`similar_size` of
+    :func:`answer_extent`)."""
     p = ctx.params
     own = {d.method: d.score for d in group}
     again = []
@@ -631,9 +632,19 @@ def second_marks(ctx: _Context, blanked: np.ndarray, group: list[Detection], bes
         # hough need not verify (fit) candidates too weak to count as a second mark
         d = ctx.run(m, blanked, min_metric=max(p.min_lone_score_hough, floor)) if m == "hough" else ctx.run(m, blanked)
         if d.found and np.hypot(d.x - best.x, d.y - best.y) > extent and d.score >= floor \
-                and similar_size(d.extent, extent, p):
+                and similar_size(answer_extent(blanked, d, extent, ctx.noise, p), extent, p):
             again.append(d)
     return again
+
+
+def answer_extent(img: np.ndarray, d: Detection, extent: float, noise: float,
+                  params: AutoParams = AutoParams()) -> float:
+    """The size of a second answer: its method's model of it, else the radial profile around it
+    (:func:`profile_extent`, out to ``second_size`` times the mark's ``extent``): a column of printed index dots
+    beside a corner mark is symmetric about its middle dot, but a third of the mark's size."""
+    if d.extent is not None:
+        return d.extent
+    return profile_extent(img, d.x, d.y, noise, params.second_size * extent + 2.0, params.extent_percentile)
 
 
 def similar_size(other: float | None, extent: float, params: AutoParams = AutoParams()) -> bool:

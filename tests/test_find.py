@@ -1,0 +1,221 @@
+"""The box is a hint: screening, find_marks and locate's one-mark rule, each refusal with a near miss.
+
+Every scene has exact sub-pixel truth (aerofid.synth); the real-frame cases read ../shared/realdata and skip
+cleanly without it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import aerofid
+from aerofid import synth
+from aerofid.detect.screen import Candidate, local_noise, merge_candidates, screen
+from aerofid.find import reduction_for, window_ladder
+
+STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
+
+
+def _scene(style, centre, window=300, size=30.0, seed=0, **kw):
+    return synth.mark_scene(style, size=size, window=window, centre=centre, rng=np.random.default_rng(seed), **kw)
+
+
+def _err(r, truth):
+    return float(np.hypot(r.x - truth.x, r.y - truth.y))
+
+
+# --- screening -----------------------------------------------------------------------------------------------
+
+def test_local_noise_reads_white_noise():
+    img = np.random.default_rng(0).normal(0.5, 0.03, (256, 256)).astype(np.float32)
+    assert 0.024 < float(np.median(local_noise(img))) < 0.036
+
+
+@pytest.mark.parametrize("style", STYLES)
+def test_screening_puts_the_mark_among_the_first_candidates(style):
+    centre = (201.3, 96.7)
+    scene = _scene(style, centre)
+    cands = screen(scene.image)[:4]
+    assert any(np.hypot(c.x - centre[0], c.y - centre[1]) < 0.5 * c.radius + 2 for c in cands), cands
+
+
+@pytest.mark.parametrize("feature", ("edge", "line"))
+def test_straight_edges_and_lines_are_not_candidates(feature):
+    """A film-border edge and a straight line are symmetric about each of their points, but not isotropic."""
+    rng = np.random.default_rng(1)
+    img = np.full((200, 200), 0.1, np.float32)
+    if feature == "edge":
+        img[:, 120:] = 0.8
+    else:
+        img[99:101, :] = 0.9
+    img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.01, rng).astype(np.float32)
+    assert screen(img) == ()
+
+
+def test_a_ring_and_its_centre_dot_are_one_candidate_with_both_radii():
+    merged = merge_candidates([Candidate(100, 100, 24.0, 50.0), Candidate(102, 101, 3.0, 40.0),
+                               Candidate(160, 100, 3.0, 30.0)], 10)
+    assert len(merged) == 2
+    assert (merged[0].radius, merged[0].inner, merged[0].x) == (24.0, 3.0, 102)
+
+
+def test_reduction_keeps_the_screened_image_within_its_budget():
+    assert reduction_for(400, 400) == 1
+    f = reduction_for(20000, 20000)
+    assert (20000 / f) ** 2 <= 2_000_000 < (20000 / (f / 2)) ** 2
+
+
+def test_window_ladder_runs_from_the_whole_mark_to_its_core():
+    ladder = window_ladder(48.0, 3.0)
+    assert ladder[0] == pytest.approx(2.5 * 48 + 8) and ladder[-1] >= 12
+    assert all(b < a for a, b in zip(ladder, ladder[1:], strict=False))
+
+
+# --- locate: tight, loose, box-independent ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("style", STYLES)
+def test_a_tight_box_finds_the_mark(style):
+    """The mark plus 2 px: the detectors see the context around the box (the image has pixels all round)."""
+    scene = _scene(style, (150.4, 149.6))
+    t = scene.marks[0]
+    h = 15 + 2
+    r = aerofid.locate(scene.image, (t.x - h, t.y - h, t.x + h, t.y + h))
+    assert r.found, r.reason
+    assert _err(r, t) < 0.15
+
+
+def test_a_small_dot_in_a_tight_box_is_found():
+    scene = _scene("dot", (60.3, 59.8), window=120, size=8.0)
+    t = scene.marks[0]
+    r = aerofid.locate(scene.image, (t.x - 6, t.y - 6, t.x + 7, t.y + 7))
+    assert r.found, r.reason
+    assert _err(r, t) < 0.15
+
+
+@pytest.mark.parametrize("style", ("cross", "ring_x_dot", "dot"))
+def test_a_loose_box_ten_times_the_mark_finds_it(style):
+    scene = _scene(style, (331.2, 118.9), window=600, size=30.0, seed=3)
+    t = scene.marks[0]
+    r = aerofid.locate(scene.image, (t.x - 260, t.y - 100, t.x + 40, t.y + 200))
+    assert r.found, r.reason
+    assert _err(r, t) < 0.15
+
+
+def test_the_answer_does_not_depend_on_the_box():
+    """Re-centred on its own answer, the measuring window is the same whatever box held the mark."""
+    scene = _scene("ring_cross", (200.35, 180.8), window=400, seed=5)
+    t = scene.marks[0]
+    xs = []
+    for dx, dy, h in ((0, 0, 40), (-30, 12, 70), (25, -20, 90), (60, 50, 120)):
+        r = aerofid.locate(scene.image, (t.x + dx - h, t.y + dy - h, t.x + dx + h, t.y + dy + h))
+        assert r.found, r.reason
+        xs.append((r.x, r.y))
+    spread = np.ptp(np.array(xs), axis=0)
+    assert spread.max() <= 0.02, spread
+
+
+def test_location_has_per_axis_sigma_and_candidates():
+    scene = _scene("cross", (150.2, 150.7))
+    r = aerofid.locate(scene.image, (100, 100, 200, 200))
+    assert r.found and np.isfinite([r.sigma_x, r.sigma_y]).all()
+    assert r.sigma == pytest.approx(np.sqrt((r.sigma_x ** 2 + r.sigma_y ** 2) / 2), rel=1e-6)
+    d = r.to_dict()
+    assert {"sigma_x", "sigma_y", "cov_xy", "candidates"} <= set(d)
+    assert d["candidates"] and {"x", "y", "radius", "strength"} <= set(d["candidates"][0])
+
+
+# --- refusals, each with its near miss ---------------------------------------------------------------------------
+
+def _two_crosses(sep):
+    rng = np.random.default_rng(7)
+    img = synth.film_border((300, 300), rng)
+    for x in (150 - sep / 2, 150 + sep / 2):
+        img = synth.paint_shape(img, (x + 0.3, 150.6), synth.mark_shape("cross", 30.0), 0.85, 8, extent=30)
+    return synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng).astype(np.float32)
+
+
+def test_two_marks_in_the_box_are_refused_with_their_positions():
+    r = aerofid.locate(_two_crosses(90), (60, 100, 240, 200))
+    assert not r.found
+    assert r.reason.startswith("2 marks in the box")
+    assert "(105.3, 150.6)" in r.reason and "(195.3, 150.6)" in r.reason
+
+
+def test_near_miss_the_second_mark_outside_the_box_is_not_counted():
+    r = aerofid.locate(_two_crosses(90), (60, 100, 150, 200))
+    assert r.found, r.reason
+    assert abs(r.x - 105.3) < 0.15 and abs(r.y - 150.6) < 0.15
+
+
+def test_near_miss_index_dots_beside_a_mark_are_accessories_not_a_second_mark():
+    rng = np.random.default_rng(8)
+    img = synth.film_border((240, 240), rng)
+    img = synth.paint_shape(img, (120.4, 119.7), synth.mark_shape("ring_x_dot", 40.0), 0.85, 8, extent=40)
+    for k in range(3):
+        img = synth.paint_shape(img, (148.0, 112.0 + 7 * k), synth.disc(1.6), 0.85, 8, extent=3)
+    img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng).astype(np.float32)
+    r = aerofid.locate(img, (40, 40, 200, 200))
+    assert r.found, r.reason
+    assert abs(r.x - 120.4) < 0.15 and abs(r.y - 119.7) < 0.15
+
+
+def test_nothing_on_plain_film_is_refused():
+    img = synth.add_gaussian_noise(synth.film_border((200, 200), np.random.default_rng(2)), 0.02,
+                                   np.random.default_rng(3)).astype(np.float32)
+    r = aerofid.locate(img, (20, 20, 180, 180))
+    assert not r.found and r.reason
+
+
+def test_near_miss_a_faint_mark_on_plain_film_is_found():
+    scene = _scene("ring_cross", (100.3, 100.6), window=200, contrast=0.25, seed=4)
+    r = aerofid.locate(scene.image, (20, 20, 180, 180))
+    assert r.found, r.reason
+    assert _err(r, scene.marks[0]) < 0.2
+
+
+def test_a_mark_cut_by_the_image_edge_is_refused():
+    """Half the ring lies outside the image: its pixels really are missing."""
+    scene = _scene("ring_cross", (6.0, 100.2), window=200, seed=6)
+    r = aerofid.locate(scene.image, (0, 60, 60, 140))
+    assert not r.found
+
+
+def test_near_miss_a_mark_at_the_box_edge_but_inside_the_image_is_found():
+    """The box cuts the mark; the image does not: context is read around the box."""
+    scene = _scene("ring_cross", (100.2, 100.6), window=200, seed=6)
+    r = aerofid.locate(scene.image, (97, 60, 160, 140))
+    assert r.found, r.reason
+    assert _err(r, scene.marks[0]) < 0.15
+
+
+# --- find_marks -------------------------------------------------------------------------------------------------
+
+def test_find_marks_returns_every_fiducial_of_a_frame_strip():
+    frame = synth.demo_frame(np.random.default_rng(0), size=900, mark_size=40)
+    got = aerofid.find_marks(frame.image, (0, 0, 900, 150), mark="external")
+    truth = [m for m in frame.marks if m.y < 150]
+    assert len(got) == len(truth) == 3
+    for t in truth:
+        assert min(np.hypot(m.x - t.x, m.y - t.y) for m in got) < 0.15
+
+
+def test_locate_on_a_whole_frame_names_every_mark_it_found():
+    frame = synth.demo_frame(np.random.default_rng(1), size=900, mark_size=40)
+    r = aerofid.locate(frame.image, (0, 0, 900, 900), mark="external")
+    assert not r.found
+    assert r.reason.split()[1:4] == ["marks", "in", "the"] and int(r.reason.split()[0]) >= 4
+
+
+# --- the real frame ----------------------------------------------------------------------------------------------
+
+RC20_CORNER = (652.38, 189.11)  # auto in a centred 120 px box (docs/benchmarks_rc20.md)
+
+
+def test_real_rc20_loose_boxes_find_the_corner_mark(realdata):
+    path = realdata("unbc_bc_wild_rc20/15BCC02013_114.jpg")
+    x, y = RC20_CORNER
+    for dx, dy, h in ((0, 0, 50), (-60, 40, 110), (80, -50, 200)):
+        r = aerofid.locate(path, (x + dx - h, y + dy - h, x + dx + h, y + dy + h))
+        assert r.found, r.reason
+        assert np.hypot(r.x - x, r.y - y) < 0.1

@@ -219,3 +219,10 @@ def test_real_rc20_loose_boxes_find_the_corner_mark(realdata):
         r = aerofid.locate(path, (x + dx - h, y + dy - h, x + dx + h, y + dy + h))
         assert r.found, r.reason
         assert np.hypot(r.x - x, r.y - y) < 0.1
+
+
+@pytest.mark.parametrize("kw", [{"min_radius": 0}, {"max_radius": 1e9}, {"min_radius": 9, "max_radius": 3},
+                                {"max_candidates": 0}, {"max_candidates": 10 ** 9}, {"max_radius": float("nan")}])
+def test_search_parameters_are_refused_before_anything_is_read(kw):
+    with pytest.raises(aerofid.AerofidInputError):
+        aerofid.find_marks(np.zeros((50, 50), np.float32), **kw)

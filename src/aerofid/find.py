@@ -30,8 +30,10 @@ from typing import Any, Protocol
 import numpy as np
 
 from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity
+from aerofid.detect.params import is_int, is_number
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate, merge_candidates, screen
+from aerofid.errors import AerofidInputError
 from aerofid.io.array import open_image
 from aerofid.io.colour import COLOUR_POLICIES, to_grey
 from aerofid.io.raster import clip_box
@@ -317,6 +319,7 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
     """
     check_polarity(polarity)
     check_choice(colour, COLOUR_POLICIES, "colour")
+    check_search(min_radius, max_radius, max_candidates)
     detector = make_detector(method, mark, params)
     polarities: tuple[Polarity, ...] = ("bright", "dark") if polarity == "auto" else (polarity,)  # type: ignore[assignment]
     with open_image(image) as source:
@@ -330,6 +333,19 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
         marks, accessories = one_per_mark(found)
         path = None if source.path is None else str(source.path)
     return MarkSearch(area, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path)
+
+
+MAX_CANDIDATES = 1000
+"""Most candidates one search may be asked to measure."""
+
+
+def check_search(min_radius: float, max_radius: float, max_candidates: int) -> None:
+    """The search's own parameters, refused in one line before anything is read or allocated."""
+    if not (is_number(min_radius) and is_number(max_radius) and 0 < min_radius <= max_radius <= MAX_MARK_RADIUS):
+        raise AerofidInputError(f"mark radii {min_radius!r}..{max_radius!r} px: give 0 < min_radius <= max_radius "
+                                f"<= {MAX_MARK_RADIUS:g}")
+    if not (is_int(max_candidates) and 1 <= max_candidates <= MAX_CANDIDATES):
+        raise AerofidInputError(f"max_candidates {max_candidates!r}: give an integer from 1 to {MAX_CANDIDATES}")
 
 
 def _inside(a: Located, box: Box) -> bool:

@@ -179,6 +179,7 @@ def test_a_mark_cut_by_the_image_edge_is_refused():
     scene = _scene("ring_cross", (6.0, 100.2), window=200, seed=6)
     r = aerofid.locate(scene.image, (0, 60, 60, 140))
     assert not r.found
+    assert r.reason.endswith("which the image's edge cuts]")
 
 
 def test_near_miss_a_mark_at_the_box_edge_but_inside_the_image_is_found():

@@ -128,6 +128,9 @@ class MarkSearch:
     candidates: tuple[Candidate, ...]
     reduction: int
     path: str | None = None
+    width: int = 0
+    height: int = 0
+    """The image's size (px)."""
 
     def __iter__(self) -> Iterator[Located]:
         return iter(self.marks)
@@ -332,7 +335,8 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
         found = [a for a in attempts if a.found and _inside(a, area)]
         marks, accessories = one_per_mark(found)
         path = None if source.path is None else str(source.path)
-    return MarkSearch(area, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path)
+        width, height = source.width, source.height
+    return MarkSearch(area, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path, width, height)
 
 
 MAX_CANDIDATES = 1000

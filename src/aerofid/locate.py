@@ -201,7 +201,8 @@ def search_box(source: ImageSource, region: Box, measurer: Measurer) -> MarkSear
              and region[1] - 0.5 <= a.y < region[3] - 0.5]
     marks, accessories = one_per_mark(found)
     path = None if source.path is None else str(source.path)
-    return MarkSearch(region, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path)
+    return MarkSearch(region, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path,
+                      source.width, source.height)
 
 
 def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_clipped: bool) -> Location:
@@ -226,7 +227,16 @@ def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_cl
         return _location(None, search, mark, requested, was_clipped, NOT_FOUND,
                          "nothing in the box stands out of its ground as a mark")
     first = search.attempts[0]
-    return _location(first, search, mark, requested, was_clipped, NOT_FOUND, first.detection.reason)
+    return _location(first, search, mark, requested, was_clipped, NOT_FOUND, _window_reason(first, search))
+
+
+def _window_reason(got: Located, search: MarkSearch) -> str:
+    """A measurement's reason with the window it speaks of (its coordinates are the window's), and whether the
+    image itself cut the window: then pixels of the mark may really be missing from the scan."""
+    x0, y0, x1, y1 = got.box
+    edge = x0 == 0 or y0 == 0 or x1 == search.width or y1 == search.height
+    where = f"in the window ({x0}, {y0}, {x1}, {y1})" + (", which the image's edge cuts" if edge else "")
+    return f"{got.detection.reason} [{where}]"
 
 
 def _location(got: Located | None, search: MarkSearch, mark: str, requested: tuple[float, ...],

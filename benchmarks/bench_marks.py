@@ -27,7 +27,7 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
 from aerofid import synth, testing  # noqa: E402
-from aerofid.locate import make_detector  # noqa: E402
+from aerofid.methods import make_detector  # noqa: E402
 
 cv2.setNumThreads(1)
 

@@ -230,6 +230,10 @@ def hough_circles(x: np.ndarray, y: np.ndarray, radius: float, shape: tuple[int,
     return acc.reshape(h, w) * (2 * np.pi * radius / n_phi) / (2 * np.pi * radius)
 
 
+VOTES_PER_CHUNK = 1_000_000
+"""Votes cast at once by :func:`hough_centres` (about 40 MB of temporaries)."""
+
+
 def hough_centres(ep: EdgePoints, r_min: float, r_max: float, shape: tuple[int, int]) -> np.ndarray:
     """Radius-free centre vote: every edge point votes, weighted 1/distance, for the pixels on its gradient
     line at distances ``r_min`` to ``r_max`` on both sides (the centre of any circle through it lies there).
@@ -239,11 +243,15 @@ def hough_centres(ep: EdgePoints, r_min: float, r_max: float, shape: tuple[int, 
         return np.zeros(shape)
     d = np.arange(r_min, r_max + 0.5, 0.5)
     d = np.concatenate([-d[::-1], d])
-    cx = np.rint(ep.x[:, None] + d[None, :] * ep.nx[:, None]).astype(np.int64).ravel()
-    cy = np.rint(ep.y[:, None] + d[None, :] * ep.ny[:, None]).astype(np.int64).ravel()
-    wt = np.broadcast_to(1.0 / np.abs(d)[None, :], (ep.x.size, d.size)).ravel()
-    ok = (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
-    acc = np.bincount(cy[ok] * w + cx[ok], weights=wt[ok], minlength=h * w)
+    acc = np.zeros(h * w)
+    step = max(1, VOTES_PER_CHUNK // d.size)  # bounded memory: the votes of a few thousand edge points at a time
+    for i in range(0, ep.x.size, step):
+        sl = slice(i, i + step)
+        cx = np.rint(ep.x[sl, None] + d[None, :] * ep.nx[sl, None]).astype(np.int64).ravel()
+        cy = np.rint(ep.y[sl, None] + d[None, :] * ep.ny[sl, None]).astype(np.int64).ravel()
+        wt = np.broadcast_to(1.0 / np.abs(d)[None, :], (cx.size // d.size, d.size)).ravel()
+        ok = (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
+        acc += np.bincount(cy[ok] * w + cx[ok], weights=wt[ok], minlength=h * w)
     return acc.reshape(h, w) / (2 * np.pi)
 
 

@@ -53,6 +53,9 @@ LADDER_STEP = 0.75
 """Ratio of successive window sizes tried on one candidate."""
 MIN_HALF = 12
 """Smallest half-size of a measuring window (px)."""
+MIN_RECENTRED_HALF = 24
+"""Smallest half-size of the re-centred window (px): a small blob is judged with its surroundings (texture
+around a compact blob of aerial ground is what tells it from a dot on plain film)."""
 MAX_MARK_RADIUS = 160.0
 """Largest mark radius (px) sought when the caller gives none: fiducials and panels are a few to ~150 px."""
 MAX_HALF = 320
@@ -152,7 +155,8 @@ class Measurer:
     polarities: tuple[Polarity, ...]
     colour: str = "auto"
 
-    def at(self, x: float, y: float, half: float, candidate: Candidate | None = None) -> Located:
+    def at(self, x: float, y: float, half: float, candidate: Candidate | None = None,
+           blank: tuple[float, float, float] | None = None) -> Located:
         """The detector's answer on the window of half-size ``half`` centred on the pixel nearest (x, y)."""
         h = int(min(max(math.ceil(half), MIN_HALF), MAX_HALF))
         cx, cy = int(round(x)), int(round(y))
@@ -163,6 +167,8 @@ class Measurer:
             grey = to_grey(samples, self.colour, pol)
             if pol == "dark":
                 grey = 1.0 - grey
+            if blank is not None:
+                grey = blanked(grey, blank[0] - box[0], blank[1] - box[1], blank[2])
             det = self.detector(grey).shifted(box[0], box[1])
             got = Located(det, pol, box, grey, candidate)
             if best is None or better(got.detection, best.detection):
@@ -170,16 +176,16 @@ class Measurer:
         assert best is not None
         return best
 
-    def candidate(self, c: Candidate) -> Located:
+    def candidate(self, c: Candidate, blank: tuple[float, float, float] | None = None) -> Located:
         """Steps 2 and 3 of the search for one candidate: windows from the candidate's largest radius down to
         its smallest (:func:`window_ladder`) until one is found, then re-centred windows sized by the mark's
         own extent until the size settles."""
         first: Located | None = None
         for half in window_ladder(c.radius, c.inner or c.radius):
-            got = self.at(c.x, c.y, half, c)
+            got = self.at(c.x, c.y, half, c, blank)
             first = first or got
             if got.found:
-                return self.recentre(got, c)
+                return got if blank is not None else self.recentre(got, c)
         assert first is not None
         return first
 
@@ -187,12 +193,12 @@ class Measurer:
         """Step 3: measure again on a window centred on the answer, of half-size from its extent, until the size
         settles; the answer's covariance gains the window term (:func:`with_window_term`)."""
         first = got
-        half = RECENTRED_WINDOW[0] * got.extent + RECENTRED_WINDOW[1]
+        half = max(RECENTRED_WINDOW[0] * got.extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
         for _ in range(RECENTRE_ROUNDS):
             again = self.at(got.x, got.y, half, c)
             if not again.found:
                 return again
-            settled = RECENTRED_WINDOW[0] * again.extent + RECENTRED_WINDOW[1]
+            settled = max(RECENTRED_WINDOW[0] * again.extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
             got = again
             if abs(settled - half) <= 0.15 * half:
                 break
@@ -214,6 +220,18 @@ def with_window_term(final: Located, other: Located) -> Located:
                   sigma_x=float(np.hypot(d.sigma_x, dx)), sigma_y=float(np.hypot(d.sigma_y, dy)),
                   cov_xy=float(d.cov_xy + dx * dy))
     return replace(final, detection=det)
+
+
+def blanked(grey: np.ndarray, x: float, y: float, radius: float) -> np.ndarray:
+    """A copy of ``grey`` with the disc of ``radius`` around (x, y) (window pixels) filled with the median grey
+    level of the ring 2-6 px beyond it (the ground): a mark taken out, to see whether what is left is one."""
+    h, w = grey.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    r = np.hypot(xx - x, yy - y)
+    ring = (r > radius + 2) & (r <= radius + 6)
+    out = grey.copy()
+    out[r <= radius] = np.median(grey[ring]) if ring.any() else np.median(grey)
+    return out
 
 
 def window_ladder(radius: float, inner: float) -> list[float]:

@@ -200,6 +200,8 @@ def search_box(source: ImageSource, region: Box, measurer: Measurer) -> MarkSear
     found = [a for a in attempts if a.found and region[0] - 0.5 <= a.x < region[2] - 0.5
              and region[1] - 0.5 <= a.y < region[3] - 0.5]
     marks, accessories = one_per_mark(found)
+    if len(marks) == 1:
+        marks += confirmed_rivals(measurer, region, attempts, marks[0])
     path = None if source.path is None else str(source.path)
     return MarkSearch(region, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path,
                       source.width, source.height)
@@ -228,6 +230,35 @@ def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_cl
                          "nothing in the box stands out of its ground as a mark")
     first = search.attempts[0]
     return _location(first, search, mark, requested, was_clipped, NOT_FOUND, _window_reason(first, search))
+
+
+RIVAL_SCALE = 2.0
+"""A refused candidate rivals the mark when its screening radius is within this factor of the mark's..."""
+RIVAL_STRENGTH = 0.5
+"""... and its screening strength at least this fraction of the mark's."""
+
+
+def confirmed_rivals(measurer: Measurer, region: Box, attempts: list[Located], found: Located) -> list[Located]:
+    """Second marks that the found one spoils: candidates in the box, beyond its extent, screened at about its
+    scale and strength (:data:`RIVAL_SCALE`, :data:`RIVAL_STRENGTH`) but refused, measured again with the found
+    mark blanked out (:func:`aerofid.find.blanked`); those found then are marks too (two dots side by side: each
+    one's window holds the other). A notch corner or an arm's end refused for what it is stays refused."""
+    own = found.candidate
+    if own is None or own.strength <= 0:
+        return []
+    x0, y0, x1, y1 = region
+    rivals = []
+    for a in attempts:
+        c = a.candidate
+        if a.found or c is None or c is own or c.strength < RIVAL_STRENGTH * own.strength:
+            continue
+        inside = x0 - 0.5 <= c.x < x1 - 0.5 and y0 - 0.5 <= c.y < y1 - 0.5
+        apart = float(np.hypot(c.x - found.x, c.y - found.y)) > found.extent
+        if inside and apart and 1 / RIVAL_SCALE <= c.radius / own.radius <= RIVAL_SCALE:
+            again = measurer.candidate(c, blank=(found.x, found.y, found.extent + 2.0))
+            if again.found and float(np.hypot(again.x - found.x, again.y - found.y)) > found.extent:
+                rivals.append(again)
+    return rivals
 
 
 def _window_reason(got: Located, search: MarkSearch) -> str:

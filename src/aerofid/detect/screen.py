@@ -218,15 +218,16 @@ def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_rad
 def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:
     """One candidate per place, strongest first. A weaker candidate is the same structure seen at another scale
     when its centre lies within :data:`MERGE_SHARE` of the larger radius of a stronger one's (a ring and its
-    centre dot) or
-    within the smaller radius (two scales of one blob): it is merged into the stronger one, which keeps the
+    centre dot) or within half the smaller radius (two scales of one blob; not a mark beside the centre of a
+    pair of marks, which is itself symmetric): it is merged into the stronger one, which keeps the
     largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale."""
     kept: list[Candidate] = []
     xy = np.empty((0, 2))
     radius = np.empty(0)
     for c in sorted(found, key=lambda c: -c.strength):
         d = np.hypot(xy[:, 0] - c.x, xy[:, 1] - c.y)
-        same = np.flatnonzero(d <= np.maximum(MERGE_SHARE * np.maximum(radius, c.radius), np.minimum(radius, c.radius)))
+        same = np.flatnonzero(d <= np.maximum(MERGE_SHARE * np.maximum(radius, c.radius),
+                                              0.5 * np.minimum(radius, c.radius)))
         if same.size:
             i = int(same[0])
             k = kept[i]

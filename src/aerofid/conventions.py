@@ -6,6 +6,7 @@ Pixel coordinates: x = column, y = row, the centre of the top-left pixel is (0, 
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 Polarity = Literal["bright", "dark"]
@@ -25,4 +26,18 @@ NOT_FOUND = "not_found"
 Box = tuple[int, int, int, int]
 """(x0, y0, x1, y1) in full-image pixels, x1 and y1 exclusive."""
 
-__all__ = ["FOUND", "MARKS", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "Box", "MarkKind", "Polarity"]
+
+
+def finite_or_none(v: float | None) -> float | None:
+    """A number as JSON may carry it: a float, or None for a missing, NaN or infinite value.
+
+    Examples
+    --------
+    >>> finite_or_none(1), finite_or_none(float("nan")), finite_or_none(None)
+    (1.0, None, None)
+    """
+    return None if v is None or not math.isfinite(v) else float(v)
+
+
+__all__ = ["FOUND", "MARKS", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "Box", "MarkKind", "Polarity",
+           "finite_or_none"]

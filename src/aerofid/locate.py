@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity
+from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity, finite_or_none
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate
 from aerofid.errors import AerofidInputError
@@ -111,14 +111,13 @@ class Location:
 
     def to_dict(self) -> dict[str, Any]:
         """Scalars only, ready for JSON (NaN becomes None)."""
-        def num(v: float) -> float | None:
-            return None if v is None or not np.isfinite(v) else float(v)
-
-        out: dict[str, Any] = {"status": self.status, "x": num(self.x), "y": num(self.y), "score": num(self.score),
-               "sigma": num(self.sigma), "sigma_x": num(self.sigma_x), "sigma_y": num(self.sigma_y),
-               "cov_xy": num(self.cov_xy), "method": self.method, "mark": self.mark, "polarity": self.polarity,
-               "box": list(self.box), "requested_box": list(self.requested_box), "clipped": self.clipped,
-               "reason": self.reason, "image": self.image}
+        n = finite_or_none
+        out: dict[str, Any] = {"status": self.status, "x": n(self.x), "y": n(self.y), "score": n(self.score),
+                               "sigma": n(self.sigma), "sigma_x": n(self.sigma_x), "sigma_y": n(self.sigma_y),
+                               "cov_xy": n(self.cov_xy), "method": self.method, "mark": self.mark,
+                               "polarity": self.polarity, "box": list(self.box),
+                               "requested_box": list(self.requested_box), "clipped": self.clipped,
+                               "reason": self.reason, "image": self.image}
         if self.search is not None:
             out["candidates"] = [c.to_dict() for c in self.search.candidates]
         return out

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from aerofid.conventions import FOUND, NOT_FOUND
+from aerofid.conventions import FOUND, NOT_FOUND, finite_or_none
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -105,9 +105,10 @@ class Detection:
 
     def to_dict(self) -> dict[str, Any]:
         """Scalars only (no arrays), ready for JSON (NaN becomes None)."""
-        return {"status": self.status, "x": _num(self.x), "y": _num(self.y), "score": _num(self.score),
-                "sigma": _num(self.sigma), "sigma_x": _num(self.sigma_x), "sigma_y": _num(self.sigma_y),
-                "cov_xy": _num(self.cov_xy), "method": self.method, "reason": self.reason}
+        n = finite_or_none
+        return {"status": self.status, "x": n(self.x), "y": n(self.y), "score": n(self.score),
+                "sigma": n(self.sigma), "sigma_x": n(self.sigma_x), "sigma_y": n(self.sigma_y),
+                "cov_xy": n(self.cov_xy), "method": self.method, "reason": self.reason}
 
     def plot(self, fig: Figure, window: np.ndarray) -> None:
         """Draw this method's diagnostic figure into ``fig`` for the ``window`` it saw (window pixels).
@@ -150,11 +151,6 @@ def unusable_window(window: np.ndarray, min_side: int = 8, min_range: float = 0.
     if float(w.max() - w.min()) < min_range:
         return f"homogeneous window (grey range below {min_range})"
     return None
-
-
-def _num(v: float) -> float | None:
-    v = float(v)
-    return None if not np.isfinite(v) else v
 
 
 __all__ = ["FOUND", "NOT_FOUND", "Detection", "Refused", "unusable_window"]

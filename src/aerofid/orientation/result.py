@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from aerofid.conventions import finite_or_none
 from aerofid.orientation.correspondence import Correspondence
 from aerofid.orientation.transform import ProjectiveTransform
 
@@ -49,7 +50,8 @@ class FiducialResidual:
                 "residual_x_mm": self.residual_x_mm, "residual_y_mm": self.residual_y_mm,
                 "residual_x_um": self.residual_um[0], "residual_y_um": self.residual_um[1],
                 "residual_x_px": self.residual_x_px, "residual_y_px": self.residual_y_px,
-                "redundancy_number": _num(self.redundancy_number), "status": self.status, "reason": self.reason}
+                "redundancy_number": finite_or_none(self.redundancy_number), "status": self.status,
+                "reason": self.reason}
 
 
 @dataclass(frozen=True)
@@ -133,14 +135,15 @@ class InteriorOrientation:
             "pixel_to_mm": self._layout(self.pixel_to_mm),
             "mm_to_pixel": self._layout(self.mm_to_pixel),
             "parameters": [float(p) for p in self.params],
-            "parameters_std": [_num(s) for s in self.params_std],
-            "parameter_std": [[_num(s) for s in row] for row in
+            "parameters_std": [finite_or_none(s) for s in self.params_std],
+            "parameter_std": [[finite_or_none(s) for s in row] for row in
                               (self.matrix_std if self.model == "projective" else self.matrix_std[:2])],
-            "variance_of_unit_weight": _num(self.variance_of_unit_weight),
-            "sigma0_mm": _num(self.sigma0_mm),
+            "variance_of_unit_weight": finite_or_none(self.variance_of_unit_weight),
+            "sigma0_mm": finite_or_none(self.sigma0_mm),
             "redundancy": self.redundancy,
-            "rms_mm": _num(self.rms_mm), "rms_x_mm": _num(self.rms_x_mm), "rms_y_mm": _num(self.rms_y_mm),
-            "rms_um": _num(self.rms_mm * 1000), "rms_px": _num(self.rms_px),
+            "rms_mm": finite_or_none(self.rms_mm), "rms_x_mm": finite_or_none(self.rms_x_mm),
+            "rms_y_mm": finite_or_none(self.rms_y_mm),
+            "rms_um": finite_or_none(self.rms_mm * 1000), "rms_px": finite_or_none(self.rms_px),
             "fiducials": [f.to_dict() for f in self.fiducials],
             "missing": list(self.missing),
             "pixel_size_um": [float(v) for v in self.pixel_size_um],
@@ -160,11 +163,6 @@ class InteriorOrientation:
 
 def _rows(H: np.ndarray) -> list:
     return [[float(v) for v in row] for row in np.asarray(H)]
-
-
-def _num(v: float) -> float | None:
-    v = float(v)
-    return v if math.isfinite(v) else None
 
 
 __all__ = ["REJECTED", "USED", "FiducialResidual", "InteriorOrientation"]

@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
 
-from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity
+from aerofid.conventions import FOUND, NOT_FOUND, POLARITIES, Box, Polarity
 from aerofid.detect.params import is_int, is_number
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate, merge_candidates, screen
@@ -37,7 +37,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.io.array import open_image
 from aerofid.io.colour import COLOUR_POLICIES, to_grey
 from aerofid.io.raster import clip_box
-from aerofid.methods import check_choice, check_polarity, make_detector
+from aerofid.methods import Detector, check_choice, check_polarity, make_detector
 
 SCREEN_PIXELS = 2_000_000
 """Most pixels of the reduced region that screening holds (a power-of-two reduction is chosen to fit)."""
@@ -130,10 +130,10 @@ class MarkSearch:
     attempts: tuple[Located, ...]
     candidates: tuple[Candidate, ...]
     reduction: int
-    path: str | None = None
-    width: int = 0
-    height: int = 0
+    width: int
+    height: int
     """The image's size (px)."""
+    path: str | None = None
 
     def __iter__(self) -> Iterator[Located]:
         return iter(self.marks)
@@ -151,7 +151,7 @@ class Measurer:
     polarities (the more reliable answer of the polarities wins)."""
 
     source: ImageSource
-    detector: Any
+    detector: Detector
     polarities: tuple[Polarity, ...]
     colour: str = "auto"
 
@@ -278,7 +278,7 @@ def screen_region(source: ImageSource, region: Box, colour: str, polarity: Polar
                         max_candidates=4 * max_candidates, noise_floor=step / f)
     found = list(merge_candidates(found, 4 * max_candidates))
     inside = [replace(c, x=c.x + ctx[0], y=c.y + ctx[1]) for c in found]
-    inside = [c for c in inside if x0 - 0.5 <= c.x < x1 - 0.5 and y0 - 0.5 <= c.y < y1 - 0.5]
+    inside = [c for c in inside if in_box(c.x, c.y, region)]
     return tuple(inside[:max_candidates]), f
 
 
@@ -356,23 +356,37 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
     >>> len(got)
     3
     """
-    check_polarity(polarity)
-    check_choice(colour, COLOUR_POLICIES, "colour")
     check_search(min_radius, max_radius, max_candidates)
-    detector = make_detector(method, mark, params)
-    polarities: tuple[Polarity, ...] = ("bright", "dark") if polarity == "auto" else (polarity,)  # type: ignore[assignment]
+    detector, polarities = configure(method, mark, polarity, colour, params)
     with open_image(image) as source:
         area = (0, 0, source.width, source.height) if region is None else clip_box(region, source.width,
                                                                                   source.height)[0]
+        measurer = Measurer(source, detector, polarities, colour)
         candidates, f = screen_region(source, area, colour, polarities[0], min_radius, max_radius,
                                       max_candidates)
-        measurer = Measurer(source, detector, polarities, colour)
-        attempts = measure_candidates(measurer, candidates)
-        found = [a for a in attempts if a.found and _inside(a, area)]
-        marks, accessories = one_per_mark(found)
-        path = None if source.path is None else str(source.path)
-        width, height = source.width, source.height
-    return MarkSearch(area, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path, width, height)
+        return search(measurer, area, candidates, f)
+
+
+def configure(method: str, mark: str, polarity: str, colour: str,
+              params: Mapping[str, Any]) -> tuple[Detector, tuple[Polarity, ...]]:
+    """The options of a search checked (one line each, before any pixel is read): the configured detector and
+    the polarities to try (``"auto"``: both, the more reliable answer wins)."""
+    check_polarity(polarity)
+    check_choice(colour, COLOUR_POLICIES, "colour")
+    detector = make_detector(method, mark, params)
+    polarities: tuple[Polarity, ...] = POLARITIES if polarity == "auto" else (polarity,)  # type: ignore[assignment]
+    return detector, polarities
+
+
+def search(measurer: Measurer, region: Box, screened: tuple[Candidate, ...], reduction: int,
+           last: tuple[Candidate, ...] = ()) -> MarkSearch:
+    """Steps 2-4 on the ``screened`` candidates of ``region`` (then the ``last`` ones): the marks whose centres
+    lie in the region, one per mark, accessories apart."""
+    attempts = measure_candidates(measurer, (*screened, *last))
+    marks, accessories = one_per_mark([a for a in attempts if a.found and in_box(a.x, a.y, region)])
+    source = measurer.source
+    return MarkSearch(region, tuple(marks), tuple(accessories), tuple(attempts), screened, reduction,
+                      source.width, source.height, None if source.path is None else str(source.path))
 
 
 MAX_CANDIDATES = 1000
@@ -388,8 +402,9 @@ def check_search(min_radius: float, max_radius: float, max_candidates: int) -> N
         raise AerofidInputError(f"max_candidates {max_candidates!r}: give an integer from 1 to {MAX_CANDIDATES}")
 
 
-def _inside(a: Located, box: Box) -> bool:
-    return box[0] - 0.5 <= a.x < box[2] - 0.5 and box[1] - 0.5 <= a.y < box[3] - 0.5
+def in_box(x: float, y: float, box: Box) -> bool:
+    """Does the point (x, y) lie in ``box``, i.e. in one of its pixels (x1, y1 exclusive)?"""
+    return box[0] - 0.5 <= x < box[2] - 0.5 and box[1] - 0.5 <= y < box[3] - 0.5
 
 
-__all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "find_marks"]
+__all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "configure", "find_marks", "in_box", "search"]

@@ -18,25 +18,24 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import FOUND, NOT_FOUND, Box, Polarity, finite_or_none
+from aerofid.conventions import FOUND, NOT_FOUND, Box, finite_or_none
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate
 from aerofid.errors import AerofidInputError
 from aerofid.find import (
     ACCESSORY_RATIO,
     MAX_MARK_RADIUS,
-    ImageSource,
     Located,
     MarkSearch,
     Measurer,
-    measure_candidates,
-    one_per_mark,
+    configure,
+    in_box,
     screen_region,
+    search,
 )
 from aerofid.io.array import open_image
-from aerofid.io.colour import COLOUR_POLICIES
 from aerofid.io.raster import Raster, clip_box
-from aerofid.methods import METHOD_NAMES, check_choice, check_polarity, make_detector
+from aerofid.methods import METHOD_NAMES
 
 LOCATE_CANDIDATES = (8, 32)
 """At most this many screening candidates are measured in one box: the first for boxes up to
@@ -174,36 +173,28 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
     >>> r.found, bool(np.hypot(r.x - truth.x, r.y - truth.y) < 0.1)
     (True, True)
     """
-    check_choice(method, METHOD_NAMES, "method")
-    check_polarity(polarity)
-    check_choice(colour, COLOUR_POLICIES, "colour")
-    detector = make_detector(method, mark, params)
+    detector, polarities = configure(method, mark, polarity, colour, params)
     requested = _box_tuple(box)
-    polarities: tuple[Polarity, ...] = ("bright", "dark") if polarity == "auto" else (polarity,)  # type: ignore[assignment]
     with open_image(image) as source:
         region, was_clipped = clip_box(requested, source.width, source.height)
-        search = search_box(source, region, Measurer(source, detector, polarities, colour))
-    return one_mark(search, mark, requested, was_clipped)
+        found = search_box(Measurer(source, detector, polarities, colour), region)
+    return one_mark(found, mark, requested, was_clipped)
 
 
-def search_box(source: ImageSource, region: Box, measurer: Measurer) -> MarkSearch:
+def search_box(measurer: Measurer, region: Box) -> MarkSearch:
     """The search of :func:`aerofid.find.find_marks` on one box, with the box's centre as a last candidate
     (a tight box: the mark fills it)."""
     w, h = region[2] - region[0], region[3] - region[1]
     n = int(min(max(LOCATE_CANDIDATES[0] * w * h / CANDIDATE_AREA, LOCATE_CANDIDATES[0]), LOCATE_CANDIDATES[1]))
-    candidates, f = screen_region(source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
+    candidates, f = screen_region(measurer.source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
                                   max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n)
     centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0,
                        radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS), strength=0.0, inner=2.0)
-    attempts = measure_candidates(measurer, (*candidates, centre))
-    found = [a for a in attempts if a.found and region[0] - 0.5 <= a.x < region[2] - 0.5
-             and region[1] - 0.5 <= a.y < region[3] - 0.5]
-    marks, accessories = one_per_mark(found)
-    if len(marks) == 1:
-        marks += confirmed_rivals(measurer, region, attempts, marks[0])
-    path = None if source.path is None else str(source.path)
-    return MarkSearch(region, tuple(marks), tuple(accessories), tuple(attempts), candidates, f, path,
-                      source.width, source.height)
+    found = search(measurer, region, candidates, f, last=(centre,))
+    if len(found.marks) != 1:
+        return found
+    rivals = confirmed_rivals(measurer, region, found.attempts, found.marks[0])
+    return replace(found, marks=found.marks + tuple(rivals))
 
 
 def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_clipped: bool) -> Location:
@@ -237,7 +228,8 @@ RIVAL_STRENGTH = 0.5
 """... and its screening strength at least this fraction of the mark's."""
 
 
-def confirmed_rivals(measurer: Measurer, region: Box, attempts: list[Located], found: Located) -> list[Located]:
+def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, ...],
+                     found: Located) -> list[Located]:
     """Second marks that the found one spoils: candidates in the box, beyond its extent, screened at about its
     scale and strength (:data:`RIVAL_SCALE`, :data:`RIVAL_STRENGTH`) but refused, measured again with the found
     mark blanked out (:func:`aerofid.find.blanked`); those found then are marks too (two dots side by side: each
@@ -245,13 +237,12 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: list[Located], f
     own = found.candidate
     if own is None or own.strength <= 0:
         return []
-    x0, y0, x1, y1 = region
     rivals = []
     for a in attempts:
         c = a.candidate
         if a.found or c is None or c is own or c.strength < RIVAL_STRENGTH * own.strength:
             continue
-        inside = x0 - 0.5 <= c.x < x1 - 0.5 and y0 - 0.5 <= c.y < y1 - 0.5
+        inside = in_box(c.x, c.y, region)
         apart = float(np.hypot(c.x - found.x, c.y - found.y)) > found.extent
         if inside and apart and 1 / RIVAL_SCALE <= c.radius / own.radius <= RIVAL_SCALE:
             again = measurer.candidate(c, blank=(found.x, found.y, found.extent + 2.0))

@@ -17,27 +17,18 @@ from aerofid.io import raster as raster_module
 from aerofid.io.colour import MIX_WEIGHTS, choose_channel_mix, mark_contrast, normalise, to_grey
 from aerofid.io.raster import Raster, check_window_size, clip_box, open_raster, segment_indices
 from conftest import realdata_path
+from raster_checks import HEIGHT, WIDTH, random_image, record_decoded_segments, write_tiff
 
 COLORMAP = np.zeros((3, 256), np.uint16)
 BANDS_CONTIG = {"photometric": "minisblack", "planarconfig": "contig"}
 VOLUME = {"photometric": "minisblack", "volumetric": True, "tile": (2, 16, 16)}
 RC20 = "unbc_bc_wild_rc20/15BCC02013_114.jpg"
-HEIGHT, WIDTH = 203, 157  # not multiples of any tile or strip size below
 WINDOWS = [(0, 0, WIDTH, HEIGHT), (10, 20, 50, 60), (31, 47, 97, 150), (WIDTH - 1, HEIGHT - 1, WIDTH, HEIGHT)]
 GEOTIFF_TAGS = [
     (33550, "d", 3, (0.5, 0.5, 0.0), False),  # ModelPixelScale
     (33922, "d", 6, (0.0, 0.0, 0.0, 500000.0, 6000000.0, 0.0), False),  # ModelTiepoint
     (34735, "H", 8, (1, 1, 0, 1, 1024, 0, 1, 1), False),  # GeoKeyDirectory: projected
 ]
-
-
-def random_image(dtype, bands, seed=0, shape=(HEIGHT, WIDTH)):
-    """Random samples covering the dtype's range (floats in [0, 1])."""
-    rng = np.random.default_rng(seed)
-    full_shape = shape if bands == 1 else (*shape, bands)
-    if np.dtype(dtype).kind == "f":
-        return rng.random(full_shape).astype(dtype)
-    return rng.integers(0, np.iinfo(dtype).max, full_shape, endpoint=True, dtype=dtype)
 
 
 def smooth_image(bands, shape=(HEIGHT, WIDTH)):
@@ -67,13 +58,6 @@ LOSSLESS_TIFFS = [
     ("bigendian-raw-16bit", np.uint16, 1, {"byteorder": ">"}),
     ("geotiff", np.uint8, 1, {"tile": (32, 32), "extratags": GEOTIFF_TAGS}),
 ]
-
-
-def write_tiff(path, image, **kwargs):
-    """Write ``image`` as a TIFF, RGB if it has 3 bands, and return ``path``."""
-    photometric = "rgb" if image.ndim == 3 else "minisblack"
-    tifffile.imwrite(path, image, photometric=photometric, **kwargs)
-    return path
 
 
 def write_cv2(path, rgb_or_grey):
@@ -169,24 +153,6 @@ def test_striped_read_decodes_only_the_intersecting_strips(tmp_path, monkeypatch
     with open_raster(path) as raster:
         np.testing.assert_array_equal(raster.read_window((5, 25, 30, 41)), image[25:41, 5:30])
     assert decoded == [2, 3, 4]
-
-
-def record_decoded_segments(monkeypatch):
-    """Make every ``TiffPage.decode`` call append the segment index to the returned list."""
-    decoded = []
-    make_decoder = tifffile.TiffPage.__dict__["decode"].func  # the cached_property's function
-
-    def counting_decoder(page):
-        decode = make_decoder(page)
-
-        def counting_decode(data, index, **kwargs):
-            decoded.append(index)
-            return decode(data, index, **kwargs)
-
-        return counting_decode
-
-    monkeypatch.setattr(tifffile.TiffPage, "decode", property(counting_decoder))
-    return decoded
 
 
 def test_layouts_that_cannot_be_windowed_are_decoded_whole_once(tmp_path, monkeypatch):

@@ -19,8 +19,8 @@ from aerofid.io import jpeg, reduce
 from aerofid.io.array import ArrayRaster, as_image_array, open_image
 from aerofid.io.raster import Raster, open_raster
 from conftest import realdata_path
+from raster_checks import HEIGHT, WIDTH, random_image, record_decoded_segments, write_tiff
 
-HEIGHT, WIDTH = 203, 157  # not multiples of any tile, strip or factor below
 BOXES = [(0, 0, WIDTH, HEIGHT), (3, 5, 100, 77), (31, 47, 97, 150), (WIDTH - 1, HEIGHT - 1, WIDTH, HEIGHT)]
 FACTORS = [1, 2, 3, 8, 64, 500]
 RC20 = "unbc_bc_wild_rc20/15BCC02013_114.jpg"
@@ -36,28 +36,12 @@ def block_mean(window, factor):
     return np.nanmean(padded.reshape(rows, factor, cols, factor, *a.shape[2:]), axis=(1, 3))
 
 
-def random_image(dtype, bands, seed=0, shape=(HEIGHT, WIDTH)):
-    """Random samples covering the dtype's range (floats in [0, 1])."""
-    rng = np.random.default_rng(seed)
-    full_shape = shape if bands == 1 else (*shape, bands)
-    if np.dtype(dtype).kind == "f":
-        return rng.random(full_shape).astype(dtype)
-    return rng.integers(0, np.iinfo(dtype).max, full_shape, endpoint=True, dtype=dtype)
-
-
 def smooth_image(bands, shape=(HEIGHT, WIDTH)):
     """A smooth uint8 image whose bands differ, which JPEG keeps close to the original."""
     y, x = np.mgrid[: shape[0], : shape[1]]
     planes = [(127 + 100 * np.sin(x / 37 + 2 * k) * np.cos(y / 43 - k)) for k in range(bands)]
     image = np.stack(planes, axis=-1).round().astype(np.uint8)
     return image[:, :, 0] if bands == 1 else image
-
-
-def write_tiff(path, image, **kwargs):
-    """Write ``image`` as a TIFF, RGB if it has 3 bands, and return ``path``."""
-    photometric = "rgb" if image.ndim == 3 else "minisblack"
-    tifffile.imwrite(path, image, photometric=photometric, **kwargs)
-    return path
 
 
 def write_cv2(path, rgb_or_grey, *params):
@@ -168,24 +152,6 @@ def test_any_box_and_factor_equals_the_block_mean(layout_files, data):
 # ------------------------------------------------------------------------------------------------
 # Strips: whole tile rows, each tile decoded once, memory bounded
 # ------------------------------------------------------------------------------------------------
-
-
-def record_decoded_segments(monkeypatch):
-    """Make every ``TiffPage.decode`` call append the segment index to the returned list."""
-    decoded = []
-    make_decoder = tifffile.TiffPage.__dict__["decode"].func  # the cached_property's function
-
-    def counting_decoder(page):
-        decode = make_decoder(page)
-
-        def counting_decode(data, index, **kwargs):
-            decoded.append(index)
-            return decode(data, index, **kwargs)
-
-        return counting_decode
-
-    monkeypatch.setattr(tifffile.TiffPage, "decode", property(counting_decoder))
-    return decoded
 
 
 def test_strips_are_whole_tile_rows_and_each_tile_is_decoded_once(tmp_path, monkeypatch):

@@ -30,6 +30,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from aerofid.conventions import FOUND, NOT_FOUND, POLARITIES, Box, Polarity
+from aerofid.detect.auto import blank_disc
 from aerofid.detect.params import is_int, is_number
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate, merge_candidates, screen
@@ -46,7 +47,7 @@ CONTEXT = 64
 FIRST_WINDOW = (2.5, 8)
 """Half-size of the first window around a candidate: 2.5 x its radius + 8 px."""
 RECENTRED_WINDOW = (2.5, 8)
-"""Half-size of the re-centred window: 1.5 x the mark's extent + 8 px."""
+"""Half-size of the re-centred window: 2.5 x the mark's extent + 8 px."""
 RECENTRE_ROUNDS = 3
 """At most this many re-centred measurements per mark."""
 LADDER_STEP = 0.75
@@ -168,7 +169,7 @@ class Measurer:
             if pol == "dark":
                 grey = 1.0 - grey
             if blank is not None:
-                grey = blanked(grey, blank[0] - box[0], blank[1] - box[1], blank[2])
+                grey = blank_disc(grey, blank[0] - box[0], blank[1] - box[1], blank[2])
             det = self.detector(grey).shifted(box[0], box[1])
             got = Located(det, pol, box, grey, candidate)
             if best is None or better(got.detection, best.detection):
@@ -181,7 +182,7 @@ class Measurer:
         its smallest (:func:`window_ladder`) until one is found, then re-centred windows sized by the mark's
         own extent until the size settles."""
         first: Located | None = None
-        for half in window_ladder(c.radius, c.inner or c.radius):
+        for half in window_ladder(c.radius, c.inner):
             got = self.at(c.x, c.y, half, c, blank)
             first = first or got
             if got.found:
@@ -222,21 +223,9 @@ def with_window_term(final: Located, other: Located) -> Located:
     return replace(final, detection=det)
 
 
-def blanked(grey: np.ndarray, x: float, y: float, radius: float) -> np.ndarray:
-    """A copy of ``grey`` with the disc of ``radius`` around (x, y) (window pixels) filled with the median grey
-    level of the ring 2-6 px beyond it (the ground): a mark taken out, to see whether what is left is one."""
-    h, w = grey.shape
-    yy, xx = np.mgrid[0:h, 0:w]
-    r = np.hypot(xx - x, yy - y)
-    ring = (r > radius + 2) & (r <= radius + 6)
-    out = grey.copy()
-    out[r <= radius] = np.median(grey[ring]) if ring.any() else np.median(grey)
-    return out
-
-
 def window_ladder(radius: float, inner: float) -> list[float]:
-    """Half-sizes of the windows tried on a candidate: FIRST_WINDOW of its radius, then 0.6 times smaller
-    each, down to FIRST_WINDOW of ``inner`` (at least :data:`MIN_HALF`)."""
+    """Half-sizes of the windows tried on a candidate: FIRST_WINDOW of its radius, then :data:`LADDER_STEP`
+    times smaller each, down to FIRST_WINDOW of ``inner`` (at least :data:`MIN_HALF`)."""
     low = max(FIRST_WINDOW[0] * inner + FIRST_WINDOW[1], MIN_HALF)
     half = max(FIRST_WINDOW[0] * radius + FIRST_WINDOW[1], low)
     out = [half]

@@ -232,8 +232,9 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
                      found: Located) -> list[Located]:
     """Second marks that the found one spoils: candidates in the box, beyond its extent, screened at about its
     scale and strength (:data:`RIVAL_SCALE`, :data:`RIVAL_STRENGTH`) but refused, measured again with the found
-    mark blanked out (:func:`aerofid.find.blanked`); those found then are marks too (two dots side by side: each
-    one's window holds the other). A notch corner or an arm's end refused for what it is stays refused."""
+    mark blanked out (:func:`aerofid.detect.auto.blank_disc`); those found then are marks too (two dots side by
+    side: each one's window holds the other). A notch corner or an arm's end refused for what it is stays
+    refused."""
     own = found.candidate
     if own is None or own.strength <= 0:
         return []

@@ -60,11 +60,15 @@ class Candidate:
     strength: float
     inner: float = 0.0
     """The smallest radius of the structure screened here (a centre dot inside a ring); ``radius`` when
-    only one scale scored."""
+    only one scale scored (or when not given)."""
+
+    def __post_init__(self) -> None:
+        if not self.inner:
+            object.__setattr__(self, "inner", self.radius)
 
     def to_dict(self) -> dict[str, float]:
         return {"x": round(self.x, 2), "y": round(self.y, 2), "radius": round(self.radius, 2),
-                "inner": round(self.inner or self.radius, 2), "strength": round(self.strength, 3)}
+                "inner": round(self.inner, 2), "strength": round(self.strength, 3)}
 
 
 def half_disc_offsets(radius: int) -> np.ndarray:
@@ -231,13 +235,13 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
         if same.size:
             i = int(same[0])
             k = kept[i]
-            finer = c if c.radius < (k.inner or k.radius) else k
+            finer = c if c.radius < k.inner else k
             kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
-                              inner=min(k.inner or k.radius, c.inner or c.radius))
+                              inner=min(k.inner, c.inner))
             xy[i] = (finer.x, finer.y)
             radius[i] = kept[i].radius
         elif len(kept) < max_candidates:
-            kept.append(replace(c, inner=c.inner or c.radius))
+            kept.append(c)
             xy = np.vstack([xy, [c.x, c.y]])
             radius = np.append(radius, c.radius)
     return tuple(kept)

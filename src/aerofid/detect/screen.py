@@ -111,7 +111,8 @@ def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.
     median absolute first difference of each block (horizontal and vertical, scaled to a sigma), the minimum
     over the neighbouring blocks (a mark beside a strong edge is judged by its plain side), bilinearly
     interpolated. Floored at ``floor`` (one quantisation step: flat JPEG black has almost no noise, and its
-    specks would outrank the mark)."""
+    specks would outrank the mark). On white noise it reads 0.87-0.88 of the true sigma (5 seeds of 256 x 256
+    px): the minimum over neighbouring blocks is biased low, which only scales every strength alike."""
     h, w = img.shape
     dx = np.abs(np.diff(img, axis=1, append=img[:, -1:]))
     dy = np.abs(np.diff(img, axis=0, append=img[-1:, :]))

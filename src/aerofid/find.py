@@ -211,8 +211,8 @@ def with_window_term(final: Located, other: Located) -> Located:
     """``final`` with the difference (dx, dy) between its centre and ``other``'s - the same mark measured on a
     different window (the first one that found it) - added to its covariance: dx^2 and dy^2 to the variances,
     dx dy to the covariance, (dx^2 + dy^2) / 2 to ``sigma^2``. The methods' own sigmas speak of the noise in one
-    window; how much the centre moves with the window (0.2-0.3 px on the real RC20 marks between a 120 px crop
-    and the re-centred window, against method sigmas of 0.01-0.05 px) is part of the uncertainty too."""
+    window; how much the centre moves with the window (0.19-0.34 px on five of the real RC20 marks between a
+    120 px crop and the re-centred window, docs/benchmarks_regions.md) is part of the uncertainty too."""
     dx, dy = final.x - other.x, final.y - other.y
     if dx == 0.0 and dy == 0.0:
         return final

@@ -145,8 +145,8 @@ class AutoParams(MethodParams):
     """The mark's extent from the radial profile (:func:`profile_extent`) uses this percentile over each
     circle. Step 3."""
     min_core_snr: float = 8.0
-    """A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma off the ground
-    (:func:`core_contrast`). Step 2."""
+    """A lone ``symmetry`` answer needs a core (radius ``max(1.5, R/4)``) this many noise sigma above the ground
+    (:func:`core_contrast`; the mark is bright, a darker core is a blob of the other polarity). Step 2."""
     isolate_factor: float = 2.0
     """Step 4 isolates a blob within this many times its radius (plus 2 px)."""
     min_plain: float = 0.5
@@ -525,9 +525,9 @@ def lone_answer_refused(ctx: _Context, trace: _Trace, lone: Detection, extent: f
     if lone.method == "symmetry":
         c = core_contrast(ctx.img, lone.x, lone.y, extent, ctx.noise)
         trace.core_snr = c
-        if not abs(c) >= ctx.params.min_core_snr:
-            return (f"a lone symmetry answer at ({lone.x:.1f}, {lone.y:.1f}) with no compact core ({c:.1f} noise "
-                    "sigma): not corroborated")
+        if not c >= ctx.params.min_core_snr:
+            return (f"a lone symmetry answer at ({lone.x:.1f}, {lone.y:.1f}) with no compact core brighter than "
+                    f"its ground ({c:.1f} noise sigma): not corroborated")
     return None
 
 

@@ -75,6 +75,8 @@ class Correspondence:
     candidates: tuple[ArrangementFit, ...]
     reason: str = ""
     fiducial_names: tuple[str, ...] = ()
+    tied: tuple[ArrangementFit, ...] = ()
+    """The arrangements that fit as well as the best by the F test (the best among them; empty when unique)."""
 
     @property
     def assignment(self) -> tuple[int, ...]:
@@ -198,7 +200,7 @@ def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) ->
     r = best.redundancy
     if r < 1:
         reason = "no redundancy to compare the arrangements: measure more fiducials or give names"
-        return Correspondence("ambiguous", best, tuple(uniq), reason, names)
+        return Correspondence("ambiguous", best, tuple(uniq), reason, names, tuple(uniq))
     crit = float(stats.f.ppf(1 - alpha, r, r))
     ratio = second.sum_sq_mm2 / max(best.sum_sq_mm2, 1e-30)
     if ratio > crit:
@@ -207,7 +209,8 @@ def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) ->
               f"(rms {best.rms_mm * 1000:.2f} um) and rotation {second.rotation_deg} deg"
               f"{' mirrored' if second.mirrored else ''} (rms {second.rms_mm * 1000:.2f} um) fit equally well "
               f"(ratio {ratio:.3g} <= F({r}, {r}; {1 - alpha:g}) = {crit:.3g}): name the measured points")
-    return Correspondence("ambiguous", best, tuple(uniq), reason, names)
+    tied = tuple(f for f in uniq if f.sum_sq_mm2 / max(best.sum_sq_mm2, 1e-30) <= crit)
+    return Correspondence("ambiguous", best, tuple(uniq), reason, names, tied)
 
 
 __all__ = ["ALPHA_ARRANGEMENT", "ARRANGEMENTS", "AmbiguousCorrespondenceError", "ArrangementFit", "Correspondence",

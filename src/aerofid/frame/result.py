@@ -1,0 +1,103 @@
+"""The answer of :func:`aerofid.orient_frame`: a verdict per fiducial and per frame, and the orientation."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from aerofid.conventions import finite_or_none
+from aerofid.find import Located
+from aerofid.orientation.result import InteriorOrientation
+
+FOUND_MARK = "found"
+"""The mark was found and used in the adjustment."""
+REJECTED_MARK = "rejected"
+"""The mark was found but the adjustment rejected it (its residual says why)."""
+MISSING_MARK = "not_found"
+"""No mark was found where the frame's geometry puts the fiducial."""
+
+OK, DOUBTFUL, FAILED = "ok", "doubtful", "failed"
+"""A frame's verdict: the orientation can be used / should be looked at / there is none."""
+
+
+@dataclass(frozen=True)
+class FiducialFinding:
+    """One calibrated fiducial on the scan (pixels: x = column, y = row, centre of the top-left pixel (0, 0))."""
+
+    name: str
+    status: str
+    x: float | None
+    y: float | None
+    sigma_x: float | None
+    sigma_y: float | None
+    predicted_x: float
+    predicted_y: float
+    residual_px: float | None = None
+    reason: str = ""
+    method: str = ""
+    located: Located | None = field(default=None, repr=False, compare=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "status": self.status, "x": finite_or_none(self.x), "y": finite_or_none(self.y),
+                "sigma_x": finite_or_none(self.sigma_x), "sigma_y": finite_or_none(self.sigma_y),
+                "predicted_x": finite_or_none(self.predicted_x), "predicted_y": finite_or_none(self.predicted_y),
+                "residual_px": finite_or_none(self.residual_px), "reason": self.reason, "method": self.method}
+
+
+@dataclass(frozen=True)
+class FrameOrientation:
+    """A whole frame's fiducials and interior orientation.
+
+    Attributes
+    ----------
+    status : str
+        ``"ok"``, ``"doubtful"`` (an orientation exists but something is wrong or unproven: the reasons say what)
+        or ``"failed"`` (no orientation).
+    reasons : tuple of str
+        Why the frame is doubtful or failed (empty when ok).
+    fiducials : tuple of FiducialFinding
+        One per camera fiducial, in the camera's order.
+    orientation : InteriorOrientation or None
+        The adjustment of the found marks (None when failed).
+    rotation_deg, mirrored : int or None, bool or None
+        The film's lie in the scanner (:data:`aerofid.orientation.correspondence.ARRANGEMENTS`).
+    pixel_size_mm : float or None
+        The pixel size the search assumed, and where it came from (``pixel_size_source``: "given", "tags",
+        "camera" or "estimated" from the marks' layout).
+    """
+
+    image: str
+    camera: str
+    width: int
+    height: int
+    status: str
+    reasons: tuple[str, ...]
+    fiducials: tuple[FiducialFinding, ...]
+    orientation: InteriorOrientation | None
+    rotation_deg: int | None
+    mirrored: bool | None
+    pixel_size_mm: float | None
+    pixel_size_source: str
+    features: int = 0
+    reduction: int = 1
+
+    @property
+    def ok(self) -> bool:
+        return self.status == OK
+
+    @property
+    def found(self) -> tuple[FiducialFinding, ...]:
+        return tuple(f for f in self.fiducials if f.status != MISSING_MARK)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"image": self.image, "camera": self.camera, "width": self.width, "height": self.height,
+                "status": self.status, "reasons": list(self.reasons),
+                "fiducials": [f.to_dict() for f in self.fiducials],
+                "rotation_deg": self.rotation_deg, "mirrored": self.mirrored,
+                "pixel_size_mm": finite_or_none(self.pixel_size_mm), "pixel_size_source": self.pixel_size_source,
+                "screening": {"features": self.features, "reduction": self.reduction},
+                "orientation": None if self.orientation is None else self.orientation.to_dict()}
+
+
+__all__ = ["DOUBTFUL", "FAILED", "FOUND_MARK", "MISSING_MARK", "OK", "REJECTED_MARK", "FiducialFinding",
+           "FrameOrientation"]

@@ -1,0 +1,163 @@
+"""The adjustment of a frame's found marks and the verdict: per fiducial found / rejected / not found, per frame
+ok / doubtful / failed with the reasons (seed 002's self-diagnosis, carried to the whole frame)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from aerofid.errors import AerofidInputError
+from aerofid.find import Located
+from aerofid.frame.layout import LayoutMatch
+from aerofid.frame.result import (
+    DOUBTFUL,
+    FAILED,
+    FOUND_MARK,
+    MISSING_MARK,
+    OK,
+    REJECTED_MARK,
+    FiducialFinding,
+    FrameOrientation,
+)
+from aerofid.orientation.camera import Camera
+from aerofid.orientation.correspondence import AmbiguousCorrespondenceError, ArrangementFit
+from aerofid.orientation.interior import orient
+from aerofid.orientation.result import REJECTED, InteriorOrientation
+from aerofid.orientation.transform import transform_class
+
+MAX_RMS_PX = 1.0
+"""Largest RMS residual (px) of an orientation called ok: measured marks (0.01-0.1 px) and a film's deformation
+beyond an affinity (a few um) explain a few tenths of a pixel (the real RC20 frame: 0.32 px at 42 um)."""
+SCALE_AGREEMENT = 0.02
+"""Largest relative difference between the adjusted pixel size and the one the scan or camera file declared."""
+MIN_REDUNDANCY = 2
+"""Fewest redundant observations for the marks to check each other (affine: 4 marks)."""
+
+
+def verdict(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | None, str]], model: str,
+            head: dict[str, Any], size: float | None, size_source: str,
+            lie: tuple[int, bool] | None = None) -> FrameOrientation:
+    """Step 4 of :func:`aerofid.orient_frame`: adjust the found marks, name them, judge the frame."""
+    found = [k for k, (m, _) in enumerate(located) if m is not None]
+    common = dict(head, pixel_size_mm=size, pixel_size_source=size_source)
+    need = transform_class(model).min_points
+    if len(found) < need:
+        return FrameOrientation(**common, status=FAILED, reasons=(
+            f"only {len(found)} of the camera's {len(located)} fiducials found: the {model} model needs {need}",),
+            fiducials=_by_layout(cam, layout, located), orientation=None, rotation_deg=None, mirrored=None)
+    px = np.array([[located[k][0].x, located[k][0].y] for k in found])  # type: ignore[union-attr]
+    reasons: list[str] = []
+    try:
+        io, lie_fit = _adjust(cam, px, model, str(head["image"]), lie, reasons)
+    except AerofidInputError as e:
+        return FrameOrientation(**common, status=FAILED, reasons=(f"adjustment: {e}",),
+                                fiducials=_by_layout(cam, layout, located), orientation=None, rotation_deg=None,
+                                mirrored=None)
+    findings = _by_orientation(cam, layout, located, found, io)
+    reasons += _doubts(io, findings, size, size_source)
+    return FrameOrientation(**common, status=DOUBTFUL if reasons else OK, reasons=tuple(reasons),
+                            fiducials=findings, orientation=io, rotation_deg=lie_fit.rotation_deg,
+                            mirrored=lie_fit.mirrored)
+
+
+NOMINAL_LIE = (0, False)
+"""The lie assumed when the fiducials cannot tell (a symmetric layout): the film as the camera file draws it."""
+
+
+def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int, bool] | None,
+            reasons: list[str]) -> tuple[InteriorOrientation, ArrangementFit]:
+    """The adjustment with the film's lie decided by the arrangements' F test. When several lies fit equally (a
+    symmetric layout), the given ``lie`` is taken if it is among them, else the nominal one (then the frame is
+    doubtful: the reason says so); a given lie that fits worse than another is a reason too."""
+    try:
+        io = orient(cam, px, model, correspondence="auto", image=image)
+        assert io.correspondence is not None
+        best = io.correspondence.best
+        if lie is not None and (best.rotation_deg, best.mirrored) != tuple(lie):
+            reasons.append(f"the marks fit the lie rotation {best.rotation_deg} deg{_m(best.mirrored)} "
+                           f"significantly better than the given rotation {lie[0]} deg{_m(lie[1])}")
+        return io, best
+    except AmbiguousCorrespondenceError as e:
+        corr = e.correspondence
+    want = lie if lie is not None else NOMINAL_LIE
+    chosen = next((f for f in corr.tied if (f.rotation_deg, f.mirrored) == tuple(want)), None)
+    if chosen is None or lie is None:
+        chosen = chosen or corr.best
+        lies = ", ".join(f"rotation {f.rotation_deg} deg{_m(f.mirrored)}" for f in corr.tied)
+        reasons.append(f"the film's lie cannot be told from the fiducials ({lies} fit equally well): assumed "
+                       f"rotation {chosen.rotation_deg} deg{_m(chosen.mirrored)}; give the lie (--lie) if it is "
+                       "not")
+    names = [cam.names[j] for j in chosen.assignment]
+    return orient(cam, dict(zip(names, px.tolist(), strict=True)), model, correspondence="names",
+                  image=image), chosen
+
+
+def _m(mirrored: bool) -> str:
+    return " mirrored" if mirrored else ""
+
+
+def _doubts(io: InteriorOrientation, findings: Sequence[FiducialFinding], size: float | None,
+            size_source: str) -> list[str]:
+    """Why an adjusted frame is doubtful (none: ok)."""
+    out = []
+    n_found = sum(f.status != MISSING_MARK for f in findings)
+    if io.redundancy < MIN_REDUNDANCY:
+        out.append(f"{len(io.used)} marks used: too few for them to check each other (redundancy {io.redundancy})")
+    if 2 * n_found < len(findings):
+        out.append(f"only {n_found} of the camera's {len(findings)} fiducials found")
+    if math.isfinite(io.rms_px) and io.rms_px > MAX_RMS_PX:
+        out.append(f"residual RMS {io.rms_px:.2f} px is more than the marks and the film explain (<= {MAX_RMS_PX} px)")
+    if size is not None and size_source != "estimated":
+        fitted = math.sqrt(io.pixel_size_um[0] * io.pixel_size_um[1]) / 1000.0
+        if abs(fitted / size - 1) > SCALE_AGREEMENT:
+            out.append(f"the adjusted pixel size {fitted:.5f} mm differs from the {size_source}' {size:.5f} mm")
+    return out
+
+
+def _by_orientation(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | None, str]],
+                    found: Sequence[int], io: InteriorOrientation) -> tuple[FiducialFinding, ...]:
+    """A finding per camera fiducial, named by the adjustment: its measured point (used or rejected with the
+    residual) or, if none, its position predicted by the orientation and why no mark was found there."""
+    by_name = {r.name: r for r in io.fiducials}
+    slot_of = {(round(located[k][0].x, 9), round(located[k][0].y, 9)): k for k in found}  # type: ignore[union-attr]
+    out = []
+    for fid in cam.fiducials:
+        r = by_name.get(fid.name)
+        if r is None:
+            p = io.to_pixel([[fid.x_mm, fid.y_mm]])[0]
+            k = int(np.argmin(np.hypot(*(layout.predicted - p).T)))
+            out.append(FiducialFinding(fid.name, MISSING_MARK, None, None, None, None, float(p[0]), float(p[1]),
+                                       reason=located[k][1] or "not found"))
+            continue
+        k = slot_of[(round(r.x_px, 9), round(r.y_px, 9))]
+        m = located[k][0]
+        assert m is not None
+        d = m.detection
+        out.append(FiducialFinding(
+            fid.name, REJECTED_MARK if r.status == REJECTED else FOUND_MARK, m.x, m.y, d.sigma_x, d.sigma_y,
+            float(layout.predicted[k][0]), float(layout.predicted[k][1]),
+            residual_px=float(math.hypot(r.residual_x_px, r.residual_y_px)), reason=r.reason, method=d.method,
+            located=m))
+    return tuple(out)
+
+
+def _by_layout(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | None, str]]
+               ) -> tuple[FiducialFinding, ...]:
+    """Findings named by the layout's hypothesis alone (no adjustment: the lie is not decided)."""
+    out = []
+    for k, fid in enumerate(cam.fiducials):
+        m, why = located[k]
+        px, py = (float(v) for v in layout.predicted[k])
+        if m is None:
+            out.append(FiducialFinding(fid.name, MISSING_MARK, None, None, None, None, px, py, reason=why))
+        else:
+            d = m.detection
+            out.append(FiducialFinding(fid.name, FOUND_MARK, m.x, m.y, d.sigma_x, d.sigma_y, px, py,
+                                       method=d.method, located=m))
+    return tuple(out)
+
+
+__all__ = ["MAX_RMS_PX", "verdict"]

@@ -1,0 +1,102 @@
+"""The scan's pixel size from the file's resolution tags (TIFF XResolution/ResolutionUnit, JPEG JFIF density,
+PNG pHYs), read from the header alone."""
+
+from __future__ import annotations
+
+import os
+import struct
+from pathlib import Path
+
+import tifffile
+
+MM_PER_INCH = 25.4
+MIN_DPI, MAX_DPI = 50.0, 20000.0
+"""Resolutions believed: below 50 dpi a tag is a default (72, 96 dpi are screen defaults and refused separately),
+above 20000 dpi no film scanner goes."""
+SCREEN_DEFAULTS = (72.0, 96.0)
+"""dpi values that image software writes when it knows nothing of the scan: not a scan resolution."""
+JPEG_SEGMENTS = 64
+"""JPEG marker segments read at most looking for the JFIF density."""
+
+
+def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:
+    """The pixel size (mm per px) the file's resolution tags declare, or None when it declares none, declares
+    different x and y resolutions, or a value no scan has (:data:`MIN_DPI`, :data:`MAX_DPI`,
+    :data:`SCREEN_DEFAULTS`).
+
+    Examples
+    --------
+    >>> import numpy as np, tifffile, tempfile, os
+    >>> p = os.path.join(tempfile.mkdtemp(), "scan.tif")
+    >>> tifffile.imwrite(p, np.zeros((8, 8), np.uint8), resolution=(1200, 1200), resolutionunit="INCH")
+    >>> round(pixel_size_from_tags(p), 6)
+    0.021167
+    """
+    p = Path(path)
+    try:
+        with p.open("rb") as f:
+            head = f.read(8)
+            if head[:2] == b"\xff\xd8":
+                dpi = _jfif_dpi(f)
+            elif head[:8] == b"\x89PNG\r\n\x1a\n":
+                dpi = _png_dpi(f)
+            elif head[:2] in (b"II", b"MM"):
+                dpi = _tiff_dpi(p)
+            else:
+                dpi = None
+    except (OSError, ValueError, struct.error, tifffile.TiffFileError):
+        return None
+    if dpi is None or not (MIN_DPI <= dpi <= MAX_DPI) or dpi in SCREEN_DEFAULTS:
+        return None
+    return MM_PER_INCH / dpi
+
+
+def _same(x: float, y: float, unit_per_inch: float) -> float | None:
+    """x and y resolutions in units per ``1 / unit_per_inch`` inch as dpi, None unless they agree."""
+    if x <= 0 or y <= 0 or abs(x - y) > 1e-6 * max(x, y):
+        return None
+    return float(x) * unit_per_inch
+
+
+def _jfif_dpi(f) -> float | None:
+    """The JFIF APP0 density (units 1 = dpi, 2 = dots per cm)."""
+    f.seek(2)
+    for _ in range(JPEG_SEGMENTS):
+        marker = f.read(2)
+        if len(marker) < 2 or marker[0] != 0xFF or marker[1] in (0xD9, 0xDA) or 0xC0 <= marker[1] <= 0xCF:
+            return None
+        (length,) = struct.unpack(">H", f.read(2))
+        body = f.read(length - 2)
+        if marker[1] == 0xE0 and body[:5] == b"JFIF\x00" and len(body) >= 12:
+            units, xd, yd = body[7], *struct.unpack(">HH", body[8:12])
+            return None if units not in (1, 2) else _same(xd, yd, 1.0 if units == 1 else 2.54)
+    return None
+
+
+def _png_dpi(f) -> float | None:
+    """The PNG pHYs chunk (pixels per metre when its unit is 1)."""
+    while True:
+        head = f.read(8)
+        if len(head) < 8:
+            return None
+        length, kind = struct.unpack(">I4s", head)
+        if kind == b"pHYs":
+            xd, yd, unit = struct.unpack(">IIB", f.read(9))
+            return _same(xd, yd, 0.0254) if unit == 1 else None
+        if kind in (b"IDAT", b"IEND"):
+            return None
+        f.seek(length + 4, os.SEEK_CUR)
+
+
+def _tiff_dpi(path: Path) -> float | None:
+    """The first page's XResolution and YResolution (ResolutionUnit 2 = inch, 3 = centimetre)."""
+    with tifffile.TiffFile(path) as tif:
+        tags = tif.pages.first.tags
+        unit, xr, yr = tags.get("ResolutionUnit"), tags.get("XResolution"), tags.get("YResolution")
+        if unit is None or xr is None or yr is None or int(unit.value) not in (2, 3):
+            return None
+        x, y = (v.value[0] / v.value[1] if v.value[1] else 0.0 for v in (xr, yr))
+        return _same(x, y, 1.0 if int(unit.value) == 2 else 2.54)
+
+
+__all__ = ["pixel_size_from_tags"]

@@ -11,6 +11,8 @@ independent of each other.
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -18,8 +20,8 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
 
 LAYER = {"conventions": 0, "errors": 0, "robust": 0, "io": 1, "detect": 2, "orientation": 2, "formats": 3,
-         "synth": 4, "synth_frame": 4, "methods": 4, "testing": 5, "find": 5, "locate": 6, "frame": 6, "render": 7, "cli": 8, "__init__": 9,
-         "__main__": 10}
+         "synth": 4, "synth_frame": 4, "methods": 4, "testing": 5, "find": 5, "locate": 6, "frame": 6, "render": 7,
+         "cli": 8, "__init__": 9, "__main__": 10}
 """Each top-level part of the package and its layer."""
 INDEPENDENT = {frozenset({"detect", "orientation"}), frozenset({"detect", "formats"})}
 """Parts that must not import each other although their layers would allow it."""
@@ -132,3 +134,25 @@ def test_functions_are_short_enough_to_read_at_once(path):
             if lines > MAX_FUNCTION_LINES:
                 long.append(f"{fn.name} ({lines} lines, line {fn.lineno})")
     assert not long, long
+
+
+def test_import_aerofid_loads_no_part_until_a_name_is_used():
+    """``import aerofid`` is lazy (PEP 562): no part is imported until one of its public names is used; then
+    every name in ``__all__`` is the object of the module that defines it (the ``TYPE_CHECKING`` imports)."""
+    code = ("import sys, aerofid; print(sorted(m for m in sys.modules if m.startswith('aerofid.') "
+            "or m.split('.')[0] in ('numpy', 'scipy', 'cv2')))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert loaded.strip() == "[]", loaded
+    bound = "import aerofid.locate, aerofid; print(callable(aerofid.locate), aerofid.locate.__module__)"
+    out = subprocess.run([sys.executable, "-c", bound], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["True", "aerofid.locate"], out  # the function, not the submodule of that name
+    import aerofid
+
+    tree = ast.parse((SRC / "__init__.py").read_text(encoding="utf-8"))
+    declared = {a.name: n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module
+                and n.module.startswith("aerofid.") for a in n.names}
+    assert set(aerofid.__all__) == set(declared) | {"__version__"}
+    for name, module in declared.items():
+        assert getattr(aerofid, name) is getattr(__import__(module, fromlist=[name]), name), name
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        aerofid.nothing  # noqa: B018

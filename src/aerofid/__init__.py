@@ -5,6 +5,7 @@ Public API:
     find_marks(image, region=None, mark="auto", ...) -> MarkSearch (every mark in a region)
     read_camera(path) -> Camera;  read_measurements(path) -> Measurements
     orient(camera, measurements, model="affine", ...) -> InteriorOrientation
+    orient_frame(image, camera, ...) -> FrameOrientation (a whole frame, no boxes)
 
 ``import aerofid`` loads none of these: each name is imported from its module on first use (PEP 562
 ``__getattr__``), so that a one-mark ``locate`` does not pay for the orientation's statistics (scipy.stats)
@@ -23,6 +24,8 @@ if TYPE_CHECKING:  # the same names, for type checkers and readers (and the impo
     from aerofid.find import MarkSearch, find_marks
     from aerofid.formats.camera_file import read_camera, write_camera
     from aerofid.formats.measurements import read_measurements, write_measurements
+    from aerofid.frame.orient import orient_frame
+    from aerofid.frame.result import FrameOrientation
     from aerofid.locate import Location, locate
     from aerofid.orientation.camera import Camera, Fiducial
     from aerofid.orientation.correspondence import AmbiguousCorrespondenceError
@@ -42,12 +45,13 @@ _SOURCE = {
     "orient": "aerofid.orientation.interior", "Measurements": "aerofid.orientation.measurements",
     "InteriorOrientation": "aerofid.orientation.result", "AffineTransform": "aerofid.orientation.transform",
     "ProjectiveTransform": "aerofid.orientation.transform", "SimilarityTransform": "aerofid.orientation.transform",
+    "orient_frame": "aerofid.frame.orient", "FrameOrientation": "aerofid.frame.result",
 }
 """Each public name and the module it comes from (the ``TYPE_CHECKING`` imports above, for the first use)."""
 
 __all__ = ["AerofidInputError", "AffineTransform", "AmbiguousCorrespondenceError", "Camera", "Fiducial",
-           "InteriorOrientation", "Location", "MarkSearch", "Measurements", "ProjectiveTransform",
-           "SimilarityTransform", "__version__", "find_marks", "locate", "orient", "read_camera", "read_measurements",
+           "FrameOrientation", "InteriorOrientation", "Location", "MarkSearch", "Measurements", "ProjectiveTransform",
+           "SimilarityTransform", "__version__", "find_marks", "locate", "orient", "orient_frame", "read_camera", "read_measurements",
            "write_camera", "write_measurements"]
 
 

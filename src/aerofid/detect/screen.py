@@ -141,7 +141,7 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
     out = np.zeros_like(sym)
     for i, r in enumerate(radii):
         kern = disc_kernel(r)
-        energy = cv2.filter2D(g * g, -1, kern, borderType=cv2.BORDER_CONSTANT)
+        energy = np.maximum(cv2.filter2D(g * g, -1, kern, borderType=cv2.BORDER_CONSTANT), 0)  # rounding: >= 0
         s = sym[i] / np.maximum(energy, 1e-12)
         jxx = cv2.filter2D(gx * gx, -1, kern, borderType=cv2.BORDER_CONSTANT)
         jyy = cv2.filter2D(gy * gy, -1, kern, borderType=cv2.BORDER_CONSTANT)

@@ -1,7 +1,8 @@
 """Command-line interface: a thin layer over the Python API.
 
 Exit status: 0 when the job succeeded (every mark was found), 1 when it ran but did not (a mark not found, an
-ambiguous orientation), 2 on bad input (one line ``error: ...`` on stderr, no traceback, nothing written).
+ambiguous orientation), 2 on bad input or a failed output, standard output included (one line ``error: ...``
+on stderr, no traceback, nothing written), 3 on an internal error (a bug: one line asking for a report).
 ``aerofid`` (the console script), ``python -m aerofid`` and ``python -m aerofid.cli`` are the same command.
 """
 
@@ -11,28 +12,54 @@ import sys
 
 import click
 
-from aerofid.errors import AerofidInputError
+from aerofid.cli.output import (
+    EXIT_BAD_INPUT,
+    echo_error,
+    error_line,
+    flush_stdout,
+    is_stream_error,
+    quiet_libraries,
+    stdout_error,
+)
 
 
 class _Group(click.Group):
-    """Click group whose errors are one line ``error: ...`` and exit status 2."""
+    """Click group whose every ending is one line on stderr at most and a documented exit status
+    (:mod:`aerofid.cli.output`)."""
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        with quiet_libraries():
+            status = self._run(args, prog_name, complete_var, **extra)
+        sys.exit(status)
+
+    def _run(self, args, prog_name, complete_var, **extra) -> int:
         try:
             rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
                               standalone_mode=False, **extra)
+            flush_stdout()
         except click.exceptions.Exit as e:  # --help, --version
-            sys.exit(e.exit_code)
+            return e.exit_code
         except click.exceptions.Abort:
-            click.echo("error: aborted", err=True)
-            sys.exit(2)
+            echo_error("error: aborted")
+            return EXIT_BAD_INPUT
         except click.ClickException as e:
-            click.echo(f"error: {e.format_message()} (see 'aerofid --help')", err=True)
-            sys.exit(2)
-        except AerofidInputError as e:
-            click.echo(f"error: {e}", err=True)
-            sys.exit(2)
-        sys.exit(rv if isinstance(rv, int) else 0)
+            echo_error(f"error: {e.format_message()} (see 'aerofid --help')")
+            return EXIT_BAD_INPUT
+        except Exception as e:  # every other ending: one line and its status (aerofid.cli.output.error_line)
+            line, status = error_line(e)
+            echo_error(line)
+            return status
+        return rv if isinstance(rv, int) else 0
+
+    def invoke(self, ctx: click.Context):
+        """Run the command; a failed write to standard output is an input error here, before click would turn a
+        closed pipe into a silent exit status 1."""
+        try:
+            return super().invoke(ctx)
+        except OSError as e:
+            if is_stream_error(e):
+                raise stdout_error(e) from None
+            raise
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})

@@ -30,6 +30,7 @@ import click
 from aerofid.cli.boxes import NamedBox, collect_boxes
 from aerofid.conventions import FOUND, MARKS, NOT_FOUND, POLARITY_CHOICES
 from aerofid.errors import AerofidInputError
+from aerofid.io.atomic import Staging
 from aerofid.io.colour import COLOUR_POLICIES
 from aerofid.io.raster import Raster, clip_box, open_raster
 from aerofid.locate import METHOD_NAMES, Location
@@ -89,34 +90,26 @@ def _expand(template: str, names: Sequence[str]) -> list[tuple[Path, tuple[str, 
     return [(Path(template), tuple(names))]
 
 
-def _check_writable(path: Path, image: str) -> None:
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise AerofidInputError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
-    if path.is_dir():
-        raise AerofidInputError(f"cannot write {str(path)!r}: it is a folder; give a file name")
-    if Path(image).exists() and path.exists() and path.resolve() == Path(image).resolve():
-        raise AerofidInputError(f"{str(path)!r} is the scan itself; give another output name")
-
-
-def plan_outputs(names: Sequence[str], image: str, overlay: str | None, plot: str | None,
-                 output: str | None) -> Outputs:
-    """The files to write, checked before any work: folders exist, no file twice, ``{name}`` in ``--plot``
-    when there are several marks, ``--output`` ends in ``.json``."""
+def plan_outputs(names: Sequence[str], overlay: str | None, plot: str | None, output: str | None,
+                 staging: Staging) -> Outputs:
+    """The files to write, each checked before any work by ``staging`` (folders exist, no file twice, none an
+    input or a special file), ``{name}`` in ``--plot`` when there are several marks, ``--output`` ends in
+    ``.json``."""
+    for option, value in (("--output", output), ("--overlay", overlay), ("--plot", plot)):
+        if value is not None and not value.strip():
+            raise AerofidInputError(f"{option} is empty; give a file name, e.g. {option} mark.png")
     if output is not None and Path(output).suffix.lower() != ".json":
         raise AerofidInputError(f"--output {output!r} must end in .json (the measurements aerofid orient reads)")
     if plot is not None and len(names) > 1 and NAME_FIELD not in plot:
         raise AerofidInputError(f"--plot {plot!r} makes one figure per mark: put {NAME_FIELD} in it, "
                                 f"e.g. --plot 'diag_{NAME_FIELD}.png'")
     plots = tuple((p, ns[0]) for p, ns in _expand(plot, names)) if plot is not None else ()
-    outputs = Outputs(Path(output) if output is not None else None,
+    outputs = Outputs(staging.plan(output, "--output") if output is not None else None,
                       tuple(_expand(overlay, names)) if overlay is not None else (), plots)
-    seen: set[Path] = set()
-    for path in outputs.paths():
-        if path in seen:
-            raise AerofidInputError(f"two outputs would be written to {str(path)!r}; give each its own name")
-        seen.add(path)
-        _check_writable(path, image)
+    for path, _ in outputs.overlays:
+        staging.plan(path, "--overlay")
+    for path, _ in outputs.plots:
+        staging.plan(path, "--plot")
     return outputs
 
 
@@ -232,22 +225,25 @@ def locate_cmd(image: str, box_texts: tuple[str, ...], boxes_file: str | None, m
     Exit status 0 when every mark is found, 1 when any is not found (all are still reported and written),
     2 on bad input (one line 'error: ...', nothing written).
     """
-    from aerofid.io.atomic import write_bytes_atomic, write_text_atomic
+    from aerofid.cli.output import flush_stdout
 
-    boxes = collect_boxes(box_texts, boxes_file)
-    values = parse_params(params)
-    outputs = plan_outputs([b.name for b in boxes], image, overlay, plot, output)
-    located = locate_all(image, boxes, mark=mark, method=method, polarity=polarity, colour=colour, **values)
-    doc = located_document(image, located)
-    files = render_outputs(located, outputs)
-    if outputs.json is not None:
-        write_text_atomic(outputs.json, json.dumps(doc, indent=2) + "\n")
-    for path, data in files.items():
-        write_bytes_atomic(path, data)
-    if as_json:
-        click.echo(json.dumps(doc))
-    else:
-        _echo_text(located)
+    inputs = [image] + ([boxes_file] if boxes_file is not None else [])
+    with Staging(inputs) as staging:
+        boxes = collect_boxes(box_texts, boxes_file)
+        values = parse_params(params)
+        outputs = plan_outputs([b.name for b in boxes], overlay, plot, output, staging)
+        located = locate_all(image, boxes, mark=mark, method=method, polarity=polarity, colour=colour, **values)
+        doc = located_document(image, located)
+        if outputs.json is not None:
+            staging.put(outputs.json, json.dumps(doc, indent=2) + "\n")
+        for path, data in render_outputs(located, outputs).items():
+            staging.put(path, data)
+        if as_json:
+            click.echo(json.dumps(doc))
+        else:
+            _echo_text(located)
+        flush_stdout()
+        staging.commit()
     return 0 if all(loc.found for _, loc in located) else 1
 
 

@@ -1,7 +1,9 @@
 """`aerofid orient`: interior orientation from measured fiducial centres.
 
 Exit status: 0 success; 1 when it ran but could not decide (ambiguous fiducial correspondence);
-2 on bad input (one line ``error: ...`` on stderr, nothing written).
+2 on bad input or a failed output (one line ``error: ...`` on stderr, nothing written). Every output (the
+report, the MicMac files) is checked before the files are read and written only once the whole command has
+succeeded (:class:`aerofid.io.atomic.Staging`).
 """
 
 from __future__ import annotations
@@ -13,11 +15,12 @@ from typing import Any
 import click
 import numpy as np
 
+from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.measurements import read_measurements_and_not_found
-from aerofid.formats.micmac import write_affine_plane, write_measures_camera, write_measures_im
-from aerofid.io.atomic import write_text_atomic
+from aerofid.formats.micmac import affine_plane_xml, measures_camera_xml, measures_im_xml
+from aerofid.io.atomic import Staging
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import AmbiguousCorrespondenceError
 from aerofid.orientation.interior import orient as run_orient
@@ -56,30 +59,35 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         raise AerofidInputError(f"report {output!r} must end in .json, .html or .txt")
     if micmac_dir is not None and not Path(micmac_dir).is_dir():
         raise AerofidInputError(f"MicMac folder {micmac_dir!r} does not exist")
-    cam = read_camera(camera_path)
-    meas, not_found = read_measurements_and_not_found(meas_path)
-    image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
-    try:
-        res = _run_orient(cam, meas, not_found, meas_path, model=model, correspondence=correspondence,
-                          reject=not no_reject, image=image_name)
-    except AmbiguousCorrespondenceError as e:
-        if as_json:
-            click.echo(json.dumps({"status": "ambiguous", "error": str(e),
-                                   "correspondence": e.correspondence.to_dict()}))
-        click.echo(f"error: {e}", err=True)
-        return 1
-
-    if not_found:
-        click.echo(f"note: {', '.join(not_found)} not found in {meas_path!r}; oriented with the "
-                   f"{len(meas.xy)} found", err=True)
-    if output is not None:
-        write_text_atomic(output, _report(res, Path(output).suffix.lower()))
-    if micmac_dir is not None:
-        _write_micmac(Path(micmac_dir), cam, res)
-    if as_json:
-        click.echo(json.dumps(res.to_dict()))
-    else:
-        click.echo(to_text(res), nl=False)
+    inputs = [p for p in (image, camera_path, meas_path) if p]
+    with Staging(inputs) as staging:
+        if output is not None:
+            staging.plan(output, "report")
+        cam = read_camera(camera_path)
+        meas, not_found = read_measurements_and_not_found(meas_path)
+        image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
+        micmac = _micmac_files(Path(micmac_dir), image_name, model, staging) if micmac_dir is not None else None
+        try:
+            res = _run_orient(cam, meas, not_found, meas_path, model=model, correspondence=correspondence,
+                              reject=not no_reject, image=image_name)
+        except AmbiguousCorrespondenceError as e:
+            if as_json:
+                click.echo(json.dumps({"status": "ambiguous", "error": str(e),
+                                       "correspondence": e.correspondence.to_dict()}))
+            flush_stdout()
+            click.echo(f"error: {e}", err=True)
+            return 1
+        if not_found:
+            click.echo(f"note: {', '.join(not_found)} not found in {meas_path!r}; oriented with the "
+                       f"{len(meas.xy)} found", err=True)
+        if output is not None:
+            staging.put(output, _report(res, Path(output).suffix.lower()))
+        if micmac is not None:
+            for path, text in zip(micmac, _micmac_texts(cam, res)):
+                staging.put(path, text)
+        click.echo(json.dumps(res.to_dict()) if as_json else to_text(res), nl=as_json)
+        flush_stdout()
+        staging.commit()
     return 0
 
 
@@ -106,12 +114,24 @@ def _report(res: InteriorOrientation, suffix: str) -> str:
     return to_html(res)
 
 
-def _write_micmac(folder: Path, cam: Camera, res: InteriorOrientation) -> None:
-    """MeasuresIm of the used fiducials, MeasuresCamera, and the AffinePlane pixel -> mm (not projective)."""
+def _micmac_files(folder: Path, image: str, model: str, staging: Staging) -> list[Path]:
+    """The MicMac files ``--micmac`` writes, planned (checked) before any work: MeasuresIm of the used
+    fiducials, MeasuresCamera, and the AffinePlane pixel -> mm (not for the projective model)."""
+    name = image or "image"
+    if Path(name).name != name or name in (".", ".."):
+        raise AerofidInputError(f"image name {name!r} cannot name MicMac files (it holds a folder); give the "
+                                "scan's file name in the measurements' \"image\"")
+    paths = [folder / f"MeasuresIm-{name}.xml", folder / "MeasuresCamera.xml"]
+    if model != "projective":
+        paths.append(folder / f"{name}-AffinePlane-px2mm.xml")
+    return [staging.plan(p, "--micmac") for p in paths]
+
+
+def _micmac_texts(cam: Camera, res: InteriorOrientation) -> list[str]:
+    """The texts of :func:`_micmac_files`, in its order."""
     used = res.used
-    name = res.image or "image"
-    m = Measurements(np.array([[f.x_px, f.y_px] for f in used]), tuple(f.name for f in used), name)
-    write_measures_im(folder / f"MeasuresIm-{name}.xml", m)
-    write_measures_camera(folder / "MeasuresCamera.xml", cam)
+    m = Measurements(np.array([[f.x_px, f.y_px] for f in used]), tuple(f.name for f in used), res.image or "image")
+    texts = [measures_im_xml(m), measures_camera_xml(cam)]
     if res.model != "projective":
-        write_affine_plane(folder / f"{name}-AffinePlane-px2mm.xml", res.pixel_to_mm)
+        texts.append(affine_plane_xml(res.pixel_to_mm))
+    return texts

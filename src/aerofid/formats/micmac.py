@@ -136,17 +136,26 @@ def _mesure_xml(name_im: str, pts: list[tuple[str, float, float]]) -> str:
     return "\n".join(lines)
 
 
-def write_measures_im(path: str | Path, m: Measurements) -> None:
-    """Write a MicMac ``MeasuresIm-<image>.xml`` (named points only), atomically."""
+def measures_im_xml(m: Measurements, image: str = "") -> str:
+    """A MicMac ``MeasuresIm`` file's text (named points only) for ``m`` (its ``image``, else ``image``)."""
     if m.names is None:
         raise AerofidInputError("MicMac measures need point names: assign the points to fiducials first")
-    write_text_atomic(path, _mesure_xml(m.image or Path(path).stem.removeprefix("MeasuresIm-"),
-                                        [(n, float(x), float(y)) for n, (x, y) in zip(m.names, m.xy)]))
+    return _mesure_xml(m.image or image, [(n, float(x), float(y)) for n, (x, y) in zip(m.names, m.xy)])
+
+
+def measures_camera_xml(camera: Camera, name_im: str = "Glob") -> str:
+    """A MicMac ``MeasuresCamera.xml``'s text: the camera's calibrated fiducials (mm, as stored)."""
+    return _mesure_xml(name_im, [(f.name, f.x_mm, f.y_mm) for f in camera.fiducials])
+
+
+def write_measures_im(path: str | Path, m: Measurements) -> None:
+    """Write a MicMac ``MeasuresIm-<image>.xml`` (named points only), atomically."""
+    write_text_atomic(path, measures_im_xml(m, Path(path).stem.removeprefix("MeasuresIm-")))
 
 
 def write_measures_camera(path: str | Path, camera: Camera, name_im: str = "Glob") -> None:
     """Write the camera's calibrated fiducials as a MicMac MeasuresCamera.xml (mm, as stored), atomically."""
-    write_text_atomic(path, _mesure_xml(name_im, [(f.name, f.x_mm, f.y_mm) for f in camera.fiducials]))
+    write_text_atomic(path, measures_camera_xml(camera, name_im))
 
 
 def affine_plane_xml(H) -> str:

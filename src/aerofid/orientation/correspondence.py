@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, stats
+import scipy  # scipy.optimize and scipy.stats load on first use (scipy's lazy submodules): start-up
 
 from aerofid.errors import AerofidInputError
 from aerofid.orientation.adjustment import adjust
@@ -156,7 +156,7 @@ def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, .
             if proj is None:
                 continue
             D = np.sum((px[:, None, :] - proj[None, :, :]) ** 2, axis=2)
-            rows, cols = optimize.linear_sum_assignment(D)
+            rows, cols = scipy.optimize.linear_sum_assignment(D)
             cost = float(D[rows, cols].sum())
             if cost < best_cost:
                 best_cost, best_assign = cost, tuple(int(c) for c in cols[np.argsort(rows)])
@@ -201,7 +201,7 @@ def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) ->
     if r < 1:
         reason = "no redundancy to compare the arrangements: measure more fiducials or give names"
         return Correspondence("ambiguous", best, tuple(uniq), reason, names, tuple(uniq))
-    crit = float(stats.f.ppf(1 - alpha, r, r))
+    crit = float(scipy.stats.f.ppf(1 - alpha, r, r))
     ratio = second.sum_sq_mm2 / max(best.sum_sq_mm2, 1e-30)
     if ratio > crit:
         return Correspondence("unique", best, tuple(uniq), "", names)

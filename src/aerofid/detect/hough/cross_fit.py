@@ -22,8 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.special import ndtr
+import scipy  # scipy.optimize and scipy.special load on first use (scipy's lazy submodules): start-up
 
 from aerofid.robust import robust_std
 
@@ -105,6 +104,7 @@ def _profile(u: np.ndarray, extent: float, s: float) -> tuple[np.ndarray, np.nda
     al, be = (u + extent / 2.0) / s, (u - extent / 2.0) / s
     with np.errstate(over="ignore", under="ignore"):  # far from the edges the Gaussian is 0
         pa, pb = np.exp(-0.5 * al * al) / SQRT_2PI, np.exp(-0.5 * be * be) / SQRT_2PI
+    ndtr = scipy.special.ndtr
     return ndtr(al) - ndtr(be), (pa - pb) / s, (pa + pb) / (2.0 * s), -(al * pa - be * pb) / s
 
 
@@ -216,13 +216,14 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
         return weights[:, None] * cross_model(p, pt.px, pt.py, pt.x, pt.y, jacobian=True)[1]
 
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
-        sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac", max_nfev=MAX_EVALUATIONS)
+        sol = scipy.optimize.least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
+                                           max_nfev=MAX_EVALUATIONS)
         if not (np.all(np.isfinite(sol.x)) and (sol.success or sol.status > 0)):
             inside = np.array(start, float)
             inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
             inside = np.clip(inside, lo + 1e-9, hi - 1e-9)
-            sol = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi), x_scale="jac",
-                                max_nfev=MAX_EVALUATIONS)
+            sol = scipy.optimize.least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi),
+                                               x_scale="jac", max_nfev=MAX_EVALUATIONS)
     return sol
 
 

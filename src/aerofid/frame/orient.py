@@ -29,7 +29,7 @@ import numpy as np
 from aerofid.conventions import Box
 from aerofid.detect.screen import Candidate, screen
 from aerofid.errors import AerofidInputError
-from aerofid.find import ImageSource, Located, Measurer, configure, reduction_for, screen_region, search
+from aerofid.find import ImageSource, Located, Measurer, configure, in_box, reduction_for, screen_region, search
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, match_layout
 from aerofid.frame.result import FAILED, FrameOrientation
@@ -43,9 +43,10 @@ from aerofid.orientation.correspondence import ARRANGEMENTS
 FRAME_PIXELS = 1_000_000
 """Most pixels of the reduced whole frame that is screened (a power-of-two reduction: a 5908 x 5408 scan at 8,
 an 11000^2 one at 16). Fiducial marks 2-5 mm across are 6-30 reduced px at 21-42 um."""
-FEATURES = 128
-"""Mark-like features kept for the layout search: the fiducials rank anywhere among the frame's strongest
-(the real RC20 frame: 1st to 90th, behind the scanner's edge, the data strip and the image's texture)."""
+FEATURES = 512
+"""Mark-like features kept for the layout search: the fiducials rank anywhere among the frame's strongest (the
+real RC20 frame: 1st to 90th, behind the scanner's edge, the data strip and the image's texture; synthetic
+frames with dense aerial texture: 90th to 330th)."""
 POSITION_ERROR = 3.0
 """How far (in reduced pixels) a screened feature's centre may lie from the mark's."""
 AREA_MARGIN = 2.0
@@ -57,6 +58,8 @@ MIN_REFIT = 3
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
+MIN_SPREAD = 0.3
+"""Least ratio of the found marks' extents across and along their main direction for an affine prediction."""
 MIN_TOLERANCE_PX = 8.0
 """Least tolerance (px) of a prediction by the found marks."""
 
@@ -167,7 +170,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     for k in order:
         done = [j for j in range(n) if out[j][0] is not None]
         if len(done) >= MIN_REFIT:
-            at = _refitted(fiducials_mm, out, done, k)
+            at = _refitted(layout.predicted, out, done, k)
             extent = float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
             start = Candidate(at[0], at[1], extent, 0.0)
             tolerance = max(REFINED_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
@@ -183,14 +186,23 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     return out
 
 
-def _refitted(fiducials_mm: np.ndarray, out: list[tuple[Located | None, str]], done: list[int],
+def _refitted(predicted: np.ndarray, out: list[tuple[Located | None, str]], done: list[int],
               k: int) -> tuple[float, float]:
-    """Fiducial ``k`` predicted by the affine transformation mm -> px fitted to the marks found so far."""
-    src = np.c_[fiducials_mm[done], np.ones(len(done))]
+    """Fiducial ``k``'s layout prediction corrected by the transformation from the layout's predictions to the
+    marks found so far: affine when they span the frame in both directions (:data:`MIN_SPREAD`), else a
+    similarity (three marks along one edge)."""
+    src = predicted[done]
     dst = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
-    A, *_ = np.linalg.lstsq(src, dst, rcond=None)
-    p = np.r_[fiducials_mm[k], 1.0] @ A
-    return float(p[0]), float(p[1])
+    sv = np.linalg.svd(src - src.mean(axis=0), compute_uv=False)
+    if sv[-1] > MIN_SPREAD * sv[0]:
+        A, *_ = np.linalg.lstsq(np.c_[src, np.ones(len(done))], dst, rcond=None)
+        p = np.r_[predicted[k], 1.0] @ A
+        return float(p[0]), float(p[1])
+    z_src, z_dst = src[:, 0] + 1j * src[:, 1], dst[:, 0] + 1j * dst[:, 1]
+    m_src, m_dst = z_src.mean(), z_dst.mean()
+    c = np.vdot(z_src - m_src, z_dst - m_dst) / np.vdot(z_src - m_src, z_src - m_src)
+    q = m_dst + c * (predicted[k, 0] + 1j * predicted[k, 1] - m_src)
+    return float(q.real), float(q.imag)
 
 
 def _first_window(c: Candidate) -> Candidate:
@@ -208,6 +220,8 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
                      tolerance: float) -> tuple[Located | None, str]:
     """One fiducial: the mark measured from ``start`` (a feature, or the prediction sized like the marks), else
     the mark nearest the prediction ``at`` in its area searched like a region, within ``tolerance`` px."""
+    if not in_box(at[0], at[1], (0, 0, measurer.source.width, measurer.source.height)):
+        return None, f"the predicted ({at[0]:.0f}, {at[1]:.0f}) lies outside the scan"
     got = measurer.candidate(start)
     if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
         return got, ""

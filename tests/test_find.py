@@ -12,7 +12,7 @@ import pytest
 import aerofid
 from aerofid import synth
 from aerofid.detect.screen import Candidate, local_noise, merge_candidates, screen
-from aerofid.find import reduction_for, window_ladder
+from aerofid.find import reduction_for, window_ladder, with_window_term
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
 
@@ -115,6 +115,41 @@ def test_the_answer_does_not_depend_on_the_box():
     assert spread.max() <= 0.02, spread
 
 
+def _bench_dot():
+    """bench_boxes.py's scene 'dot 6' (seed 2026): its 10x box once gave a sigma 10 times the other boxes'."""
+    rng = np.random.default_rng((2026, 1, 3, 6))
+    size = float(rng.uniform(26, 34))
+    return synth.mark_scene("dot", size=size, window=520, rng=rng, noise_sigma=0.02, blur_sigma=rng.uniform(0.5, 1.0),
+                            contrast=rng.uniform(0.6, 0.85), angle_deg=rng.uniform(0, 90))
+
+
+def test_the_sigma_does_not_depend_on_the_box():
+    """The window term compares windows placed by the mark alone, so every box reports the same covariance; and
+    it covers the error against the truth without being grossly pessimistic."""
+    scene = _bench_dot()
+    t = scene.marks[0]
+    got = [aerofid.locate(scene.image, box) for box in ((245, 246, 279, 280), (191, 204, 310, 323),
+                                                         (220, 238, 339, 357), (0, 0, 291, 297))]
+    assert all(r.found for r in got), [r.reason for r in got]
+    cov = np.array([(r.sigma_x, r.sigma_y, r.cov_xy) for r in got])
+    assert np.ptp(cov, axis=0).max() <= 1e-9, cov
+    r = got[0]
+    assert abs(r.x - t.x) < 3 * r.sigma_x and abs(r.y - t.y) < 3 * r.sigma_y
+    assert r.sigma < 0.1
+
+
+def test_the_window_term_adds_the_mean_square_difference():
+    scene = _bench_dot()
+    r = aerofid.locate(scene.image, (191, 204, 310, 323))
+    final = r.search.marks[0]
+    got = with_window_term(final, [(0.3, 0.0), (-0.1, 0.2)])
+    d, e = final.detection, got.detection
+    assert e.sigma_x ** 2 == pytest.approx(d.sigma_x ** 2 + (0.09 + 0.01) / 2)
+    assert e.sigma_y ** 2 == pytest.approx(d.sigma_y ** 2 + 0.04 / 2)
+    assert e.cov_xy == pytest.approx(d.cov_xy - 0.02 / 2)
+    assert with_window_term(final, []) is final
+
+
 def test_location_has_per_axis_sigma_and_candidates():
     scene = _scene("cross", (150.2, 150.7))
     r = aerofid.locate(scene.image, (100, 100, 200, 200))
@@ -172,6 +207,27 @@ def test_near_miss_a_faint_mark_on_plain_film_is_found():
     r = aerofid.locate(scene.image, (20, 20, 180, 180))
     assert r.found, r.reason
     assert _err(r, scene.marks[0]) < 0.2
+
+
+def _clutter16():
+    """bench_boxes.py's clutter scene 16: aerial ground only, with a dark compact blob near (89.0, 277.8)."""
+    return synth.aerial_ground((480, 480), np.random.default_rng((2026, 3, 16)))
+
+
+def test_a_dark_blob_of_aerial_ground_is_not_a_bright_dot():
+    """A lone symmetry answer needs a core brighter than its ground (the mark is bright): this blob is darker."""
+    for box in ((0, 215, 110, 335), (0, 201, 239, 480)):
+        r = aerofid.locate(_clutter16(), box)
+        assert not r.found, (r.x, r.y)
+
+
+def test_near_miss_the_same_blob_is_found_with_the_polarity_that_fits_it():
+    """Negated, the blob is bright and is found in the same place as the dark blob asked for as dark."""
+    img = _clutter16()
+    dark = aerofid.locate(img, (0, 215, 110, 335), polarity="dark")
+    bright = aerofid.locate(1.0 - img, (0, 215, 110, 335))
+    assert dark.found and bright.found, (dark.reason, bright.reason)
+    assert np.hypot(dark.x - bright.x, dark.y - bright.y) < 1e-6 and np.hypot(dark.x - 89.0, dark.y - 277.8) < 1
 
 
 def test_a_mark_cut_by_the_image_edge_is_refused():

@@ -534,9 +534,10 @@ def _unit_pixel_centre(i2: np.ndarray, bounds: FiducialArea, r: int, aoi: tuple[
     d = int(p.interval) if p.interval is not None else r
     history, shifts = [(x, y, d)], []
     converged = False
+    dy, dx = mirror_differences(i2.T, r, lo_y, hi_y), mirror_differences(i2, r, lo_x, hi_x)
     for _ in range(p.max_iter):
-        y_new, py = axis_peak(i2.T, x, r, d, lo_y, hi_y)     # vertical step: L4 (centre row)
-        x_new, px = axis_peak(i2, y_new, r, d, lo_x, hi_x)   # horizontal step: centre column
+        y_new, py = axis_peak(i2.T, x, r, d, lo_y, hi_y, dy)     # vertical step: L4 (centre row)
+        x_new, px = axis_peak(i2, y_new, r, d, lo_x, hi_x, dx)   # horizontal step: centre column
         t.profiles = Profiles(x=px, y=py)
         shift = float(np.hypot(x_new - x, y_new - y))
         shifts.append(shift)
@@ -767,23 +768,43 @@ def simplified_log(img: np.ndarray, inner: int = 2, gap: int = 3, outer: int = 4
     return ((s_out - s_gap) / n2 - boxsum(inner) / n1).astype(np.float32)
 
 
-def symmetry_accumulation(i2: np.ndarray, row: int, r: int, d: int, xs: np.ndarray) -> np.ndarray:
+@dataclass(frozen=True)
+class MirrorDifferences:
+    """``D(y, x) = sum_{u=1..r} |I2(x + u, y) - I2(x - u, y)|`` for every row ``y`` of ``I2`` and the columns
+    ``x0 .. x0 + n - 1``: the part of eq. (4) that depends on neither the row of a step nor its interval, so the
+    iterations of stages 2 and 4 compute it once per axis instead of at every step (:func:`mirror_differences`)."""
+
+    values: np.ndarray
+    """(rows of I2, n) float64."""
+    x0: int
+
+
+def mirror_differences(i2: np.ndarray, r: int, lo: int, hi: int) -> MirrorDifferences:
+    """:class:`MirrorDifferences` of ``i2`` for the kernel radius ``r`` and the columns ``lo..hi`` (inclusive;
+    columns ``lo - r .. hi + r`` must lie inside ``i2``)."""
+    out = np.zeros((i2.shape[0], hi + 1 - lo), np.float64)
+    for u in range(1, r + 1):
+        out += np.abs(i2[:, lo + u:hi + 1 + u] - i2[:, lo - u:hi + 1 - u])
+    return MirrorDifferences(out, int(lo))
+
+
+def symmetry_accumulation(i2: np.ndarray, row: int, r: int, d: int, xs: np.ndarray,
+                          diffs: MirrorDifferences | None = None) -> np.ndarray:
     """Eqs. (4) and (6) together: for each column ``x`` in ``xs``,
     ``I4(x) = sum_{v=-d..d} I3(x, row + v)`` with ``I3(x, y) = sum_{u=1..r} sum_{v'=-r..r}
     |I2(x + u, y + v') - I2(x - u, y + v')|`` (the half-kernels T1/T2 of seed Fig. 6 are squares of radius
     ``r``). Row offsets ``v + v'`` are weighted by how often they occur; rows outside the image are skipped.
-    Columns ``x - r .. x + r`` must lie inside ``i2``.
+    Columns ``x - r .. x + r`` must lie inside ``i2``. ``diffs`` (:func:`mirror_differences` of ``i2`` and ``r``
+    for columns including ``xs``) saves recomputing the sum over ``u``.
     """
     k = np.arange(-(d + r), d + r + 1)
     wts = np.convolve(np.ones(2 * d + 1), np.ones(2 * r + 1))
     rows = row + k
     ok = (rows >= 0) & (rows < i2.shape[0])
-    s = i2[rows[ok]]
-    wts = wts[ok].astype(np.float32)
-    out = np.zeros(len(xs), np.float64)
-    for u in range(1, r + 1):
-        out += wts @ np.abs(s[:, xs + u] - s[:, xs - u])
-    return out
+    if diffs is None:
+        diffs = mirror_differences(i2[rows[ok]], r, int(xs[0]), int(xs[-1]))
+        return wts[ok] @ diffs.values[:, xs - xs[0]]
+    return wts[ok] @ diffs.values[rows[ok]][:, xs - diffs.x0]
 
 
 def high_pass(profile: np.ndarray, d: int) -> np.ndarray:
@@ -791,11 +812,12 @@ def high_pass(profile: np.ndarray, d: int) -> np.ndarray:
     return ndimage.uniform_filter1d(profile, 2 * d + 1, mode="nearest") - profile
 
 
-def axis_peak(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int) -> tuple[int, AxisProfile]:
+def axis_peak(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int,
+              diffs: MirrorDifferences | None = None) -> tuple[int, AxisProfile]:
     """One step along the columns of ``i2``: profile I4 (eq. 6) over ``lo..hi`` around ``row``, I5 (eq. 7), and
-    the column of its peak."""
+    the column of its peak (``diffs``: see :func:`symmetry_accumulation`)."""
     xs = np.arange(lo, hi + 1)
-    i4 = symmetry_accumulation(i2, row, r, d, xs)
+    i4 = symmetry_accumulation(i2, row, r, d, xs, diffs)
     i5 = high_pass(i4, d)
     return int(lo + int(np.argmax(i5))), AxisProfile(positions=xs, I4=i4, I5=i5)
 
@@ -865,9 +887,12 @@ def _enlarged_iteration(i2: np.ndarray, c: int, m: int, r: int, d: int, p: Symme
     cx = cy = c
     hist = [(cx, cy, d)]
     profiles = None
+    # the widest columns any step needs (the interval d only shrinks), for both axes of the square i2
+    dy = mirror_differences(i2.T, r, max(r, c - m - d), min(i2.shape[0] - 1 - r, c + m + d))
+    dx = mirror_differences(i2, r, max(r, c - m - d), min(i2.shape[1] - 1 - r, c + m + d))
     for _ in range(p.max_iter):
-        cy_new, py = _axis_peak_local(i2.T, cx, r, d, c - m, c + m)
-        cx_new, px = _axis_peak_local(i2, cy_new, r, d, c - m, c + m)
+        cy_new, py = _axis_peak_local(i2.T, cx, r, d, c - m, c + m, dy)
+        cx_new, px = _axis_peak_local(i2, cy_new, r, d, c - m, c + m, dx)
         profiles = Profiles(x=px, y=py)
         shift = max(abs(cx_new - cx), abs(cy_new - cy))
         cx, cy = cx_new, cy_new
@@ -880,13 +905,14 @@ def _enlarged_iteration(i2: np.ndarray, c: int, m: int, r: int, d: int, p: Symme
     return (cx, cy), hist, profiles
 
 
-def _axis_peak_local(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int) -> tuple[int, AxisProfile]:
+def _axis_peak_local(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int,
+                     diffs: MirrorDifferences) -> tuple[int, AxisProfile]:
     """Like :func:`axis_peak`, on ``lo..hi`` with I4 computed ``d`` further on each side so that the
     high-pass of eq. (7) is exact on the search range."""
     ext_lo = max(r, lo - d)
     ext_hi = min(i2.shape[1] - 1 - r, hi + d)
     xs = np.arange(ext_lo, ext_hi + 1)
-    i4 = symmetry_accumulation(i2, row, r, d, xs)
+    i4 = symmetry_accumulation(i2, row, r, d, xs, diffs)
     i5 = high_pass(i4, d)
     a, b = lo - ext_lo, hi - ext_lo
     p = a + int(np.argmax(i5[a:b + 1]))
@@ -1024,7 +1050,8 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
     return np.array([[vx + alias[0] ** 2 + floor ** 2, cxy], [cxy, vy + alias[1] ** 2 + floor ** 2]])
 
 
-__all__ = ["DEFAULT", "METHOD", "AxisProfile", "FiducialArea", "Profiles", "SelfDiagnosis", "SubpixelStage",
-           "SymmetryParams", "SymmetryResult", "axis_peak", "centre_covariance", "centre_sigma", "detect",
-           "fiducial_area", "high_pass", "kernel_radius", "ncc", "point_symmetry_centre", "search_range",
-           "self_diagnosis", "simplified_log", "subpixel_centre", "symmetry_accumulation", "symmetry_profile"]
+__all__ = ["DEFAULT", "METHOD", "AxisProfile", "FiducialArea", "MirrorDifferences", "Profiles", "SelfDiagnosis",
+           "SubpixelStage", "SymmetryParams", "SymmetryResult", "axis_peak", "centre_covariance", "centre_sigma",
+           "detect", "fiducial_area", "high_pass", "kernel_radius", "mirror_differences", "ncc",
+           "point_symmetry_centre", "search_range", "self_diagnosis", "simplified_log", "subpixel_centre",
+           "symmetry_accumulation", "symmetry_profile"]

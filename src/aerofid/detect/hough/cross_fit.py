@@ -209,11 +209,18 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
     via ``at_bound``); when LM wanders off into an implausible shape (a hair-thin, very bright stroke on
     textured ground) and runs out of evaluations, the bounded trust-region solver once from the same start."""
 
+    # the solvers ask for the Jacobian at nearly every point whose residuals they computed (MINPACK: after each
+    # accepted step), and both come from the same bar profiles: compute them together, keep the last Jacobian
+    last: dict[str, np.ndarray] = {}
+
     def residuals(p: np.ndarray) -> np.ndarray:
-        return weights * (cross_model(p, pt.px, pt.py, pt.x, pt.y) - pt.g)
+        model, last["J"] = cross_model(p, pt.px, pt.py, pt.x, pt.y, jacobian=True)
+        last["p"] = np.array(p, copy=True)
+        return weights * (model - pt.g)
 
     def jac(p: np.ndarray) -> np.ndarray:
-        return weights[:, None] * cross_model(p, pt.px, pt.py, pt.x, pt.y, jacobian=True)[1]
+        same = "p" in last and np.array_equal(last["p"], p)
+        return weights[:, None] * (last["J"] if same else cross_model(p, pt.px, pt.py, pt.x, pt.y, jacobian=True)[1])
 
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
         sol = scipy.optimize.least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",

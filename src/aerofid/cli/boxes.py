@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from aerofid.errors import AerofidInputError
+from aerofid.formats.text import is_header, table_rows
+from aerofid.io.files import read_text_input
 
 NAME_PATTERN = re.compile(r"\w[\w.+-]*")
 """What a box name may be."""
@@ -93,18 +95,6 @@ def parse_box(text: str, position: int = 1) -> NamedBox:
     return NamedBox(name, _coordinates(parts, source), source, bool(sep))
 
 
-def _fields(line: str) -> list[str]:
-    return [f.strip() for f in re.split(r"[,;\t]" if re.search(r"[,;\t]", line) else r"\s+", line)]
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def parse_boxes_text(text: str, source: str) -> list[NamedBox]:
     """The boxes of a boxes file's ``text`` (format: module docstring); ``source`` names the file in errors.
 
@@ -114,16 +104,10 @@ def parse_boxes_text(text: str, source: str) -> list[NamedBox]:
     ['UL', 'UR']
     """
     out: list[NamedBox] = []
-    first = True
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        fields = _fields(line)
-        if first and len(fields) == 5 and not any(_is_number(f) for f in fields[1:]):
-            first = False  # a header
-            continue
-        first = False
+    rows = table_rows(text)
+    if rows and len(rows[0][1]) == 5 and is_header(rows[0][1], 4):
+        rows = rows[1:]
+    for number, fields in rows:
         where = f"line {number} of {source!r}"
         if len(fields) != 5:
             raise AerofidInputError(f"{where}: expected name,x0,y0,x1,y1 (5 fields), got {len(fields)}")
@@ -135,13 +119,7 @@ def parse_boxes_text(text: str, source: str) -> list[NamedBox]:
 
 def read_boxes_file(path: str | Path) -> list[NamedBox]:
     """The boxes of the boxes file at ``path`` (format: module docstring)."""
-    path = Path(path)
-    if not path.is_file():
-        raise AerofidInputError(f"boxes file {str(path)!r} does not exist")
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as e:
-        raise AerofidInputError(f"cannot read boxes file {str(path)!r}: {e}") from None
+    path, text = read_text_input(path, "boxes file")
     return parse_boxes_text(text, str(path))
 
 

@@ -1,20 +1,20 @@
 """Camera files: the calibration certificate as JSON, YAML or MicMac ``MeasuresCamera.xml``.
 
 The JSON/YAML structure is described in :mod:`aerofid.orientation.camera` and docs/orientation.md; duplicate keys
-are refused (JSON and YAML would silently keep the last).
+(JSON and YAML would silently keep the last) and deep nesting are refused (:mod:`aerofid.formats.text`).
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import yaml
 
-from aerofid.errors import AerofidInputError
 from aerofid.formats.micmac import read_measures_camera, write_measures_camera
+from aerofid.formats.text import load_json, load_yaml
 from aerofid.io.atomic import write_text_atomic
+from aerofid.io.files import input_file, read_text_input
 from aerofid.orientation.camera import Camera
 
 
@@ -47,23 +47,13 @@ def read_camera(path: str | Path) -> Camera:
     >>> cam.names, cam.focal_length_mm, cam.y_axis
     (('UL', 'UR', 'LL', 'LR'), 152.85, 'up')
     """
-    path = Path(path)
-    if not path.is_file():
-        raise AerofidInputError(f"camera file {str(path)!r} does not exist")
+    path = input_file(path, "camera file")
     suffix = path.suffix.lower()
     if suffix == ".xml":
         return read_measures_camera(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise AerofidInputError(f"cannot read camera file {str(path)!r}: {e}") from None
-    if suffix in (".yaml", ".yml"):
-        data = _load_yaml_unique(text, path)
-    else:
-        try:
-            data = json.loads(text, object_pairs_hook=_unique_pairs(path))
-        except json.JSONDecodeError as e:
-            raise AerofidInputError(f"camera file {str(path)!r} is not valid JSON: {e}") from None
+    path, text = read_text_input(path, "camera file")
+    source = f"camera file {str(path)!r}"
+    data = load_yaml(text, source) if suffix in (".yaml", ".yml") else load_json(text, source)
     return Camera.from_dict(data, source=str(path))
 
 
@@ -93,36 +83,6 @@ def write_camera(path: str | Path, camera: Camera) -> None:
         write_text_atomic(path, yaml.safe_dump(camera.to_dict(), sort_keys=False))
     else:
         write_text_atomic(path, json.dumps(camera.to_dict(), indent=2) + "\n")
-
-
-def _unique_pairs(path):
-    def hook(pairs):
-        keys = [k for k, _ in pairs]
-        dup = sorted({k for k in keys if keys.count(k) > 1})
-        if dup:
-            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {str(path)!r}")
-        return dict(pairs)
-
-    return hook
-
-
-def _load_yaml_unique(text: str, path) -> Any:
-    class UniqueLoader(yaml.SafeLoader):
-        pass
-
-    def construct_mapping(loader, node, deep=False):
-        keys = [loader.construct_object(k, deep=deep) for k, _ in node.value]
-        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
-        if dup:
-            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {str(path)!r}")
-        return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
-
-    UniqueLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
-    try:
-        return yaml.load(text, Loader=UniqueLoader)
-    except yaml.YAMLError as e:
-        msg = " ".join(str(e).split())
-        raise AerofidInputError(f"camera file {str(path)!r} is not valid YAML: {msg}") from None
 
 
 __all__ = ["read_camera", "write_camera"]

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,9 @@ import numpy as np
 
 from aerofid.errors import AerofidInputError
 from aerofid.formats.micmac import number_text, read_measures_im, write_measures_im
+from aerofid.formats.text import is_header, load_json, table_rows
 from aerofid.io.atomic import write_text_atomic
+from aerofid.io.files import input_file, read_text_input
 from aerofid.orientation.measurements import (
     Measurements,
     finite_number,
@@ -96,26 +98,18 @@ def read_measurements_and_not_found(path: str | Path,
     >>> m.names, not_found
     (('P1', 'P3'), ('P2',))
     """
-    path = Path(path)
-    if not path.is_file():
-        raise AerofidInputError(f"measurements file {str(path)!r} does not exist")
+    path = input_file(path, "measurements file")
     suffix = path.suffix.lower()
     if suffix == ".xml":
         return read_measures_im(path, image=image), ()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise AerofidInputError(f"cannot read measurements file {str(path)!r}: {e}") from None
+    if suffix not in (".json", ".csv", ".txt", ".tsv"):
+        raise AerofidInputError(f"unknown measurements format {suffix!r}: use .json, .csv or MicMac .xml")
+    path, text = read_text_input(path, "measurements file")
     if suffix == ".json":
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as e:
-            raise AerofidInputError(f"measurements file {str(path)!r} is not valid JSON: {e}") from None
+        data = load_json(text, f"measurements file {str(path)!r}")
         data, not_found = _without_not_found(data, str(path))
         return measurements_from_json(data, str(path)), not_found
-    if suffix in (".csv", ".txt", ".tsv"):
-        return _from_csv_text(text, str(path), image or _image_from_name(path)), ()
-    raise AerofidInputError(f"unknown measurements format {suffix!r}: use .json, .csv or MicMac .xml")
+    return _from_csv_text(text, str(path), image or _image_from_name(path)), ()
 
 
 def write_measurements(path: str | Path, m: Measurements) -> None:
@@ -179,15 +173,10 @@ def _image_from_name(path: Path) -> str:
 
 def _from_csv_text(text: str, source: str, image: str) -> Measurements:
     where = f" in {source!r}"
-    rows: list[list[str]] = []
-    for raw in text.splitlines():
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        fields = [f.strip() for f in re.split(r"[,;\t]" if re.search(r"[,;\t]", line) else r"\s+", line)]
-        rows.append(fields)
-    if rows and _is_header(rows[0]):
-        rows = rows[1:]
+    numbered = table_rows(text)
+    if numbered and is_header(numbered[0][1], 2):
+        numbered = numbered[1:]
+    rows = [fields for _, fields in numbered]
     if not rows:
         raise AerofidInputError(f"no measured points{where}")
     widths = {len(r) for r in rows}
@@ -203,11 +192,3 @@ def _from_csv_text(text: str, source: str, image: str) -> Measurements:
               for r in rows]
         return Measurements(np.array(xy), names, image)
     raise AerofidInputError(f"each line must be 'name,x,y' (or 'x,y' for unnamed points){where}")
-
-
-def _is_header(fields: Sequence[str]) -> bool:
-    try:
-        float(fields[-1])
-        return False
-    except ValueError:
-        return True

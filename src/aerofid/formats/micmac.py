@@ -30,20 +30,16 @@ from pathlib import Path
 import numpy as np
 
 from aerofid.errors import AerofidInputError
+from aerofid.formats.text import parse_xml
 from aerofid.io.atomic import write_text_atomic
+from aerofid.io.files import read_text_input
 from aerofid.orientation.camera import Camera, Fiducial
 from aerofid.orientation.measurements import Measurements
 
 
 def _parse(path: Path) -> ET.Element:
-    if not Path(path).is_file():
-        raise AerofidInputError(f"file {str(path)!r} does not exist")
-    try:
-        return ET.parse(path).getroot()
-    except ET.ParseError as e:
-        raise AerofidInputError(f"{str(path)!r} is not valid XML: {e}") from None
-    except OSError as e:
-        raise AerofidInputError(f"cannot read {str(path)!r}: {e.strerror}") from None
+    path, text = read_text_input(path, "MicMac file")
+    return parse_xml(text, f"MicMac file {str(path)!r}")
 
 
 def _pair(text: str | None, what: str, path: Path) -> tuple[float, float]:

@@ -12,6 +12,10 @@ import numpy as np
 
 from aerofid.errors import AerofidInputError
 
+MAX_PIXEL_COORDINATE = 1e7
+"""Largest |coordinate| of a measured point (px): a 23 cm film frame scanned at 1 um is 230 000 px across;
+coordinates far beyond any scan (1e300) would only overflow the adjustment's squares."""
+
 
 @dataclass(frozen=True)
 class Measurements:
@@ -44,6 +48,9 @@ class Measurements:
         object.__setattr__(self, "xy", xy)
         if not np.all(np.isfinite(xy)):
             raise AerofidInputError("measured coordinates must be finite numbers")
+        if xy.size and float(np.abs(xy).max()) > MAX_PIXEL_COORDINATE:
+            raise AerofidInputError(f"a measured coordinate is {float(np.abs(xy).max()):.6g} px, beyond any scan "
+                                    f"(|x|, |y| <= {MAX_PIXEL_COORDINATE:.0e} px): check the measurements")
         if self.names is not None:
             if len(self.names) != len(xy):
                 raise AerofidInputError("each measured point needs one name")
@@ -127,4 +134,4 @@ def measurements_from_json(data: Any, source: str) -> Measurements:
     return Measurements(np.array(xy, dtype=float), names, image)
 
 
-__all__ = ["Measurements", "finite_number", "measurements_from_json"]
+__all__ = ["MAX_PIXEL_COORDINATE", "Measurements", "finite_number", "measurements_from_json"]

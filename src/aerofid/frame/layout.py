@@ -38,6 +38,8 @@ MAX_ROTATION_DEG = 4.0
 """Largest rotation of the frame in the scanner beyond the lie's multiple of 90 degrees."""
 PIXEL_SIZE_RANGE_MM = (0.004, 0.2)
 """Pixel sizes considered when the scan says none: 4 um (6350 dpi) to 200 um (127 dpi)."""
+MIN_SPAN = 0.5
+"""Least share of the scan's shorter side that the fiducials span (bounds an unknown pixel size)."""
 SCALE_BIN = 0.01
 """Width of a pixel-size vote's bin, in natural log (1 %)."""
 SCALE_PEAKS = 3
@@ -86,7 +88,7 @@ class LayoutMatch:
 
 def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "up",
                  pixel_size_mm: float | None = None, position_error_px: float = 0.0,
-                 tolerance_mm: float = 2.0) -> LayoutMatch | None:
+                 tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None) -> LayoutMatch | None:
     """The camera's fiducial layout on the scan (module docstring), or None when fewer than
     :data:`MIN_MATCHED` fiducials coincide with features.
 
@@ -105,6 +107,8 @@ def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "
     tolerance_mm : float
         How far (film mm) a fiducial may lie from its prediction by a similarity (the scanner's affinity,
         the film's deformation).
+    scan_size : (width, height), optional
+        The scan's size (px): bounds an unknown pixel size (:func:`pixel_size_range`).
 
     Examples
     --------
@@ -121,7 +125,8 @@ def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "
     fiducials_mm = np.asarray(fiducials_mm, float).reshape(-1, 2)
     if len(features) < 2 or len(fiducials_mm) < 2:
         return None
-    scales = [pixel_size_mm] if pixel_size_mm is not None else pixel_size_votes(features, fiducials_mm)
+    scales = ([pixel_size_mm] if pixel_size_mm is not None
+              else pixel_size_votes(features, fiducials_mm, pixel_size_range(fiducials_mm, scan_size)))
     best: tuple[tuple[int, float], LayoutMatch] | None = None
     for s in scales:
         tol = tolerance_mm / s + position_error_px
@@ -133,13 +138,27 @@ def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "
     return best[1]
 
 
-def pixel_size_votes(features: np.ndarray, fiducials_mm: np.ndarray) -> list[float]:
+def pixel_size_range(fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None) -> tuple[float, float]:
+    """The pixel sizes (mm/px) a scan of ``scan_size`` px can have: its fiducials fit in the scan, and they
+    span at least :data:`MIN_SPAN` of its shorter side (a scan holds one frame); :data:`PIXEL_SIZE_RANGE_MM`
+    without a size."""
+    lo, hi = PIXEL_SIZE_RANGE_MM
+    if scan_size is None:
+        return lo, hi
+    extent = float(np.ptp(fiducials_mm, axis=0).max())
+    return max(lo, extent / max(scan_size)), min(hi, extent / (MIN_SPAN * min(scan_size)))
+
+
+def pixel_size_votes(features: np.ndarray, fiducials_mm: np.ndarray,
+                     size_range: tuple[float, float] = PIXEL_SIZE_RANGE_MM) -> list[float]:
     """The :data:`SCALE_PEAKS` pixel sizes (mm/px) most voted for by pairs of features and pairs of fiducials
-    (each fiducial distance / feature distance within :data:`PIXEL_SIZE_RANGE_MM` is a vote)."""
+    (each fiducial distance / feature distance within ``size_range`` is a vote)."""
     d_px = _pair_distances(features)
     d_mm = np.unique(np.round(_pair_distances(fiducials_mm), 6))
     ratio = d_mm[None, :] / np.maximum(d_px[:, None], 1e-9)
-    lo, hi = PIXEL_SIZE_RANGE_MM
+    lo, hi = size_range
+    if lo >= hi:
+        return []
     logs = np.log(ratio[(ratio >= lo) & (ratio <= hi)])
     if logs.size == 0:
         return []

@@ -32,7 +32,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.find import ImageSource, Located, Measurer, configure, in_box, reduction_for, screen_region, search
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, match_layout
-from aerofid.frame.result import FAILED, FrameOrientation
+from aerofid.frame.result import FAILED, OK, FrameOrientation
 from aerofid.frame.verdict import verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
@@ -58,6 +58,9 @@ MIN_REFIT = 3
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
+ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan has no resolution tags): give it "
+                  "(--pixel-size, or pixel_size_um in the camera file)")
+"""Appended to the reasons of a frame that is not ok when nothing declared the pixel size."""
 MIN_SPREAD = 0.3
 """Least ratio of the found marks' extents across and along their main direction for an affine prediction."""
 MIN_TOLERANCE_PX = 8.0
@@ -118,21 +121,30 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
         features, f = frame_features(source)
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
         layout = match_layout(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, cam.y_axis,
-                              size, position_error_px=POSITION_ERROR * f)
+                              size, position_error_px=POSITION_ERROR * f,
+                              scan_size=(source.width, source.height))
         name = "" if source.path is None else os.path.basename(str(source.path))
         head = dict(image=name, camera=cam.name, width=source.width, height=source.height, features=len(features),
                     reduction=f)
         if layout is None:
-            return FrameOrientation(**head, status=FAILED, reasons=(
-                f"the camera's {len(fid_mm)} fiducials were not found among the frame's {len(features)} mark-like "
-                "features: check the camera file and the pixel size, or measure the marks with 'aerofid locate'",),
-                fiducials=(), orientation=None, rotation_deg=None, mirrored=None, pixel_size_mm=size,
-                pixel_size_source=size_source)
+            return _no_layout(head, len(fid_mm), size, size_source)
         measurer = Measurer(source, detector, polarities, colour)
         located = measure_marks(measurer, layout, fid_mm, features)
     if size is None:
         size, size_source = layout.pixel_size_mm, "estimated"
-    return verdict(cam, layout, located, model, head, size, size_source, lie)
+    res = verdict(cam, layout, located, model, head, size, size_source, lie)
+    if res.status != OK and size_source == "estimated":
+        res = replace(res, reasons=(*res.reasons, ESTIMATED_HINT))
+    return res
+
+
+def _no_layout(head: dict[str, Any], n: int, size: float | None, size_source: str) -> FrameOrientation:
+    """The failed frame whose features do not hold the camera's layout."""
+    reasons = (f"the camera's {n} fiducials were not found among the frame's {head['features']} mark-like "
+               "features: check the camera file and the pixel size, or measure the marks with 'aerofid locate'",)
+    return FrameOrientation(**head, status=FAILED, reasons=reasons + ((ESTIMATED_HINT,) if size is None else ()),
+                            fiducials=(), orientation=None, rotation_deg=None, mirrored=None, pixel_size_mm=size,
+                            pixel_size_source=size_source)
 
 
 def scan_pixel_size(source: ImageSource, cam: Camera, given: float | None) -> tuple[float | None, str]:

@@ -58,6 +58,8 @@ def verdict(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | 
                                 mirrored=None)
     findings = _by_orientation(cam, layout, located, found, io)
     reasons += _doubts(io, findings, size, size_source)
+    if size_source == "estimated":
+        common["pixel_size_mm"] = math.sqrt(io.pixel_size_um[0] * io.pixel_size_um[1]) / 1000.0
     return FrameOrientation(**common, status=DOUBTFUL if reasons else OK, reasons=tuple(reasons),
                             fiducials=findings, orientation=io, rotation_deg=lie_fit.rotation_deg,
                             mirrored=lie_fit.mirrored)

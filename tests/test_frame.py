@@ -1,0 +1,121 @@
+"""Whole frames (aerofid.orient_frame): the camera's layout found on the scan in any lie, every mark measured at
+its true sub-pixel centre, and a verdict that is never ok with a wrong orientation."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import aerofid
+from aerofid.frame.layout import match_layout
+from aerofid.io.resolution import pixel_size_from_tags
+from aerofid.orientation.camera import Camera
+from aerofid.orientation.correspondence import arrangement_matrix
+from aerofid.synth_frame import frame_spec, render_frame, wild_rc10_camera, write_frame
+
+CAMERA = wild_rc10_camera()
+COARSE_MM = 0.08
+RC20 = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20"
+
+
+def _errors(res, marks) -> dict[str, float]:
+    return {f.name: math.hypot(f.x - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials
+            if f.x is not None and f.y is not None}
+
+
+@pytest.mark.parametrize(("rotation", "mirrored", "seed"), [(0, False, 3), (90, True, 3), (180, False, 5)])
+def test_a_synthetic_frame_in_any_lie_is_oriented_from_the_camera_file_alone(tmp_path, rotation, mirrored, seed):
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(seed), rotation_deg=rotation, mirrored=mirrored)
+    truth = write_frame(spec, tmp_path / "frame.tif", "tiled")
+    res = aerofid.orient_frame(tmp_path / "frame.tif", CAMERA)
+    assert res.pixel_size_source == "tags" and res.pixel_size_mm == pytest.approx(COARSE_MM)
+    assert (res.rotation_deg, res.mirrored) == truth.lie
+    err = _errors(res, truth.marks)
+    assert len(err) >= 7 and max(err.values()) < 0.1, err
+    assert res.status == "ok", res.reasons
+    assert res.orientation is not None and res.orientation.rms_px < 0.1
+    mm = res.orientation.to_mm(np.array(list(truth.marks.values())))
+    assert np.abs(mm - CAMERA.xy_mm).max() < 0.01           # the orientation maps the truth onto the camera
+
+
+def test_the_pixel_size_comes_from_the_camera_file_or_is_estimated_and_never_gives_a_wrong_ok():
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    image = render_frame(spec)                                          # an array: no resolution tags
+    with_size = Camera(CAMERA.name, CAMERA.fiducials, pixel_size_um=80.0)
+    res = aerofid.orient_frame(image, with_size)
+    assert res.pixel_size_source == "camera" and res.status == "ok" and len(res.found) >= 7
+    guessed = aerofid.orient_frame(image, CAMERA)
+    assert guessed.pixel_size_source == "estimated"
+    if guessed.status == "ok":
+        assert guessed.pixel_size_mm == pytest.approx(COARSE_MM, rel=0.01)
+    else:
+        assert any("--pixel-size" in r for r in guessed.reasons)
+
+
+def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():
+    nominal = Camera.from_dict({"name": "nominal", "fiducials": {
+        f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}})
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    image = render_frame(spec)
+    res = aerofid.orient_frame(image, nominal, pixel_size_mm=COARSE_MM)
+    assert res.status == "doubtful"
+    assert any("lie cannot be told" in r for r in res.reasons)
+    given = aerofid.orient_frame(image, nominal, pixel_size_mm=COARSE_MM, lie=(0, False))
+    assert given.status == "ok", given.reasons
+    assert (given.rotation_deg, given.mirrored) == (0, False)
+
+
+def test_a_camera_whose_layout_is_not_on_the_scan_fails_with_the_reason():
+    small = Camera.from_dict({"name": "small", "fiducials": {"a": [-20, 20], "b": [20, 20], "c": [20, -20],
+                                                                "d": [-20, -20]}})
+    image = render_frame(frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3)))
+    res = aerofid.orient_frame(image, small, pixel_size_mm=COARSE_MM)
+    assert res.status in ("failed", "doubtful")
+    assert res.status != "ok" and res.reasons
+
+
+def test_bad_options_are_one_line_errors():
+    image = np.zeros((64, 64), np.uint8)
+    with pytest.raises(aerofid.AerofidInputError, match="pixel size"):
+        aerofid.orient_frame(image, CAMERA, pixel_size_mm=-1)
+    with pytest.raises(aerofid.AerofidInputError, match="lie"):
+        aerofid.orient_frame(image, CAMERA, lie=(45, False))
+
+
+@pytest.mark.parametrize(("rotation", "mirrored"), [(0, False), (90, False), (180, True), (270, True)])
+def test_the_layout_is_found_among_clutter_in_every_lie(rotation, mirrored):
+    rng = np.random.default_rng(rotation + mirrored)
+    G = arrangement_matrix(rotation, mirrored, "up")
+    s, t = 0.021, np.array([5600.0, 5400.0])
+    angle = math.radians(rng.uniform(-2, 2))
+    R = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    marks = CAMERA.xy_mm @ np.linalg.inv(G).T @ R.T / s + t         # px = t + R G^-1 mm / s
+    features = np.vstack([rng.uniform(0, 11000, (60, 2)), marks + rng.normal(0, 3, marks.shape)])
+    m = match_layout(rng.permutation(features), CAMERA.xy_mm, pixel_size_mm=s, position_error_px=12)
+    assert m is not None and m.n_matched == 8
+    assert np.hypot(*(np.sort(m.predicted, axis=0) - np.sort(marks, axis=0)).T).max() < 10
+
+
+def test_the_pixel_size_is_read_from_jfif_and_png_tags(tmp_path):
+    jfif = b"\xff\xd8\xff\xe0\x00\x10JFIF\x00\x01\x01\x01\x04\xb0\x04\xb0\x00\x00\xff\xd9"      # 1200 dpi
+    (tmp_path / "a.jpg").write_bytes(jfif)
+    assert pixel_size_from_tags(tmp_path / "a.jpg") == pytest.approx(25.4 / 1200)
+    (tmp_path / "b.jpg").write_bytes(jfif.replace(b"\x01\x04\xb0\x04\xb0", b"\x00\x00\x01\x00\x01"))  # aspect only
+    assert pixel_size_from_tags(tmp_path / "b.jpg") is None
+    (tmp_path / "c.jpg").write_bytes(jfif.replace(b"\x01\x04\xb0\x04\xb0", b"\x01\x00\x48\x00\x48"))  # 72 dpi
+    assert pixel_size_from_tags(tmp_path / "c.jpg") is None
+
+
+@pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
+def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
+    res = aerofid.orient_frame(RC20 / "15BCC02013_114.jpg", RC20 / "MeasuresCamera.xml", lie=(0, False))
+    # the centres auto finds in 120 px boxes around each corner (docs/benchmarks_rc20.md)
+    boxes = {"P1": (5666.64, 5213.44), "P2": (648.34, 5201.38), "P3": (652.38, 189.11), "P4": (5671.92, 199.82)}
+    err = _errors(res, boxes)
+    assert len(err) == 4 and max(err.values()) < 0.3, err
+    assert res.pixel_size_source == "tags"
+    assert res.status == "ok", res.reasons
+    assert res.orientation is not None and res.orientation.rms_px < 0.6

@@ -9,7 +9,8 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    the user named the kind of mark (``mark="external"`` or ``"panel"``) or the ground is plain (film
    border: at least ``min_plain`` of the box within 4 noise sigma of its median; with ``mark="auto"`` on
    textured ground a lone ``hough`` answer could not be accepted anyway, see below, and its search is slow
-   there). With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+'). ``lines`` (Sohn et al.) is
+   there). With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+': an answer without ``hough``'s
+   '+' is not a panel, step 2). ``lines`` (Sohn et al.) is
    never run on the whole window (it returns confident wrong centres on dots and bull's-eyes); it is a
    corroborator only (step 2). Each detector must first pass its own self-diagnosis (status found).
 2. **Cross-check.** Found answers within ``max(0.5 px, 3 sqrt(s1^2 + s2^2))`` (capped at ``max_agree`` px) of
@@ -518,10 +519,14 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
 
 def lone_answer_refused(ctx: _Context, trace: _Trace, lone: Detection, extent: float) -> str | None:
     """Step 2: why a lone (uncorroborated) answer is not kept - a score below its method's
-    ``min_lone_score_<method>``, or a ``symmetry`` answer without a compact core (:func:`core_contrast`) -
-    or None."""
+    ``min_lone_score_<method>``, a ``symmetry`` answer without a compact core (:func:`core_contrast`), or with
+    ``mark="panel"`` an answer without ``hough``'s '+' (a compact blob of aerial ground 80 px from the panel in
+    bench_boxes.py's panel scene 4) - or None."""
     if lone.score < ctx.params.min_lone_score(lone.method):
         return f"lone {lone.method} answer with a low score ({lone.score:.2f})"
+    if ctx.params.mark == "panel" and lone.method != "hough":
+        return (f"a lone {lone.method} answer at ({lone.x:.1f}, {lone.y:.1f}) and no '+' of hough there: a cloth "
+                "panel is a '+'")
     if lone.method == "symmetry":
         c = core_contrast(ctx.img, lone.x, lone.y, extent, ctx.noise)
         trace.core_snr = c
@@ -685,13 +690,35 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
     ring = (rr > k - 2) & (rr <= k)
     g = float(np.median(p[ring])) if ring.any() else float(np.median(p))
     dev = np.abs(p - g)
-    ri = np.floor(rr).astype(int)
     inside = rr <= k
-    prof = np.array([np.percentile(dev[inside & (ri == r)], percentile) if (inside & (ri == r)).any() else 0.0
-                     for r in range(k + 1)])
+    prof = ring_percentiles(dev[inside], np.floor(rr[inside]).astype(int), k + 1, percentile)
     thr = max(0.25 * prof.max(), 5.0 * noise)
     above = np.flatnonzero(prof > thr)
     return float(above[-1] + 1) if above.size else 1.0
+
+
+def ring_percentiles(values: np.ndarray, ring: np.ndarray, n: int, percentile: float) -> np.ndarray:
+    """The ``percentile``-th percentile (linear interpolation, as :func:`numpy.percentile`) of ``values`` on each
+    ring ``0 .. n - 1`` (0 for a ring without values), all rings in one sort.
+
+    Examples
+    --------
+    >>> ring_percentiles(np.array([1.0, 3.0, 2.0, 9.0]), np.array([0, 0, 0, 2]), 3, 50.0).tolist()
+    [2.0, 0.0, 9.0]
+    """
+    order = np.lexsort((values, ring))
+    v = np.asarray(values, np.float64)[order]
+    counts = np.bincount(ring, minlength=n)
+    starts = np.cumsum(counts) - counts
+    pos = (counts - 1) * (percentile / 100.0)
+    below = np.floor(pos).astype(int)
+    frac = pos - below
+    out = np.zeros(n)
+    has = counts > 0
+    lo = v[(starts + below)[has]]
+    hi = v[(starts + np.minimum(below + 1, counts - 1))[has]]
+    out[has] = lo + (hi - lo) * frac[has]
+    return out
 
 
 def group_extent(img: np.ndarray, members: list[Detection], noise: float,

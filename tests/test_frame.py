@@ -3,13 +3,17 @@ its true sub-pixel centre, and a verdict that is never ok with a wrong orientati
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import aerofid
+from aerofid.formats.camera_file import write_camera
 from aerofid.frame.layout import match_layout
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
@@ -119,3 +123,26 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     assert res.pixel_size_source == "tags"
     assert res.status == "ok", res.reasons
     assert res.orientation is not None and res.orientation.rms_px < 0.6
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "aerofid", "orient", *map(str, args)], capture_output=True,
+                          text=True, cwd=cwd)
+
+
+def test_the_cli_orients_a_frame_and_writes_its_report_and_micmac_files(tmp_path):
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3), rotation_deg=180)
+    truth = write_frame(spec, tmp_path / "frame.tif", "tiled")
+    write_camera(tmp_path / "cam.json", CAMERA)
+    (tmp_path / "mm").mkdir()
+    r = _cli("frame.tif", "--camera", "cam.json", "-o", "r.html", "--micmac", "mm", "--json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["status"] == "ok" and (d["rotation_deg"], d["mirrored"]) == truth.lie
+    got = {f["name"]: (f["x"], f["y"]) for f in d["fiducials"]}
+    assert max(math.hypot(got[n][0] - x, got[n][1] - y) for n, (x, y) in truth.marks.items()) < 0.1
+    assert "<img src=\"data:image/png;base64," in (tmp_path / "r.html").read_text()
+    assert sorted(p.name for p in (tmp_path / "mm").iterdir()) == [
+        "MeasuresCamera.xml", "MeasuresIm-frame.tif.xml", "frame.tif-AffinePlane-px2mm.xml"]
+    bad = _cli("frame.tif", "--camera", "cam.json", "--lie", "45", "-o", "s.html", cwd=tmp_path)
+    assert bad.returncode == 2 and bad.stderr.startswith("error: --lie") and not (tmp_path / "s.html").exists()

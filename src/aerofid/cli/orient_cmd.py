@@ -1,4 +1,4 @@
-"""`aerofid orient`: interior orientation from measured fiducial centres.
+"""`aerofid orient`: interior orientation from measured fiducial centres, or of a whole frame (`frame_cmd`).
 
 Exit status: 0 success; 1 when it ran but could not decide (ambiguous fiducial correspondence);
 2 on bad input or a failed output (one line ``error: ...`` on stderr, nothing written). Every output (the
@@ -13,13 +13,13 @@ from pathlib import Path
 from typing import Any
 
 import click
-import numpy as np
 
+from aerofid.cli.frame_cmd import run_frame
+from aerofid.cli.orient_outputs import check_outputs, micmac_files, micmac_texts
 from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.measurements import read_measurements_and_not_found
-from aerofid.formats.micmac import affine_plane_xml, measures_camera_xml, measures_im_xml
 from aerofid.io.atomic import Staging
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import AmbiguousCorrespondenceError
@@ -27,8 +27,6 @@ from aerofid.orientation.interior import orient as run_orient
 from aerofid.orientation.measurements import Measurements
 from aerofid.orientation.report import to_html, to_text
 from aerofid.orientation.result import InteriorOrientation
-
-REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
 
 
 @click.command()
@@ -48,17 +46,24 @@ REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
 @click.option("-o", "--output", metavar="REPORT", help="write a report: .json, .html or .txt")
 @click.option("--micmac", "micmac_dir", metavar="DIR",
               help="write MeasuresIm-<image>.xml, MeasuresCamera.xml and <image>-AffinePlane-px2mm.xml into DIR")
-def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir) -> int:
-    """Interior orientation (pixel -> film mm) of a scan from its measured fiducials."""
+@click.option("--pixel-size", type=float, metavar="MM",
+              help="whole frame: the scan's pixel size in mm (default: the file's resolution tags, the camera file)")
+@click.option("--lie", metavar="ROT[m]",
+              help="whole frame: the film's lie when the fiducials cannot tell it: 0, 90, 180 or 270 degrees, "
+                   "'m' if mirrored (e.g. 90m)")
+def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir,
+           pixel_size, lie) -> int:
+    """Interior orientation (pixel -> film mm) of a scan: from its measured fiducials (--measurements), or from
+    the scan itself (IMAGE alone: the fiducials found from the camera file's layout)."""
     if meas_path is None:
         if image:
-            raise AerofidInputError(
-                f"finding the fiducials in {image!r} automatically is not available yet: give --measurements FILE")
-        raise AerofidInputError("give --measurements FILE (fiducial pixel coordinates)")
-    if output is not None and Path(output).suffix.lower() not in REPORT_SUFFIXES:
-        raise AerofidInputError(f"report {output!r} must end in .json, .html or .txt")
-    if micmac_dir is not None and not Path(micmac_dir).is_dir():
-        raise AerofidInputError(f"MicMac folder {micmac_dir!r} does not exist")
+            return run_frame(image, camera_path, pixel_size=pixel_size, lie=lie, model=model, as_json=as_json,
+                             output=output, micmac_dir=micmac_dir)
+        raise AerofidInputError("give the scan (aerofid orient IMAGE --camera CAMERA) or --measurements FILE "
+                                "(fiducial pixel coordinates)")
+    if pixel_size is not None or lie is not None:
+        raise AerofidInputError("--pixel-size and --lie are for a whole frame (IMAGE without --measurements)")
+    check_outputs(output, micmac_dir)
     inputs = [p for p in (image, camera_path, meas_path) if p]
     with Staging(inputs) as staging:
         if output is not None:
@@ -66,7 +71,7 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         cam = read_camera(camera_path)
         meas, not_found = read_measurements_and_not_found(meas_path)
         image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
-        micmac = _micmac_files(Path(micmac_dir), image_name, model, staging) if micmac_dir is not None else None
+        micmac = micmac_files(Path(micmac_dir), image_name, model, staging) if micmac_dir is not None else None
         try:
             res = _run_orient(cam, meas, not_found, meas_path, model=model, correspondence=correspondence,
                               reject=not no_reject, image=image_name)
@@ -83,7 +88,7 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         if output is not None:
             staging.put(output, _report(res, Path(output).suffix.lower()))
         if micmac is not None:
-            for path, text in zip(micmac, _micmac_texts(cam, res)):
+            for path, text in zip(micmac, micmac_texts(cam, res)):
                 staging.put(path, text)
         click.echo(json.dumps(res.to_dict()) if as_json else to_text(res), nl=as_json)
         flush_stdout()
@@ -112,26 +117,3 @@ def _report(res: InteriorOrientation, suffix: str) -> str:
     if suffix == ".txt":
         return to_text(res)
     return to_html(res)
-
-
-def _micmac_files(folder: Path, image: str, model: str, staging: Staging) -> list[Path]:
-    """The MicMac files ``--micmac`` writes, planned (checked) before any work: MeasuresIm of the used
-    fiducials, MeasuresCamera, and the AffinePlane pixel -> mm (not for the projective model)."""
-    name = image or "image"
-    if Path(name).name != name or name in (".", ".."):
-        raise AerofidInputError(f"image name {name!r} cannot name MicMac files (it holds a folder); give the "
-                                "scan's file name in the measurements' \"image\"")
-    paths = [folder / f"MeasuresIm-{name}.xml", folder / "MeasuresCamera.xml"]
-    if model != "projective":
-        paths.append(folder / f"{name}-AffinePlane-px2mm.xml")
-    return [staging.plan(p, "--micmac") for p in paths]
-
-
-def _micmac_texts(cam: Camera, res: InteriorOrientation) -> list[str]:
-    """The texts of :func:`_micmac_files`, in its order."""
-    used = res.used
-    m = Measurements(np.array([[f.x_px, f.y_px] for f in used]), tuple(f.name for f in used), res.image or "image")
-    texts = [measures_im_xml(m), measures_camera_xml(cam)]
-    if res.model != "projective":
-        texts.append(affine_plane_xml(res.pixel_to_mm))
-    return texts

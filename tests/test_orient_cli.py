@@ -116,7 +116,8 @@ def test_csv_measurements_and_text_output(files, tmp_path):
 @pytest.mark.parametrize("args,match", [
     (["--measurements", "{meas}"], "camera"),
     (["--camera", "{cam}"], "--measurements"),
-    (["scan.tif", "--camera", "{cam}"], "not available yet"),
+    (["scan.tif", "--camera", "{cam}"], "'scan.tif' does not exist"),
+    (["scan.tif", "--camera", "{cam}", "--measurements", "{meas}", "--lie", "90"], "for a whole frame"),
     (["--camera", "{tmp}/nope.json", "--measurements", "{meas}"], "does not exist"),
     (["--camera", "{cam}", "--measurements", "{meas}", "--model", "helmert"], "helmert"),
     (["--camera", "{cam}", "--measurements", "{meas}", "-o", "{tmp}/r.pdf"], ".json, .html or .txt"),

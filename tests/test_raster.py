@@ -320,13 +320,13 @@ def assert_one_line_error(excinfo, *words):
 def test_missing_file(tmp_path):
     with pytest.raises(AerofidInputError) as excinfo:
         open_raster(tmp_path / "nope.tif")
-    assert_one_line_error(excinfo, "no such file", "check the path")
+    assert_one_line_error(excinfo, "does not exist", "check the path")
 
 
 def test_directory(tmp_path):
     with pytest.raises(AerofidInputError) as excinfo:
         open_raster(tmp_path)
-    assert_one_line_error(excinfo, "is a directory")
+    assert_one_line_error(excinfo, "is a folder")
 
 
 @pytest.mark.parametrize(

@@ -414,17 +414,21 @@ def test_real_rc20_jpeg_reduced_decode_is_close_to_the_block_mean(monkeypatch):
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float32, np.float64])
 @pytest.mark.parametrize("bands", [1, 3])
 def test_array_raster_reads_like_a_raster(dtype, bands):
-    image = random_image(np.uint16, bands).astype(dtype)
+    image = (random_image(np.uint16, bands) // 2).astype(dtype)  # int16 holds it; floats beyond 1: 0-65535
+    samples = as_image_array(image)  # signed -> unsigned, floats beyond 1 divided by 65535
+    expected_dtype = {np.int16: np.uint16, np.float64: np.float32}.get(dtype, dtype)
+    np.testing.assert_allclose(samples, image / 65535 if np.dtype(dtype).kind == "f" else image, rtol=1e-6)
     with ArrayRaster(image) as raster:
         assert (raster.path, raster.format, raster.tiled) == (None, "array", False)
-        assert (raster.width, raster.height, raster.bands, raster.dtype) == (WIDTH, HEIGHT, bands, np.dtype(dtype))
+        assert (raster.width, raster.height, raster.bands, raster.dtype) == (WIDTH, HEIGHT, bands,
+                                                                             np.dtype(expected_dtype))
         for x0, y0, x1, y1 in BOXES:
             window = raster.read_window((x0, y0, x1, y1))
-            np.testing.assert_array_equal(window, image[y0:y1, x0:x1])
+            np.testing.assert_array_equal(window, samples[y0:y1, x0:x1])
             assert not np.shares_memory(window, image)
             for factor in (1, 3, 8):
                 np.testing.assert_allclose(raster.read_reduced((x0, y0, x1, y1), factor),
-                                           block_mean(image[y0:y1, x0:x1], factor), rtol=1e-6)
+                                           block_mean(samples[y0:y1, x0:x1], factor), rtol=1e-6)
     with pytest.raises(AerofidInputError, match="closed"):
         raster.read_window((0, 0, 1, 1))
 

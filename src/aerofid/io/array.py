@@ -18,28 +18,60 @@ from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
 __all__ = ["ArrayRaster", "RasterLike", "as_image_array", "open_image"]
 
 
+INTEGER_RANGES = (np.uint8, np.uint16, np.uint32)
+"""Signed integers (or floats beyond [0, 1]) are read as the smallest of these whose range holds them: an
+``int64`` array of 0-255 is an 8-bit image, not 0.000000003 % of the ``int64`` range."""
+
+
+def _sample_range(a: np.ndarray) -> np.ndarray:
+    """``a`` with samples on aerofid's scale: unsigned integers as they are, signed integers as the smallest
+    unsigned type that holds them, floats on [0, 1] as they are and floats of 0-255 or 0-65535 divided by 255 or
+    65535 (float32). Negative, non-finite or larger samples are an input error."""
+    if a.dtype.kind == "u" or a.size == 0:
+        return a
+    lo, hi = float(np.min(a)), float(np.max(a))
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise AerofidInputError("image array holds NaN or infinite samples; give finite grey levels")
+    if lo < 0:
+        raise AerofidInputError(f"image array holds negative samples (down to {lo:g}); give grey levels >= 0 "
+                                "(floats on [0, 1] or 0-255, or unsigned integers)")
+    for kind in INTEGER_RANGES:
+        top = np.iinfo(kind).max
+        if a.dtype.kind == "i" and hi <= top:
+            return a.astype(kind)
+        if a.dtype.kind == "f" and hi <= top:
+            return a if hi <= 1.0 else (a / np.float32(top)).astype(np.float32)
+    raise AerofidInputError(f"image array holds samples up to {hi:g}, beyond 32-bit grey levels; rescale it to "
+                            "[0, 1] or to unsigned integers")
+
+
 def as_image_array(a: Any) -> np.ndarray:
     """Check an image given as an array and return it as one (RGBA loses its alpha band).
 
     Parameters
     ----------
     a : array_like
-        ``(h, w)`` grey or ``(h, w, 3)`` RGB (``(h, w, 4)`` RGBA: alpha dropped), integers or floats.
+        ``(h, w)`` grey or ``(h, w, 3)`` RGB (``(h, w, 4)`` RGBA: alpha dropped), integers or floats. Floats are
+        grey levels on [0, 1], or on 0-255 / 0-65535 when they exceed 1 (then divided by 255 / 65535); signed
+        integers are read as 8-, 16- or 32-bit unsigned by their largest sample (:data:`INTEGER_RANGES`).
 
     Returns
     -------
     numpy.ndarray
-        ``a`` as an array (a view, not a copy, where numpy allows).
+        ``a`` as an array (a view, not a copy, where numpy allows and no rescaling is needed).
 
     Raises
     ------
     AerofidInputError
-        Another shape, no pixel, or samples that are not integers or floats (booleans included).
+        Another shape, no pixel, samples that are not integers or floats (booleans included), negative,
+        non-finite or beyond 32-bit samples.
 
     Examples
     --------
     >>> as_image_array(np.zeros((4, 5, 4), np.uint8)).shape
     (4, 5, 3)
+    >>> as_image_array(np.array([[0, 255]])).dtype, float(as_image_array(np.array([[0.0, 255.0]])).max())
+    (dtype('uint8'), 1.0)
     """
     a = np.asarray(a)
     if a.ndim == 3 and a.shape[2] == 4:
@@ -50,7 +82,7 @@ def as_image_array(a: Any) -> np.ndarray:
         raise AerofidInputError(f"image array is empty (shape {a.shape}); give an image of at least one pixel")
     if not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)) or a.dtype == bool:
         raise AerofidInputError(f"image array has dtype {a.dtype}; give unsigned integers or floats")
-    return a
+    return _sample_range(a)
 
 
 class ArrayRaster:
@@ -177,13 +209,15 @@ RasterLike = Raster | ArrayRaster
 """What :func:`open_image` gives: a scan file or an array, read through one interface."""
 
 
-def open_image(image: str | os.PathLike[str] | np.ndarray | Raster | ArrayRaster) -> AbstractContextManager[RasterLike]:
+def open_image(
+    image: str | bytes | os.PathLike[str] | np.ndarray | Raster | ArrayRaster,
+) -> AbstractContextManager[RasterLike]:
     """Open an image given as a path, an array or an open raster, for use in a ``with`` statement.
 
     Parameters
     ----------
-    image : str, os.PathLike, numpy.ndarray, Raster or ArrayRaster
-        A path is opened with :func:`~aerofid.io.raster.open_raster` and closed on leaving the ``with``; an
+    image : str, bytes, os.PathLike, numpy.ndarray, Raster or ArrayRaster
+        A path (bytes too) is opened with :func:`~aerofid.io.raster.open_raster` and closed on leaving the ``with``; an
         array becomes an :class:`ArrayRaster`; an open :class:`~aerofid.io.raster.Raster` or
         :class:`ArrayRaster` is used as it is and left open (it belongs to the caller).
 
@@ -207,8 +241,8 @@ def open_image(image: str | os.PathLike[str] | np.ndarray | Raster | ArrayRaster
     """
     if isinstance(image, Raster | ArrayRaster):
         return contextlib.nullcontext(image)
-    if isinstance(image, str | os.PathLike):
-        return open_raster(image)
+    if isinstance(image, str | bytes | os.PathLike):
+        return open_raster(os.fsdecode(image))
     if not (isinstance(image, list | tuple) or hasattr(image, "__array__")):
         raise AerofidInputError(
             f"image is a {type(image).__name__}; give a file path, a numpy array or an open Raster"

@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 import operator
 import os
+import reprlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -40,6 +41,8 @@ import tifffile
 
 from aerofid.errors import AerofidInputError
 from aerofid.io import jpeg
+from aerofid.io.budget import check_budget
+from aerofid.io.files import input_file
 from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
 
 __all__ = [
@@ -69,15 +72,17 @@ _PHOTOMETRIC = tifffile.PHOTOMETRIC
 def _box_numbers(box: Sequence[float]) -> tuple[float, float, float, float]:
     """Return the four numbers of a box as floats, or raise if it is not four finite numbers."""
     try:
+        if isinstance(box, str | bytes) or any(isinstance(v, str | bytes) for v in box):
+            raise TypeError("text")
         numbers = tuple(float(v) for v in box)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise AerofidInputError(
-            f"box {box!r} is not four numbers; give (x0, y0, x1, y1) in pixels"
+            f"box {reprlib.repr(box)} is not four numbers; give (x0, y0, x1, y1) in pixels"
         ) from exc
     if len(numbers) != 4:
-        raise AerofidInputError(f"box {box!r} has {len(numbers)} numbers; give (x0, y0, x1, y1) in pixels")
+        raise AerofidInputError(f"box {reprlib.repr(box)} has {len(numbers)} numbers; give (x0, y0, x1, y1) in pixels")
     if not all(math.isfinite(v) for v in numbers):
-        raise AerofidInputError(f"box {box!r} has a non-finite number; give finite pixel coordinates")
+        raise AerofidInputError(f"box {reprlib.repr(box)} has a non-finite number; give finite pixel coordinates")
     return numbers
 
 
@@ -190,10 +195,7 @@ def _sniff_format(head: bytes) -> str | None:
 
 def _file_format(path: Path) -> str:
     """Check that ``path`` is a readable file of a supported format and return the format's name."""
-    if not path.exists():
-        raise AerofidInputError(f"no such file: {path}; check the path")
-    if path.is_dir():
-        raise AerofidInputError(f"{path} is a directory; give the path of an image file")
+    input_file(path, "image")
     try:
         with path.open("rb") as file:
             head = file.read(8)
@@ -421,7 +423,15 @@ class Raster:
             )
         segments = _TiffSegmentReader(tif, page)
         if page.jpegheader is None and len(page.dataoffsets) == segments.expected_segments():
+            rows, cols = segments.segment_shape
+            check_budget(rows * cols * page.samplesperpixel * self.dtype.itemsize,
+                         f"{self.path} stores {rows} x {cols} px tiles or strips: decoding one",
+                         "the file may be corrupt; else convert it to a tiled TIFF (e.g. gdal_translate -co TILED=YES)")
             return segments
+        check_budget(page.imagewidth * page.imagelength * page.samplesperpixel * self.dtype.itemsize,
+                     f"{self.path} declares a {page.imagewidth} x {page.imagelength} image in {len(page.dataoffsets)} "
+                     f"segments (its layout needs {segments.expected_segments()}): decoding it whole",
+                     "the file may be corrupt; else convert it to a tiled TIFF (e.g. gdal_translate -co TILED=YES)")
         return _ArrayReader(lambda: _hwc(page.asarray(squeeze=False)))
 
     def _open_reader(self) -> _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader:

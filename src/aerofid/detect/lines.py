@@ -384,12 +384,21 @@ def _local_background(fr: _Frame, ring: np.ndarray, uc: float, band: float) -> n
     u = fr.u - uc
     seg = np.floor(u / SLICE_LENGTH).astype(np.int64)
     bg = _plane(fr.g[ring], fr.v[ring], u[ring], fr.v, u)
-    for sgi in np.unique(seg[ring]):
-        m = ring & (seg == sgi)
-        if m.sum() >= 8 and np.ptp(fr.v[m]) > band:   # both sides of the band
-            on = seg == sgi
+    # the pixels of each stretch, and the ring's, in raster order (stable sorts): no full-window mask per stretch
+    every, in_ring = _by_stretch(seg), _by_stretch(seg, np.flatnonzero(ring))
+    for sgi, m in in_ring.items():
+        if m.size >= 8 and np.ptp(fr.v[m]) > band:   # both sides of the band
+            on = every[sgi]
             bg[on] = _plane(fr.g[m], fr.v[m], u[m], fr.v[on], u[on])
     return bg
+
+
+def _by_stretch(seg: np.ndarray, idx: np.ndarray | None = None) -> dict[int, np.ndarray]:
+    """The indices ``idx`` (default: all) grouped by their stretch number ``seg[idx]``, each group ascending."""
+    idx = np.arange(seg.size) if idx is None else idx
+    order = np.argsort(seg[idx], kind="stable")
+    keys, starts = np.unique(seg[idx][order], return_index=True)
+    return {int(k): idx[g] for k, g in zip(keys, np.split(order, starts[1:]))}
 
 
 def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: np.ndarray) -> np.ndarray:

@@ -230,6 +230,27 @@ def test_near_miss_the_same_blob_is_found_with_the_polarity_that_fits_it():
     assert np.hypot(dark.x - bright.x, dark.y - bright.y) < 1e-6 and np.hypot(dark.x - 89.0, dark.y - 277.8) < 1
 
 
+def _panel4():
+    """bench_boxes.py's panel scene 4: a 9.9 px cloth panel at (200.39, 200.38) on aerial ground, and a compact
+    bright blob of that ground at about (215.3, 282.7)."""
+    rng = np.random.default_rng((2026, 1, 7, 4))
+    size = float(rng.uniform(7, 11))
+    return synth.panel_scene(rng, shape_hw=(404, 404), size=size, contrast=rng.uniform(0.2, 0.35))
+
+
+def test_a_blob_of_aerial_ground_is_not_a_cloth_panel():
+    """A cloth panel is a '+': a lone symmetry answer on the blob is not one (it was answered 84 px off)."""
+    r = aerofid.locate(_panel4().image, (195, 262, 235, 302), mark="panel")
+    assert not r.found, (r.x, r.y)
+
+
+def test_near_miss_the_panel_in_a_box_ten_times_its_size_with_the_blob():
+    scene = _panel4()
+    r = aerofid.locate(scene.image, (154, 195, 253, 294), mark="panel")
+    assert r.found, r.reason
+    assert _err(r, scene.marks[0]) < 0.15
+
+
 def test_a_mark_cut_by_the_image_edge_is_refused():
     """Half the ring lies outside the image: its pixels really are missing."""
     scene = _scene("ring_cross", (6.0, 100.2), window=200, seed=6)

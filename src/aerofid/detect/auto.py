@@ -68,7 +68,7 @@ from aerofid.conventions import FOUND, MARKS, Box
 from aerofid.detect.asymmetry import patch as _patch
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
-from aerofid.detect.params import MethodParams, check
+from aerofid.detect.params import MAX_PX, MethodParams, check, number_in
 from aerofid.detect.registry import METHODS, SEED_METHODS
 from aerofid.detect.result import Detection, unusable_window
 
@@ -168,15 +168,17 @@ class AutoParams(MethodParams):
     def validate(self) -> None:
         """One line for a bad value: which parameter, which values are allowed."""
         check(self.mark in MARKS, f"mark must be one of {', '.join(MARKS)}, not {self.mark!r}")
-        check(0 < self.min_agree <= self.max_agree,
-              f"need 0 < min_agree <= max_agree, not {self.min_agree} and {self.max_agree}")
-        check(isinstance(self.crop_margin, int) and self.crop_margin >= 0,
-              f"crop_margin must be a whole number of px >= 0, not {self.crop_margin!r}")
+        check(number_in(self.min_agree, 0, MAX_PX, lo_open=True) and number_in(self.max_agree, self.min_agree, MAX_PX),
+              f"need 0 < min_agree <= max_agree <= {MAX_PX}, not {self.min_agree!r} and {self.max_agree!r}")
+        check(isinstance(self.crop_margin, int) and 0 <= self.crop_margin <= MAX_PX,
+              f"crop_margin must be a whole number of px in [0, {MAX_PX}], not {self.crop_margin!r}")
         for name in ("edge_margin", "min_moat"):
-            check(getattr(self, name) >= 0, f"{name} must be >= 0 px, not {getattr(self, name)}")
+            check(number_in(getattr(self, name), 0, MAX_PX), f"{name} must be in [0, {MAX_PX}] px, "
+                  f"not {getattr(self, name)!r}")
         for name in ("max_disc_asymmetry", "second_size", "min_core_snr", "isolate_factor", "blob_edge_ratio",
                      "min_blob_snr"):
-            check(getattr(self, name) > 0, f"{name} must be > 0, not {getattr(self, name)}")
+            check(number_in(getattr(self, name), 0, MAX_PX, lo_open=True), f"{name} must be in (0, {MAX_PX}], "
+                  f"not {getattr(self, name)!r}")
         for name in ("lone_factor", "min_lone_score_hough", "min_lone_score_circles", "min_lone_score_symmetry",
                      "second_ratio", "min_plain", "plain_floor"):
             check(0 <= getattr(self, name) <= 1, f"{name} must be in [0, 1], not {getattr(self, name)}")

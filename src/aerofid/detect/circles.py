@@ -42,7 +42,7 @@ import numpy as np
 
 from aerofid.conventions import FOUND
 from aerofid.detect.noise import difference_noise_sigma
-from aerofid.detect.params import MethodParams, check
+from aerofid.detect.params import MAX_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused, unusable_window
 
 if TYPE_CHECKING:
@@ -598,8 +598,9 @@ class CirclesParams(MethodParams):
         for name in ("canny_low_ratio", "radial_cos", "min_coverage"):
             v = getattr(self, name)
             check(_finite(v) and 0 <= v <= 1, f"{name} must be in [0, 1], not {v!r}")
-        check(self.max_radius is None or (_finite(self.max_radius) and self.max_radius > self.min_radius),
-              f"max_radius must be None or a number > min_radius ({self.min_radius}), not {self.max_radius!r}")
+        check(self.max_radius is None or (_finite(self.max_radius) and self.min_radius < self.max_radius <= MAX_PX),
+              f"max_radius must be None or a number in (min_radius ({self.min_radius}), {MAX_PX}], "
+              f"not {self.max_radius!r}")
         check(isinstance(self.fix_radii, bool | np.bool_), f"fix_radii must be True or False, not {self.fix_radii!r}")
         check(not self.fix_radii or r is not None, "fix_radii=True needs the radii")
 

@@ -20,6 +20,10 @@ from aerofid.errors import AerofidInputError
 
 P = TypeVar("P", bound="MethodParams")
 
+MAX_PX = 10_000
+"""Largest length (px) or count any parameter may take: beyond every window aerofid measures (4096 px at most),
+so that no value makes a detector allocate or loop without bound."""
+
 
 @dataclass(frozen=True)
 class MethodParams:
@@ -101,4 +105,4 @@ def check(condition: bool, message: str) -> None:
         raise ValueError(message)
 
 
-__all__ = ["MethodParams", "check", "is_int", "is_number", "number_in"]
+__all__ = ["MAX_PX", "MethodParams", "check", "is_int", "is_number", "number_in"]

@@ -54,7 +54,7 @@ from scipy import ndimage
 from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
-from aerofid.detect.params import MethodParams, check
+from aerofid.detect.params import MAX_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
 from aerofid.robust import MAD_TO_SIGMA
 
@@ -188,10 +188,11 @@ class SymmetryParams(MethodParams):
         for name, low in (("edge_step", 1), ("min_radius", 1), ("log_inner", 0), ("min_interval", 1),
                           ("max_iter", 1), ("enlarge", 1), ("area_smooth", 1)):
             v = getattr(self, name)
-            check(_is_int(v) and v >= low, f"{name} must be an integer >= {low}, not {v!r}")
+            check(_is_int(v) and low <= v <= MAX_PX, f"{name} must be an integer in [{low}, {MAX_PX}], not {v!r}")
         for name in ("radius", "interval"):
             v = getattr(self, name)
-            check(v is None or (_is_int(v) and v >= 1), f"{name} must be None or an integer >= 1 (px), not {v!r}")
+            check(v is None or (_is_int(v) and 1 <= v <= MAX_PX),
+                  f"{name} must be None or an integer in [1, {MAX_PX}] (px), not {v!r}")
         check(_is_int(self.log_gap) and _is_int(self.log_outer) and self.log_inner < self.log_gap <= self.log_outer,
               f"log_inner < log_gap <= log_outer must hold (integers), not {self.log_inner}, {self.log_gap}, "
               f"{self.log_outer}")

@@ -88,7 +88,7 @@ class SymmetryParams(MethodParams):
     >>> SymmetryParams(radius=0)
     Traceback (most recent call last):
     ...
-    ValueError: radius must be None or an integer >= 1 (px), not 0
+    ValueError: radius must be None or an integer in [1, 10000] (px), not 0
     """
 
     diagonal: str | None = None

@@ -234,16 +234,17 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
     return sol
 
 
-def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray,
-                  hi: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  max_shift: float = np.inf) -> tuple[np.ndarray, np.ndarray] | None:
     """The least-squares solution, iteratively reweighted: pixels hit by dust, scratches or impulse noise
     (|v| > HUBER_K robust sigmas) get Huber weights, so that they neither pull the centre nor inflate the
     misfit. Returns (parameters, final weights) or None when a pass fails.
 
     Early exit: a first pass that ends with a shape parameter on its bound, or the centre beyond the plausible
-    region (:func:`_at_bound`), found no '+' - reweighting does not bring it back (on 693 fits of the
-    benchmark scenes, real RC20 marks and rejection scenes, none of the 68 accepted '+' came from such a first
-    pass; 267 of the 625 refused did), so the refits are skipped and the caller refuses it."""
+    region (:func:`_at_bound`), or more than ``max_shift`` px from the start, found no '+' - reweighting does
+    not bring it back (on 693 fits of the benchmark scenes, real RC20 marks and rejection scenes, the 68
+    accepted '+' moved at most 0.61 px in their first pass and never ended on a bound; 271 of the 625 refused
+    did either, with ``max_shift`` 3 px), so the refits are skipped and the caller refuses it."""
     weights = np.ones_like(pt.g)
     x: np.ndarray | None = None
     for k in range(1 + ROBUST_PASSES):
@@ -254,7 +255,8 @@ def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray,
         if not np.all(np.isfinite(sol.x)) or (not sol.success and sol.status <= 0):
             return None
         x = np.asarray(sol.x, np.float64)
-        if k == 0 and _at_bound(np.r_[x[:4], np.abs(x[4:8]), x[8:]], lo, hi):
+        if k == 0 and (_at_bound(np.r_[x[:4], np.abs(x[4:8]), x[8:]], lo, hi)
+                       or np.hypot(x[0] - pt.x, x[1] - pt.y) > max_shift):
             break
         v_raw = cross_model(x, pt.px, pt.py, pt.x, pt.y) - pt.g
         scale = max(robust_std(v_raw), 1e-6)
@@ -328,7 +330,8 @@ def _at_bound(sol: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
 
 def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float,
               arm: float, width: float = 2.0, blur: float = 0.8,
-              margin: float = PATCH_MARGIN, max_patch: int = MAX_PATCH) -> CrossFit | None:
+              margin: float = PATCH_MARGIN, max_patch: int = MAX_PATCH,
+              max_shift: float = np.inf) -> CrossFit | None:
     """Fit the blurred-cross model around the start (x, y) with arms of half-length ``arm`` px.
 
     Parameters
@@ -341,6 +344,9 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
         Start stroke width and Gaussian blur (px).
     margin, max_patch : float, int
         The patch reaches ``margin`` px beyond the arms, at most ``max_patch`` px wide.
+    max_shift : float
+        A first least-squares pass whose centre moves further than this (px) from the start is not refitted
+        (:func:`_robust_solve`; the caller refuses a '+' that far off).
 
     Returns
     -------
@@ -352,7 +358,7 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     if pt is None:
         return None
     p0, lo, hi = _start(pt, thetas, arm, width, blur)
-    solved = _robust_solve(pt, p0, lo, hi)
+    solved = _robust_solve(pt, p0, lo, hi, max_shift)
     if solved is None:
         return None
     sol, weights = solved

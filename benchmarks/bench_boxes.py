@@ -400,11 +400,12 @@ def bench_spread(marks: int, boxes: int, seed: int, log) -> list[str]:
            "where a method reports no per-axis value). *spread / sigma*: the larger of the two axes' ratios, median "
            "and worst over the marks (target <= ~1.5). *distinct*: how many different centres (to 1e-6 px) the "
            "boxes gave, median over the marks. *bias*: RMS over the marks of the distance from the mean centre to "
-           "the truth, in units of the median sigma.\n",
+           "the truth, in units of the median sigma. *sigma max / min*: the largest reported sigma of a mark over its "
+           "boxes divided by the smallest, worst over the marks (1.00: the sigma does not depend on the box).\n",
            "| style | found | std x, std y (px, RMS over marks) | median sigma_x, sigma_y (px) | spread / sigma "
-           "median, worst | distinct | bias / sigma |", "|---|---|---|---|---|---|---|"]
+           "median, worst | distinct | bias / sigma | sigma max / min |", "|---|---|---|---|---|---|---|---|"]
     for style in STYLES:
-        stds, sigs, ratios, distinct, bias = [], [], [], [], []
+        stds, sigs, ratios, distinct, bias, sigma_range = [], [], [], [], [], []
         found = total = 0
         for i in range(marks):
             case = make_case(style, i, seed)
@@ -426,15 +427,16 @@ def bench_spread(marks: int, boxes: int, seed: int, log) -> list[str]:
             sigs.append(sg)
             ratios.append(float(np.max(sd / sg)))
             distinct.append(len({(round(a.x, 6), round(a.y, 6)) for a in got}))
+            sigma_range.append(max(a.sigma for a in got) / min(a.sigma for a in got))
             bias.append(float(np.hypot(*(xy.mean(axis=0) - (case.x, case.y))) / np.mean(sg)))
         if not stds:
-            out.append(f"| {style.label} | {found}/{total} | - | - | - | - | - |")
+            out.append(f"| {style.label} | {found}/{total} | - | - | - | - | - | - |")
             continue
         sd = np.sqrt(np.mean(np.square(stds), axis=0))
         sg = np.median(sigs, axis=0)
         out.append(f"| {style.label} | {found}/{total} | {sd[0]:.4f}, {sd[1]:.4f} | {sg[0]:.4f}, {sg[1]:.4f} | "
                    f"{np.median(ratios):.2f}, {np.max(ratios):.2f} | {np.median(distinct):.0f} | "
-                   f"{np.sqrt(np.mean(np.square(bias))):.1f} |")
+                   f"{np.sqrt(np.mean(np.square(bias))):.1f} | {np.max(sigma_range):.2f} |")
         log(f"spread {style.key} done")
     return out
 

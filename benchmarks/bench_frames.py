@@ -337,14 +337,19 @@ def rc20(hipp: str | None, repeats: int, cache: Path) -> list[str]:
     return lines
 
 
+RUN_START, RUN_END = "<!-- bench_frames run -->", "<!-- end of bench_frames run -->"
+"""The run replaces what lies between these lines of ``--out``; the prose around them stays."""
+
+
 def write_doc(path: Path, args, parts: list[str]) -> None:
     cmd = "python benchmarks/bench_frames.py" + (" --quick" if args.quick else "") + f" --size {args.size}" + \
         f" --repeats {args.repeats}" + (" --hipp <venv>/bin/python" if args.hipp else "")
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    head = ["# Whole frames: aerofid's orient_frame against hipp 0.2.0 (issue 12)", "",
-            f"Produced by `{cmd}` at {commit} on {platform.machine()} / Python {platform.python_version()}, "
-            "one thread per process; see the docstring of benchmarks/bench_frames.py for what is measured.", ""]
-    path.write_text("\n".join(head + parts) + "\n", encoding="utf-8")
+    run = "\n".join([f"Produced by `{cmd}` at {commit} on {platform.machine()} / Python "
+                     f"{platform.python_version()}, one thread per process.", "", *parts])
+    old = path.read_text(encoding="utf-8") if path.exists() else ""
+    head, rest = old.split(RUN_START, 1) if RUN_START in old and RUN_END in old else ("", RUN_END)
+    path.write_text(head + RUN_START + "\n" + run + "\n" + RUN_END + rest.split(RUN_END, 1)[1], encoding="utf-8")
 
 
 def main() -> None:

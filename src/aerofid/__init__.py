@@ -50,9 +50,9 @@ _SOURCE = {
 """Each public name and the module it comes from (the ``TYPE_CHECKING`` imports above, for the first use)."""
 
 __all__ = ["AerofidInputError", "AffineTransform", "AmbiguousCorrespondenceError", "Camera", "Fiducial",
-           "FrameOrientation", "InteriorOrientation", "Location", "MarkSearch", "Measurements", "ProjectiveTransform",
-           "SimilarityTransform", "__version__", "find_marks", "locate", "orient", "orient_frame", "read_camera", "read_measurements",
-           "write_camera", "write_measurements"]
+           "FrameOrientation", "InteriorOrientation", "Location", "MarkSearch", "Measurements",
+           "ProjectiveTransform", "SimilarityTransform", "__version__", "find_marks", "locate", "orient",
+           "orient_frame", "read_camera", "read_measurements", "write_camera", "write_measurements"]
 
 
 def __getattr__(name: str) -> Any:

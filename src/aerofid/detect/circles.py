@@ -42,7 +42,7 @@ import numpy as np
 
 from aerofid.conventions import FOUND
 from aerofid.detect.noise import difference_noise_sigma
-from aerofid.detect.params import MAX_PX, MethodParams, check
+from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused, unusable_window
 
 if TYPE_CHECKING:
@@ -591,7 +591,8 @@ class CirclesParams(MethodParams):
               and self.n_circles >= 2, f"n_circles must be an integer >= 2, not {self.n_circles!r}")
         for name in ("canny_sigma", "radius_tol", "concentric_tol"):
             v = getattr(self, name)
-            check(_finite(v) and v >= 0, f"{name} must be a finite number >= 0, not {v!r}")
+            top = MAX_SIGMA_PX if name == "canny_sigma" else MAX_PX
+            check(_finite(v) and 0 <= v <= top, f"{name} must be a number in [0, {top:g}], not {v!r}")
         for name in ("canny_high", "min_radius", "dehough_tol", "competitor_ratio", "max_rms_ratio"):
             v = getattr(self, name)
             check(_finite(v) and v > 0, f"{name} must be a finite number > 0, not {v!r}")

@@ -23,6 +23,9 @@ P = TypeVar("P", bound="MethodParams")
 MAX_PX = 10_000
 """Largest length (px) or count any parameter may take: beyond every window aerofid measures (4096 px at most),
 so that no value makes a detector allocate or loop without bound."""
+MAX_SIGMA_PX = 100.0
+"""Largest Gaussian sigma (px) a smoothing parameter may take: a wider blur leaves no mark in any window, and its
+kernel (6 sigma across) costs minutes per window (canny_sigma=1e6 ran past 60 s)."""
 
 
 @dataclass(frozen=True)
@@ -105,4 +108,4 @@ def check(condition: bool, message: str) -> None:
         raise ValueError(message)
 
 
-__all__ = ["MAX_PX", "MethodParams", "check", "is_int", "is_number", "number_in"]
+__all__ = ["MAX_PX", "MAX_SIGMA_PX", "MethodParams", "check", "is_int", "is_number", "number_in"]

@@ -54,7 +54,7 @@ from scipy import ndimage
 from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
-from aerofid.detect.params import MAX_PX, MethodParams, check
+from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
 from aerofid.robust import MAD_TO_SIGMA
 
@@ -204,7 +204,9 @@ class SymmetryParams(MethodParams):
         for name in ("converge_px", "max_asymmetry", "smooth_sigma", "faint_snr", "min_std", "sigma_floor",
                      "max_refine_shift"):
             v = getattr(self, name)
-            check(_is_num(v) and v >= 0, f"{name} must be a number >= 0, not {v!r}")
+            top = MAX_SIGMA_PX if name == "smooth_sigma" else MAX_PX
+            check(_is_num(v) and (0 <= v <= top or (name == "max_asymmetry" and v == math.inf)),
+                  f"{name} must be a number in [0, {top:g}], not {v!r}")
         for name in ("max_total_shift", "sigma_inefficiency"):
             v = getattr(self, name)
             check(_is_num(v) and 0 < v < math.inf, f"{name} must be a finite number > 0, not {v!r}")

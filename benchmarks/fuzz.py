@@ -25,10 +25,16 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from fuzz_cli import judge, make_workspace, pristine_copy, random_case, restore, run_case, snapshot  # noqa: E402
-
-WARMUP = ("locate", "good.tif", "--box", "40,40,120,120", "--method", "hough")
-"""Run once before forking, so that every lazily imported module is already loaded in the children."""
+from fuzz_cli import (  # noqa: E402
+    judge,
+    make_workspace,
+    pristine_copy,
+    random_case,
+    restore,
+    run_case,
+    snapshot,
+    warm_up,
+)
 
 
 def _worker(args: tuple[int, int, int]) -> dict:
@@ -46,10 +52,7 @@ def _worker(args: tuple[int, int, int]) -> dict:
         pristine = pristine_copy(ws, Path(tmp) / "pristine")
         scratch = Path(tmp) / "scratch"
         scratch.mkdir()
-        from aerofid.cli import main  # noqa: F401 (loaded before forking)
-        from fuzz_cli import Case
-
-        run_case(Case(WARMUP, ()), ws, scratch)
+        warm_up(ws, scratch)
         for i in range(start, n, step):
             case = random_case(random.Random(i), ws, i)
             before = snapshot(root)

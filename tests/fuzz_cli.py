@@ -289,6 +289,24 @@ def _child(case: Case, ws: Workspace, out: Path, err: Path, read_end: int | None
         os._exit(code)
 
 
+def warm_up(ws: Workspace, scratch: Path) -> None:
+    """Run a found locate with every output and an orient in this process (click's test runner), so that the
+    modules the CLI imports lazily are loaded before any fork: a case then costs what its work costs."""
+    from click.testing import CliRunner
+
+    from aerofid.cli import main
+
+    cwd = os.getcwd()
+    os.chdir(ws.root)
+    try:
+        for args in (["locate", "good.tif", "--box", "40,40,120,120", "--overlay", str(scratch / "o.png"),
+                      "--plot", str(scratch / "p.png"), "-o", str(scratch / "l.json")],
+                     ["orient", "--camera", "cam.json", "--measurements", "m.json", "-o", str(scratch / "r.html")]):
+            CliRunner().invoke(main, args)
+    finally:
+        os.chdir(cwd)
+
+
 def run_case(case: Case, ws: Workspace, scratch: Path, time_limit: float = TIME_LIMIT) -> Outcome:
     """Run ``case`` in a forked child (module docstring)."""
     out, err = scratch / "stdout", scratch / "stderr"
@@ -401,4 +419,4 @@ def pristine_copy(ws: Workspace, dest: Path) -> Path:
 
 
 __all__ = ["Case", "Outcome", "Verdict", "Workspace", "judge", "make_workspace", "pristine_copy", "random_case",
-           "restore", "run_case", "snapshot"]
+           "restore", "run_case", "snapshot", "warm_up"]

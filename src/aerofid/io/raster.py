@@ -385,6 +385,11 @@ class Raster:
         except AerofidInputError:
             self.close()
             raise
+        except Exception as exc:  # tags that lie in ways tifffile lets through (a tile 0 px wide, a tuple for a size)
+            self.close()
+            raise AerofidInputError(
+                f"cannot read {self.path} as TIFF: {_one_line(exc)}; the file may be corrupt or truncated"
+            ) from exc
 
     def _describe_tiff_page(self, page: tifffile.TiffPage) -> None:
         """Set size, bands, dtype and inversion from a TIFF page, or raise if aerofid cannot read it."""

@@ -28,6 +28,7 @@ from typing import Any
 import click
 
 from aerofid.cli.boxes import NamedBox, collect_boxes
+from aerofid.cli.output import EXIT_FOUND, EXIT_NOT_FOUND, flush_stdout
 from aerofid.conventions import FOUND, MARKS, NOT_FOUND, POLARITY_CHOICES
 from aerofid.errors import AerofidInputError
 from aerofid.io.atomic import Staging
@@ -225,8 +226,6 @@ def locate_cmd(image: str, box_texts: tuple[str, ...], boxes_file: str | None, m
     Exit status 0 when every mark is found, 1 when any is not found (all are still reported and written),
     2 on bad input (one line 'error: ...', nothing written).
     """
-    from aerofid.cli.output import flush_stdout
-
     inputs = [image] + ([boxes_file] if boxes_file is not None else [])
     with Staging(inputs) as staging:
         boxes = collect_boxes(box_texts, boxes_file)
@@ -244,7 +243,7 @@ def locate_cmd(image: str, box_texts: tuple[str, ...], boxes_file: str | None, m
             _echo_text(located)
         flush_stdout()
         staging.commit()
-    return 0 if all(loc.found for _, loc in located) else 1
+    return EXIT_FOUND if all(loc.found for _, loc in located) else EXIT_NOT_FOUND
 
 
 locate = locate_cmd

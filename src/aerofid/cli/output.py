@@ -62,9 +62,11 @@ def quiet_libraries() -> Iterator[None]:
     where libjpeg, libpng and OpenCV write directly, goes to the null device, while ``sys.stderr`` (aerofid's own
     ``error:`` and ``note:`` lines, and the interpreter's) keeps the real stderr.
     """
-    with warnings.catch_warnings():
+    disabled = logging.root.manager.disable
+    with warnings.catch_warnings(), contextlib.ExitStack() as restore:
         warnings.simplefilter("ignore")
         logging.disable(logging.CRITICAL)
+        restore.callback(logging.disable, disabled)
         try:
             fd = sys.stderr.fileno()
         except (AttributeError, OSError, ValueError):

@@ -23,10 +23,12 @@ from aerofid.detect.symmetry import (
     detect,
     fiducial_area,
     kernel_radius,
+    mirror_differences,
     point_symmetry_centre,
     search_range,
     self_diagnosis,
     simplified_log,
+    symmetry_accumulation,
 )
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye")
@@ -319,3 +321,22 @@ def test_point_symmetry_centre_and_asymmetry_of_a_sub_pixel_dot():
     bump = _paint_shape(synth.union(synth.disc(12), _shifted(synth.disc(6), 12, 0)), np.random.default_rng(11))
     d = detect(bump, SymmetryParams(max_asymmetry=np.inf))
     assert d.found and d.asymmetry > 0.15
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 9), st.integers(0, 5), st.integers(0, 39))
+def test_symmetry_accumulation_is_eq4_with_or_without_reused_differences(seed, r, d, row):
+    """I4 of eqs. (4) and (6) summed term by term equals the accumulation from the mirror differences, computed
+    for the columns asked (any order) or reused from a wider range (the iterations of stages 2 and 4)."""
+    i2 = np.random.default_rng(seed).random((40, 50)).astype(np.float32)
+    xs = np.random.default_rng(seed + 1).permutation(np.arange(r, 50 - r))[:7]
+    direct = np.zeros(len(xs))
+    for v in range(-d, d + 1):
+        for vv in range(-r, r + 1):
+            y = row + v + vv
+            if 0 <= y < i2.shape[0]:
+                for u in range(1, r + 1):
+                    direct += np.abs(i2[y, xs + u].astype(np.float64) - i2[y, xs - u])
+    wide = mirror_differences(i2, r, r, 49 - r)
+    np.testing.assert_allclose(symmetry_accumulation(i2, row, r, d, xs), direct, rtol=1e-5)
+    np.testing.assert_allclose(symmetry_accumulation(i2, row, r, d, xs, wide), direct, rtol=1e-5)

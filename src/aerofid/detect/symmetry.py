@@ -805,8 +805,8 @@ def symmetry_accumulation(i2: np.ndarray, row: int, r: int, d: int, xs: np.ndarr
     rows = row + k
     ok = (rows >= 0) & (rows < i2.shape[0])
     if diffs is None:
-        diffs = mirror_differences(i2[rows[ok]], r, int(xs[0]), int(xs[-1]))
-        return wts[ok] @ diffs.values[:, xs - xs[0]]
+        lo = int(np.min(xs))
+        return wts[ok] @ mirror_differences(i2[rows[ok]], r, lo, int(np.max(xs))).values[:, xs - lo]
     return wts[ok] @ diffs.values[rows[ok]][:, xs - diffs.x0]
 
 

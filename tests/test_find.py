@@ -167,7 +167,7 @@ def _two_crosses(sep):
     img = synth.film_border((300, 300), rng)
     for x in (150 - sep / 2, 150 + sep / 2):
         img = synth.paint_shape(img, (x + 0.3, 150.6), synth.mark_shape("cross", 30.0), 0.85, 8, extent=30)
-    return synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng).astype(np.float32)
+    return np.clip(synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng), 0, 1).astype(np.float32)
 
 
 def test_two_marks_in_the_box_are_refused_with_their_positions():
@@ -189,15 +189,15 @@ def test_near_miss_index_dots_beside_a_mark_are_accessories_not_a_second_mark():
     img = synth.paint_shape(img, (120.4, 119.7), synth.mark_shape("ring_x_dot", 40.0), 0.85, 8, extent=40)
     for k in range(3):
         img = synth.paint_shape(img, (148.0, 112.0 + 7 * k), synth.disc(1.6), 0.85, 8, extent=3)
-    img = synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng).astype(np.float32)
+    img = np.clip(synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng), 0, 1).astype(np.float32)
     r = aerofid.locate(img, (40, 40, 200, 200))
     assert r.found, r.reason
     assert abs(r.x - 120.4) < 0.15 and abs(r.y - 119.7) < 0.15
 
 
 def test_nothing_on_plain_film_is_refused():
-    img = synth.add_gaussian_noise(synth.film_border((200, 200), np.random.default_rng(2)), 0.02,
-                                   np.random.default_rng(3)).astype(np.float32)
+    img = np.clip(synth.add_gaussian_noise(synth.film_border((200, 200), np.random.default_rng(2)), 0.02,
+                                           np.random.default_rng(3)), 0, 1).astype(np.float32)
     r = aerofid.locate(img, (20, 20, 180, 180))
     assert not r.found and r.reason
 

@@ -299,6 +299,17 @@ def test_real_rc20_loose_boxes_find_the_corner_mark(realdata):
         assert np.hypot(r.x - x, r.y - y) < 0.1
 
 
+def test_real_rc20_sigma_is_the_same_in_boxes_whose_windows_differ(realdata):
+    """Midside R: these boxes end on re-centred windows of 131 and 129 px around the same centre; the window term is
+    sized by the answer, so the covariance is the same (it was 0.153 px in x in the one, 0.029 px in the other)."""
+    path = realdata("unbc_bc_wild_rc20/15BCC02013_114.jpg")
+    a, b = (aerofid.locate(path, box) for box in ((5543, 2643, 5823, 2923), (5625, 2554, 5840, 2769)))
+    assert a.found and b.found, (a.reason, b.reason)
+    assert a.window_box != b.window_box
+    assert (a.x, a.y, a.sigma_x, a.sigma_y, a.cov_xy) == pytest.approx((b.x, b.y, b.sigma_x, b.sigma_y, b.cov_xy),
+                                                                     abs=1e-9)
+
+
 @pytest.mark.parametrize("kw", [{"min_radius": 0}, {"max_radius": 1e9}, {"min_radius": 9, "max_radius": 3},
                                 {"max_candidates": 0}, {"max_candidates": 10 ** 9}, {"max_radius": float("nan")}])
 def test_search_parameters_are_refused_before_anything_is_read(kw):

@@ -197,7 +197,7 @@ class Measurer:
     def recentre(self, got: Located, c: Candidate | None) -> Located:
         """Step 3: measure again on a window centred on the answer, of half-size from its extent, until the size
         settles; the answer's covariance gains the window term (:meth:`window_term`)."""
-        half = seen = max(RECENTRED_WINDOW[0] * got.extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
+        half = max(RECENTRED_WINDOW[0] * got.extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
         for _ in range(RECENTRE_ROUNDS):
             again = self.at(got.x, got.y, half, c)
             if not again.found:
@@ -206,14 +206,15 @@ class Measurer:
             half = max(RECENTRED_WINDOW[0] * again.extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
             if abs(half - seen) <= 0.15 * seen:
                 break
-        return self.window_term(got, seen)
+        return self.window_term(got, half)
 
     def window_term(self, final: Located, half: float) -> Located:
-        """``final`` (measured on the window of half-size ``half`` centred on the mark) with the window term: the
-        mark measured again on windows :data:`WINDOW_TERM_SIZES` times that size, centred on ``final``'s answer,
-        and the differences of the found answers from ``final`` added to its covariance
-        (:func:`with_window_term`). Every one of these windows is placed by the mark alone, so the term, like the
-        centre, does not depend on the box or on where the candidate fell."""
+        """``final`` with the window term: the mark measured again on windows :data:`WINDOW_TERM_SIZES` times
+        ``half`` (the re-centred half-size from ``final``'s own extent), centred on ``final``'s answer, and the
+        differences of the found answers from ``final`` added to its covariance (:func:`with_window_term`). These
+        windows are placed and sized by the final answer alone (not by the window it was measured on, whose size
+        came from the round before: 64 or 65 px on RC20 midside R by the box), so the term, like the centre, does
+        not depend on the box or on where the candidate fell."""
         others = [self.at(final.x, final.y, f * half, final.candidate) for f in WINDOW_TERM_SIZES]
         return with_window_term(final, [(o.x - final.x, o.y - final.y) for o in others if o.found])
 

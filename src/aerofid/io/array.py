@@ -19,30 +19,34 @@ __all__ = ["ArrayRaster", "RasterLike", "as_image_array", "open_image"]
 
 
 INTEGER_RANGES = (np.uint8, np.uint16, np.uint32)
-"""Signed integers (or floats beyond [0, 1]) are read as the smallest of these whose range holds them: an
-``int64`` array of 0-255 is an 8-bit image, not 0.000000003 % of the ``int64`` range."""
+"""Signed integers are read as the smallest of these whose range holds them: an ``int64`` array of 0-255 is an
+8-bit image, not 0.000000003 % of the ``int64`` range."""
+FLOAT_SCALES = (1.0, 255.0, 65535.0)
+"""Float samples are grey levels on [0, 1], or on 0-255 or 0-65535 (then divided by it): the first scale at least
+half the largest sample is taken (noise may carry a [0, 1] image a little beyond 1 or below 0)."""
 
 
 def _sample_range(a: np.ndarray) -> np.ndarray:
     """``a`` with samples on aerofid's scale: unsigned integers as they are, signed integers as the smallest
-    unsigned type that holds them, floats on [0, 1] as they are and floats of 0-255 or 0-65535 divided by 255 or
-    65535 (float32). Negative, non-finite or larger samples are an input error."""
+    unsigned type that holds them, floats by :data:`FLOAT_SCALES`. Negative integers, non-finite floats and
+    samples beyond every scale are an input error."""
     if a.dtype.kind == "u" or a.size == 0:
         return a
     lo, hi = float(np.min(a)), float(np.max(a))
     if not (np.isfinite(lo) and np.isfinite(hi)):
         raise AerofidInputError("image array holds NaN or infinite samples; give finite grey levels")
-    if lo < 0:
-        raise AerofidInputError(f"image array holds negative samples (down to {lo:g}); give grey levels >= 0 "
-                                "(floats on [0, 1] or 0-255, or unsigned integers)")
-    for kind in INTEGER_RANGES:
-        top = np.iinfo(kind).max
-        if a.dtype.kind == "i" and hi <= top:
-            return a.astype(kind)
-        if a.dtype.kind == "f" and hi <= top:
-            return a if hi <= 1.0 else (a / np.float32(top)).astype(np.float32)
-    raise AerofidInputError(f"image array holds samples up to {hi:g}, beyond 32-bit grey levels; rescale it to "
-                            "[0, 1] or to unsigned integers")
+    if a.dtype.kind == "i":
+        if lo < 0:
+            raise AerofidInputError(f"image array holds negative integers (down to {lo:g}); give grey levels >= 0 "
+                                    "(unsigned integers, or floats on [0, 1])")
+        for kind in INTEGER_RANGES:
+            if hi <= np.iinfo(kind).max:
+                return a.astype(kind)
+    for scale in FLOAT_SCALES:
+        if a.dtype.kind == "f" and hi <= 2 * scale:
+            return a if scale == 1.0 else (a / np.float32(scale)).astype(np.float32)
+    raise AerofidInputError(f"image array holds samples up to {hi:g}, beyond 32-bit integer or 0-65535 grey levels; "
+                            "rescale it to [0, 1] or to unsigned integers")
 
 
 def as_image_array(a: Any) -> np.ndarray:
@@ -52,7 +56,7 @@ def as_image_array(a: Any) -> np.ndarray:
     ----------
     a : array_like
         ``(h, w)`` grey or ``(h, w, 3)`` RGB (``(h, w, 4)`` RGBA: alpha dropped), integers or floats. Floats are
-        grey levels on [0, 1], or on 0-255 / 0-65535 when they exceed 1 (then divided by 255 / 65535); signed
+        grey levels on [0, 1], or on 0-255 / 0-65535 (then divided by 255 / 65535: :data:`FLOAT_SCALES`); signed
         integers are read as 8-, 16- or 32-bit unsigned by their largest sample (:data:`INTEGER_RANGES`).
 
     Returns
@@ -63,8 +67,8 @@ def as_image_array(a: Any) -> np.ndarray:
     Raises
     ------
     AerofidInputError
-        Another shape, no pixel, samples that are not integers or floats (booleans included), negative,
-        non-finite or beyond 32-bit samples.
+        Another shape, no pixel, samples that are not integers or floats (booleans included), negative integers,
+        non-finite floats, samples beyond every scale.
 
     Examples
     --------

@@ -69,6 +69,8 @@ N_CIRCLES = 2
 MIN_RADIUS = 2.5
 """Smallest circle radius (px) considered when the radii are estimated."""
 
+MIN_RADIUS_FLOOR = 0.5
+"""Smallest circle radius (px) sought: below half a pixel the centre vote's weights overflow (min_radius=1e-300)."""
 DEHOUGH_TOL = 1.5
 """Edge points within this distance (px) of a circle, with a radial gradient, belong to it (de-Houghing)."""
 
@@ -593,9 +595,11 @@ class CirclesParams(MethodParams):
             v = getattr(self, name)
             top = MAX_SIGMA_PX if name == "canny_sigma" else MAX_PX
             check(_finite(v) and 0 <= v <= top, f"{name} must be a number in [0, {top:g}], not {v!r}")
-        for name in ("canny_high", "min_radius", "dehough_tol", "competitor_ratio", "max_rms_ratio"):
+        for name in ("canny_high", "dehough_tol", "competitor_ratio", "max_rms_ratio"):
             v = getattr(self, name)
-            check(_finite(v) and v > 0, f"{name} must be a finite number > 0, not {v!r}")
+            check(_finite(v) and 0 < v <= MAX_PX, f"{name} must be a number in (0, {MAX_PX}], not {v!r}")
+        check(_finite(self.min_radius) and MIN_RADIUS_FLOOR <= self.min_radius <= MAX_PX,
+              f"min_radius must be a number in [{MIN_RADIUS_FLOOR}, {MAX_PX}] px, not {self.min_radius!r}")
         for name in ("canny_low_ratio", "radial_cos", "min_coverage"):
             v = getattr(self, name)
             check(_finite(v) and 0 <= v <= 1, f"{name} must be in [0, 1], not {v!r}")

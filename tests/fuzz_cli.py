@@ -16,6 +16,7 @@ was not asked to write (or written although the command failed).
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import os
 import random
 import resource
@@ -375,10 +376,15 @@ class Verdict:
 
 def judge(case: Case, outcome: Outcome, before: dict, after: dict) -> Verdict:
     """The case's :class:`Verdict`: requested outputs may change only when the command succeeded (0 or 1)."""
-    requested = {os.path.normpath(p) for p in case.outputs if p}
+    patterns = [os.path.normpath(p).replace("{name}", "*") for p in case.outputs if p]
+    patterns += [str(Path(p).parent / "*") for p in case.outputs if "/MeasuresCamera.xml" in p]  # --micmac's files
+
+    def is_requested(key: str) -> bool:
+        return any(fnmatch.fnmatchcase(key, pattern) for pattern in patterns)
+
     changed = tuple(sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k)))
-    outside = tuple(k for k in changed if k not in requested and not k.startswith(".aerofid-scratch"))
-    on_failure = tuple(k for k in changed if k in requested) if outcome.status not in (0, 1) else ()
+    outside = tuple(k for k in changed if not is_requested(k))
+    on_failure = tuple(k for k in changed if is_requested(k)) if outcome.status not in (0, 1) else ()
     lines = [line for line in outcome.stderr.splitlines() if line.strip()]
     noise = tuple(line for line in lines if not line.startswith(ALLOWED_STDERR))
     if outcome.status == 2 and sum(line.startswith("error: ") for line in lines) != 1 and case.args[0] != "":

@@ -122,6 +122,7 @@ def test_hostile_camera_and_measurements_are_one_line(run, camera, measurements,
     ("hough", "theta_step=0.01", "theta_step"), ("circles", "canny_sigma=1e6", "canny_sigma"),
     ("circles", "max_radius=1e12", "max_radius"), ("symmetry", "enlarge=" + "1" + "0" * 400, "enlarge"),
     ("auto", "edge_margin=inf", "edge_margin"), ("symmetry", "smooth_sigma=1e12", "smooth_sigma"),
+    ("auto", "mark=0", "--mark"), ("hough", "method=lines", "--method"),
 ])
 def test_parameter_ranges_are_one_line(run, method, param, words):
     out = run("locate", "good.tif", *BOX, "--method", method, "--param", param)

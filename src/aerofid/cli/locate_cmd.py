@@ -42,6 +42,9 @@ NAME_FIELD = "{name}"
 
 Located = list[tuple[NamedBox, Location]]
 
+OPTION_NAMES = ("mark", "method", "polarity", "colour")
+"""Names given by options of their own (``--mark``...), never by ``--param``."""
+
 
 def parse_params(items: Sequence[str]) -> dict[str, Any]:
     """NAME=VALUE pairs -> dict with int, float, bool or string values.
@@ -56,6 +59,9 @@ def parse_params(items: Sequence[str]) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise AerofidInputError(f"--param {item!r} must look like NAME=VALUE, e.g. window_size=24")
+        if key.strip() in OPTION_NAMES:
+            raise AerofidInputError(f"--param {item!r}: {key.strip()} is an option of its own; give --{key.strip()} "
+                                    f"{value.strip() or 'VALUE'}")
         v = value.strip()
         if v.lower() in ("true", "false"):
             out[key.strip()] = v.lower() == "true"

@@ -286,6 +286,7 @@ def test_any_window_equals_the_slice(property_files, box, which):
         np.testing.assert_array_equal(raster.read_window(box), image[y0:y1, x0:x1])
 
 
+@settings(deadline=None)  # a pure index computation: under a loaded machine it missed hypothesis' 200 ms deadline
 @given(
     box=windows_inside(width=500, height=400),
     segment=st.tuples(st.integers(1, 130), st.integers(1, 130)),

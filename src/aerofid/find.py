@@ -271,18 +271,25 @@ def screen_region(source: ImageSource, region: Box, colour: str, polarity: Polar
     x0, y0, x1, y1 = region
     ctx, _ = clip_box((x0 - margin, y0 - margin, x1 + margin, y1 + margin), source.width, source.height)
     f = reduction_for(ctx[2] - ctx[0], ctx[3] - ctx[1])
-    reduced = source.read_reduced(ctx, f)
-    step = 1.0 / float(np.iinfo(source.dtype).max) if source.dtype.kind in "ui" else 1e-4
-    if source.dtype.kind in "ui":
-        reduced = reduced * np.float32(step)
+    reduced, step = read_reduced_levels(source, ctx, f)
     found: list[Candidate] = []
-    for grey in screening_greys(reduced.astype(np.float32), colour, polarity):
+    for grey in screening_greys(reduced, colour, polarity):
         found += screen(grey, scale=f, min_radius=min_radius, max_radius=max_radius,
                         max_candidates=4 * max_candidates, noise_floor=step / f)
     found = list(merge_candidates(found, 4 * max_candidates))
     inside = [replace(c, x=c.x + ctx[0], y=c.y + ctx[1]) for c in found]
     inside = [c for c in inside if in_box(c.x, c.y, region)]
     return tuple(inside[:max_candidates]), f
+
+
+def read_reduced_levels(source: ImageSource, box: Box, f: int) -> tuple[np.ndarray, float]:
+    """``box`` of ``source`` reduced by ``f`` as float32 grey levels on [0, 1] (integer samples divided by their
+    type's maximum), and one quantisation step of the samples on that scale (1e-4 for float samples)."""
+    reduced = source.read_reduced(box, f)
+    if source.dtype.kind not in "ui":
+        return reduced.astype(np.float32), 1e-4
+    step = 1.0 / float(np.iinfo(source.dtype).max)
+    return (reduced * np.float32(step)).astype(np.float32), step
 
 
 def screening_greys(reduced: np.ndarray, colour: str, polarity: Polarity) -> list[np.ndarray]:
@@ -410,4 +417,5 @@ def in_box(x: float, y: float, box: Box) -> bool:
     return box[0] - 0.5 <= x < box[2] - 0.5 and box[1] - 0.5 <= y < box[3] - 0.5
 
 
-__all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "configure", "find_marks", "in_box", "search"]
+__all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "configure", "find_marks", "in_box",
+           "read_reduced_levels", "search"]

@@ -29,7 +29,17 @@ import numpy as np
 from aerofid.conventions import Box
 from aerofid.detect.screen import Candidate, screen
 from aerofid.errors import AerofidInputError
-from aerofid.find import ImageSource, Located, Measurer, configure, in_box, reduction_for, screen_region, search
+from aerofid.find import (
+    ImageSource,
+    Located,
+    Measurer,
+    configure,
+    in_box,
+    read_reduced_levels,
+    reduction_for,
+    screen_region,
+    search,
+)
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, match_layout
 from aerofid.frame.result import FAILED, OK, FrameOrientation
@@ -162,10 +172,8 @@ def scan_pixel_size(source: ImageSource, cam: Camera, given: float | None) -> tu
 def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
     """Step 1: the :data:`FEATURES` strongest mark-like features of the whole frame, and the reduction."""
     f = reduction_for(source.width, source.height, FRAME_PIXELS)
-    reduced = source.read_reduced((0, 0, source.width, source.height), f).astype(np.float32)
-    step = 1.0 / float(np.iinfo(source.dtype).max) if source.dtype.kind in "ui" else 1e-4
-    grey = (reduced.mean(axis=2) if reduced.ndim == 3 else reduced) * np.float32(step if source.dtype.kind in "ui"
-                                                                                 else 1.0)
+    reduced, step = read_reduced_levels(source, (0, 0, source.width, source.height), f)
+    grey = reduced.mean(axis=2) if reduced.ndim == 3 else reduced
     return screen(grey, scale=f, min_radius=2.0, max_candidates=FEATURES, noise_floor=step / f), f
 
 

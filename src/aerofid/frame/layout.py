@@ -44,6 +44,9 @@ SCALE_BIN = 0.01
 """Width of a pixel-size vote's bin, in natural log (1 %)."""
 SCALE_PEAKS = 3
 """The strongest pixel-size votes tried when the pixel size is unknown."""
+MIN_SPREAD = 0.3
+"""Least ratio of matched points' extents across and along their main direction for an affine fit (three
+fiducials along one edge fix no affinity across it)."""
 MIN_MATCHED = 3
 """Fewest fiducials with a feature for a layout to count as found (an affine transformation needs 3)."""
 MAX_HYPOTHESES = 400_000
@@ -63,7 +66,7 @@ class LayoutMatch:
     matched : tuple of int or None
         For each fiducial, the index of the feature taken for it (None: no feature there).
     mm_to_px : ndarray, 2 x 3
-        The affine transformation fitted to the matches: px = A @ [x_mm, y_mm, 1].
+        The transformation fitted to the matches (:func:`fit_points`): px = A @ [x_mm, y_mm, 1].
     rotation_deg, mirrored : int, bool
         The lie of the winning hypothesis. A layout symmetric under the lies (4 corners, 8 marks) fits
         several equally: the lie is decided later by the measured marks (:func:`aerofid.orient`).
@@ -213,7 +216,7 @@ def _best_hypothesis(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str
                 best_key, best = key, (pred[h], rot, mir)
     if best is None:
         return None
-    return best_key, _refine(features, fiducials_mm, best[0], best[1], best[2], tol)
+    return best_key, _refine(features, fiducials_mm, best[0], best[1], best[2], y_axis, tol)
 
 
 def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarray | None:
@@ -233,16 +236,17 @@ def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarra
     return np.stack([p.real, p.imag], axis=2)
 
 
-def _refine(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, rot: int, mir: bool,
+def _refine(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, rot: int, mir: bool, y_axis: str,
             tol: float) -> LayoutMatch:
-    """The hypothesis's matches refitted by an affine transformation (similarity with 2 matches), and the
-    matches found again around its predictions, twice."""
+    """The hypothesis's matches refitted (:func:`fit_points`), and the matches found again around its
+    predictions, twice."""
+    turn = np.linalg.inv(arrangement_matrix(rot, mir, y_axis))
     matched = _nearest(features, pred, tol)
-    A = _fit_mm_to_px(fiducials_mm, features, matched)
+    A = _fit_mm_to_px(fiducials_mm, features, matched, turn)
     for _ in range(2):
         pred = np.c_[fiducials_mm, np.ones(len(fiducials_mm))] @ A.T
         matched = _nearest(features, pred, tol)
-        A = _fit_mm_to_px(fiducials_mm, features, matched)
+        A = _fit_mm_to_px(fiducials_mm, features, matched, turn)
     pred = np.c_[fiducials_mm, np.ones(len(fiducials_mm))] @ A.T
     pixel_mm = 1.0 / math.sqrt(abs(np.linalg.det(A[:, :2])))
     return LayoutMatch(pred, matched, A, rot, mir, pixel_mm, tol)
@@ -262,19 +266,34 @@ def _nearest(features: np.ndarray, pred: np.ndarray, tol: float) -> tuple[int | 
     return tuple(out)
 
 
-def _fit_mm_to_px(fiducials_mm: np.ndarray, features: np.ndarray, matched: tuple[int | None, ...]) -> np.ndarray:
-    """Least-squares mm -> px, affine from 3 matches, similarity from 2 (2 x 3)."""
-    idx = [(f, m) for f, m in enumerate(matched) if m is not None]
-    src = fiducials_mm[[f for f, _ in idx]]
-    dst = features[[m for _, m in idx]]
-    if len(idx) >= 3:
-        X = np.c_[src, np.ones(len(src))]
-        sol, *_ = np.linalg.lstsq(X, dst, rcond=None)
+def fit_points(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Least-squares ``src`` -> ``dst`` (n x 2 each) as a 2 x 3 matrix: affine when 3 or more points span both
+    directions (:data:`MIN_SPREAD`), else a similarity (2 points, or 3 along one edge of the frame), which keeps
+    the handedness of the points (turn mirrored points first).
+
+    Examples
+    --------
+    >>> fit_points(np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([[5.0, 5.0], [5.0, 7.0]])).round(12).tolist()
+    [[0.0, -2.0, 5.0], [2.0, 0.0, 5.0]]
+    """
+    sv = np.linalg.svd(src - src.mean(axis=0), compute_uv=False)
+    if len(src) >= 3 and sv[-1] > MIN_SPREAD * sv[0]:
+        sol, *_ = np.linalg.lstsq(np.c_[src, np.ones(len(src))], dst, rcond=None)
         return np.asarray(sol.T)
-    (x0, y0), (x1, y1) = src
-    z = ((dst[1, 0] - dst[0, 0]) + 1j * (dst[1, 1] - dst[0, 1])) / ((x1 - x0) + 1j * (y1 - y0))
-    t = (dst[0, 0] + 1j * dst[0, 1]) - z * (x0 + 1j * y0)
-    return np.array([[z.real, -z.imag, t.real], [z.imag, z.real, t.imag]])
+    z_src, z_dst = src[:, 0] + 1j * src[:, 1], dst[:, 0] + 1j * dst[:, 1]
+    m_src, m_dst = z_src.mean(), z_dst.mean()
+    c = np.vdot(z_src - m_src, z_dst - m_dst) / np.vdot(z_src - m_src, z_src - m_src)
+    t = m_dst - c * m_src
+    return np.array([[c.real, -c.imag, t.real], [c.imag, c.real, t.imag]])
 
 
-__all__ = ["LayoutMatch", "MIN_MATCHED", "match_layout", "pixel_size_votes"]
+def _fit_mm_to_px(fiducials_mm: np.ndarray, features: np.ndarray, matched: tuple[int | None, ...],
+                  turn: np.ndarray) -> np.ndarray:
+    """The matches' mm -> px (2 x 3) by :func:`fit_points` on the fiducials turned by the lie (``turn``, the
+    inverse of its arrangement matrix: a similarity cannot mirror)."""
+    idx = [(f, m) for f, m in enumerate(matched) if m is not None]
+    A = fit_points(fiducials_mm[[f for f, _ in idx]] @ turn.T, features[[m for _, m in idx]])
+    return np.c_[A[:, :2] @ turn, A[:, 2]]
+
+
+__all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "match_layout", "pixel_size_votes"]

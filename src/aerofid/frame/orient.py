@@ -41,7 +41,7 @@ from aerofid.find import (
     search,
 )
 from aerofid.formats.camera_file import read_camera
-from aerofid.frame.layout import LayoutMatch, match_layout
+from aerofid.frame.layout import LayoutMatch, fit_points, match_layout
 from aerofid.frame.result import FAILED, OK, FrameOrientation
 from aerofid.frame.verdict import verdict
 from aerofid.io.array import open_image
@@ -71,8 +71,6 @@ the film's deformation)."""
 ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan has no resolution tags): give it "
                   "(--pixel-size, or pixel_size_um in the camera file)")
 """Appended to the reasons of a frame that is not ok when nothing declared the pixel size."""
-MIN_SPREAD = 0.3
-"""Least ratio of the found marks' extents across and along their main direction for an affine prediction."""
 MIN_TOLERANCE_PX = 8.0
 """Least tolerance (px) of a prediction by the found marks."""
 
@@ -180,8 +178,8 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
                   features: tuple[Candidate, ...]) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go
-    first, strongest first; the first mark found fixes the polarity for the rest, and once
-    :data:`MIN_REFIT` marks are found an affine transformation fitted to them predicts the others (to a few px,
+    first, strongest first; the first mark found fixes the polarity for the rest, and once :data:`MIN_REFIT`
+    marks are found a transformation fitted to them (:func:`fit_points`) predicts the others (to a few px,
     :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
@@ -208,21 +206,11 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
 
 def _refitted(predicted: np.ndarray, out: list[tuple[Located | None, str]], done: list[int],
               k: int) -> tuple[float, float]:
-    """Fiducial ``k``'s layout prediction corrected by the transformation from the layout's predictions to the
-    marks found so far: affine when they span the frame in both directions (:data:`MIN_SPREAD`), else a
-    similarity (three marks along one edge)."""
-    src = predicted[done]
+    """Fiducial ``k``'s layout prediction corrected by the transformation (:func:`fit_points`) from the layout's
+    predictions to the marks found so far."""
     dst = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
-    sv = np.linalg.svd(src - src.mean(axis=0), compute_uv=False)
-    if sv[-1] > MIN_SPREAD * sv[0]:
-        A, *_ = np.linalg.lstsq(np.c_[src, np.ones(len(done))], dst, rcond=None)
-        p = np.r_[predicted[k], 1.0] @ A
-        return float(p[0]), float(p[1])
-    z_src, z_dst = src[:, 0] + 1j * src[:, 1], dst[:, 0] + 1j * dst[:, 1]
-    m_src, m_dst = z_src.mean(), z_dst.mean()
-    c = np.vdot(z_src - m_src, z_dst - m_dst) / np.vdot(z_src - m_src, z_src - m_src)
-    q = m_dst + c * (predicted[k, 0] + 1j * predicted[k, 1] - m_src)
-    return float(q.real), float(q.imag)
+    p = fit_points(predicted[done], dst) @ np.r_[predicted[k], 1.0]
+    return float(p[0]), float(p[1])
 
 
 def _first_window(c: Candidate) -> Candidate:

@@ -59,7 +59,7 @@ def verdict(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | 
     findings = _by_orientation(cam, layout, located, found, io)
     reasons += _doubts(io, findings, size, size_source)
     if size_source == "estimated":
-        common["pixel_size_mm"] = math.sqrt(io.pixel_size_um[0] * io.pixel_size_um[1]) / 1000.0
+        common["pixel_size_mm"] = _adjusted_pixel_mm(io)
     return FrameOrientation(**common, status=DOUBTFUL if reasons else OK, reasons=tuple(reasons),
                             fiducials=findings, orientation=io, rotation_deg=lie_fit.rotation_deg,
                             mirrored=lie_fit.mirrored)
@@ -113,28 +113,31 @@ def _doubts(io: InteriorOrientation, findings: Sequence[FiducialFinding], size: 
     if math.isfinite(io.rms_px) and io.rms_px > MAX_RMS_PX:
         out.append(f"residual RMS {io.rms_px:.2f} px is more than the marks and the film explain (<= {MAX_RMS_PX} px)")
     if size is not None and size_source != "estimated":
-        fitted = math.sqrt(io.pixel_size_um[0] * io.pixel_size_um[1]) / 1000.0
+        fitted = _adjusted_pixel_mm(io)
         if abs(fitted / size - 1) > SCALE_AGREEMENT:
             out.append(f"the adjusted pixel size {fitted:.5f} mm differs from the {size_source}' {size:.5f} mm")
     return out
+
+
+def _adjusted_pixel_mm(io: InteriorOrientation) -> float:
+    """The adjustment's mean pixel size (mm): the geometric mean of its x and y pixel sizes."""
+    return math.sqrt(io.pixel_size_um[0] * io.pixel_size_um[1]) / 1000.0
 
 
 def _by_orientation(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | None, str]],
                     found: Sequence[int], io: InteriorOrientation) -> tuple[FiducialFinding, ...]:
     """A finding per camera fiducial, named by the adjustment: its measured point (used or rejected with the
     residual) or, if none, its position predicted by the orientation and why no mark was found there."""
-    by_name = {r.name: r for r in io.fiducials}
-    slot_of = {(round(located[k][0].x, 9), round(located[k][0].y, 9)): k for k in found}  # type: ignore[union-attr]
+    by_name = {r.name: (k, r) for k, r in zip(found, io.fiducials, strict=True)}  # one row per point, in order
     out = []
     for fid in cam.fiducials:
-        r = by_name.get(fid.name)
-        if r is None:
+        if fid.name not in by_name:
             p = io.to_pixel([[fid.x_mm, fid.y_mm]])[0]
             k = int(np.argmin(np.hypot(*(layout.predicted - p).T)))
             out.append(FiducialFinding(fid.name, MISSING_MARK, None, None, None, None, float(p[0]), float(p[1]),
                                        reason=located[k][1] or "not found"))
             continue
-        k = slot_of[(round(r.x_px, 9), round(r.y_px, 9))]
+        k, r = by_name[fid.name]
         m = located[k][0]
         assert m is not None
         d = m.detection

@@ -17,6 +17,7 @@ are weighed by area from the reduced pixels.
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterator
 from pathlib import Path
 from typing import BinaryIO, NamedTuple
 
@@ -33,6 +34,7 @@ __all__ = [
     "ImageHeader",
     "decode_whole",
     "decodes_whole",
+    "header_segments",
     "read_header",
 ]
 
@@ -70,35 +72,51 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
-    """Walk a JPEG's marker segments up to the first start-of-frame and read the frame's size from it."""
-    bad = AerofidInputError(f"cannot decode {path}: its JPEG header is corrupt or truncated; re-export the scan")
+def header_segments(file: BinaryIO) -> Iterator[tuple[int, bytes]]:
+    """A JPEG's marker segments ``(marker, body)`` after its start of image, up to and including the first start
+    of frame, read as libjpeg reads them (stray and fill bytes skipped, standalone markers passed over).
+
+    Raises
+    ------
+    ValueError
+        The file ends, or its image or scan starts, before a frame; or a segment's length is corrupt.
+    """
     file.seek(2)
     while True:
         byte = file.read(1)
         if not byte:
-            raise bad
+            raise ValueError("no start of frame")
         if byte != b"\xff":  # stray bytes between segments, which libjpeg skips too
             continue
         marker = file.read(1)
         while marker == b"\xff":  # fill bytes
             marker = file.read(1)
         if not marker or marker[0] in (0xD9, 0xDA):  # end of image or start of scan before any frame
-            raise bad
+            raise ValueError("no start of frame")
         if marker[0] in _STANDALONE:
             continue
         length_bytes = file.read(2)
         if len(length_bytes) < 2 or int.from_bytes(length_bytes, "big") < 2:
-            raise bad
-        body = file.read(int.from_bytes(length_bytes, "big") - 2)
+            raise ValueError("corrupt segment length")
+        yield marker[0], file.read(int.from_bytes(length_bytes, "big") - 2)
         if marker[0] in _SOF_MARKERS:
-            if len(body) < 6:
-                raise bad
-            precision, components = body[0], body[5]
-            height, width = int.from_bytes(body[1:3], "big"), int.from_bytes(body[3:5], "big")
-            if width == 0 or height == 0:
-                raise AerofidInputError(f"{path} declares a {width} x {height} JPEG; re-export the scan")
-            return ImageHeader(width, height, 3 if components >= 3 else components, 1 if precision <= 8 else 2)
+            return
+
+
+def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
+    """Read the frame's size from a JPEG's first start-of-frame segment (:func:`header_segments`)."""
+    bad = AerofidInputError(f"cannot decode {path}: its JPEG header is corrupt or truncated; re-export the scan")
+    try:
+        body = next(b for m, b in header_segments(file) if m in _SOF_MARKERS)
+    except ValueError:
+        raise bad from None
+    if len(body) < 6:
+        raise bad
+    precision, components = body[0], body[5]
+    height, width = int.from_bytes(body[1:3], "big"), int.from_bytes(body[3:5], "big")
+    if width == 0 or height == 0:
+        raise AerofidInputError(f"{path} declares a {width} x {height} JPEG; re-export the scan")
+    return ImageHeader(width, height, 3 if components >= 3 else components, 1 if precision <= 8 else 2)
 
 
 def _png_header(file: BinaryIO, path: Path) -> ImageHeader:

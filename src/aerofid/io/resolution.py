@@ -6,8 +6,11 @@ from __future__ import annotations
 import os
 import struct
 from pathlib import Path
+from typing import BinaryIO
 
 import tifffile
+
+from aerofid.io.jpeg import header_segments
 
 MM_PER_INCH = 25.4
 MIN_DPI, MAX_DPI = 50.0, 20000.0
@@ -15,8 +18,6 @@ MIN_DPI, MAX_DPI = 50.0, 20000.0
 above 20000 dpi no film scanner goes."""
 SCREEN_DEFAULTS = (72.0, 96.0)
 """dpi values that image software writes when it knows nothing of the scan: not a scan resolution."""
-JPEG_SEGMENTS = 64
-"""JPEG marker segments read at most looking for the JFIF density."""
 
 
 def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:
@@ -58,22 +59,16 @@ def _same(x: float, y: float, unit_per_inch: float) -> float | None:
     return float(x) * unit_per_inch
 
 
-def _jfif_dpi(f) -> float | None:
-    """The JFIF APP0 density (units 1 = dpi, 2 = dots per cm)."""
-    f.seek(2)
-    for _ in range(JPEG_SEGMENTS):
-        marker = f.read(2)
-        if len(marker) < 2 or marker[0] != 0xFF or marker[1] in (0xD9, 0xDA) or 0xC0 <= marker[1] <= 0xCF:
-            return None
-        (length,) = struct.unpack(">H", f.read(2))
-        body = f.read(length - 2)
-        if marker[1] == 0xE0 and body[:5] == b"JFIF\x00" and len(body) >= 12:
+def _jfif_dpi(f: BinaryIO) -> float | None:
+    """The JFIF APP0 density (units 1 = dpi, 2 = dots per cm) among the header's segments."""
+    for marker, body in header_segments(f):
+        if marker == 0xE0 and body[:5] == b"JFIF\x00" and len(body) >= 12:
             units, xd, yd = body[7], *struct.unpack(">HH", body[8:12])
             return None if units not in (1, 2) else _same(xd, yd, 1.0 if units == 1 else 2.54)
     return None
 
 
-def _png_dpi(f) -> float | None:
+def _png_dpi(f: BinaryIO) -> float | None:
     """The PNG pHYs chunk (pixels per metre when its unit is 1)."""
     while True:
         head = f.read(8)

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import Box
+from aerofid.conventions import Box, Polarity
 from aerofid.detect.screen import Candidate, screen
 from aerofid.errors import AerofidInputError
 from aerofid.find import (
@@ -39,6 +39,7 @@ from aerofid.find import (
     reduction_for,
     screen_region,
     search,
+    shows_mark_bright,
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, fit_points, match_layout
@@ -200,8 +201,24 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             tolerance = layout.tolerance_px
         out[k] = measure_fiducial(measurer, start, at, tolerance)
         if out[k][0] is not None and len(measurer.polarities) > 1:
-            measurer = replace(measurer, polarities=(out[k][0].polarity,))  # type: ignore[union-attr]
+            out[k], polarity = _settle_polarity(measurer, out[k], start, at, tolerance)
+            measurer = replace(measurer, polarities=(polarity,))
     return out
+
+
+def _settle_polarity(measurer: Measurer, first: tuple[Located | None, str], start: Candidate, at: tuple[float, float],
+                     tolerance: float) -> tuple[tuple[Located | None, str], Polarity]:
+    """The polarity the first found mark fixes for the frame: the one in which the mark is brighter than its ground
+    (:func:`aerofid.find.shows_mark_bright`). A bright ring and cross on dark film is centred as well in the negative
+    (the real one won a window there on the 90-degree synthetic frames), where the other marks' lone '+' then has
+    no bright core and is refused; so a mark found dark is measured again in the other polarity, kept if found."""
+    got = first[0]
+    assert got is not None
+    if shows_mark_bright(got):
+        return first, got.polarity
+    other: Polarity = "dark" if got.polarity == "bright" else "bright"
+    again = measure_fiducial(replace(measurer, polarities=(other,)), start, at, tolerance)
+    return (again, other) if again[0] is not None else (first, got.polarity)
 
 
 def _refitted(predicted: np.ndarray, out: list[tuple[Located | None, str]], done: list[int],

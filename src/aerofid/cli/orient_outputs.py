@@ -5,14 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from aerofid.errors import AerofidInputError
-from aerofid.formats.micmac import affine_plane_xml, measures_camera_xml, measures_im_xml
+from aerofid.formats.micmac import micmac_texts
 from aerofid.io.atomic import Staging
-from aerofid.orientation.camera import Camera
-from aerofid.orientation.measurements import Measurements
-from aerofid.orientation.result import InteriorOrientation
 
 REPORT_SUFFIXES = (".json", ".html", ".htm", ".txt")
 
@@ -27,7 +22,8 @@ def check_outputs(output: str | None, micmac_dir: str | None) -> None:
 
 def micmac_files(folder: Path, image: str, model: str, staging: Staging) -> list[Path]:
     """The MicMac files ``--micmac`` writes, planned (checked) before any work: MeasuresIm of the used
-    fiducials, MeasuresCamera, and the AffinePlane pixel -> mm (not for the projective model)."""
+    fiducials, MeasuresCamera, and the AffinePlane pixel -> mm (not for the projective model); their texts are
+    :func:`aerofid.formats.micmac.micmac_texts`, in this order."""
     name = image or "image"
     if Path(name).name != name or name in (".", ".."):
         raise AerofidInputError(f"image name {name!r} cannot name MicMac files (it holds a folder); give the "
@@ -36,16 +32,6 @@ def micmac_files(folder: Path, image: str, model: str, staging: Staging) -> list
     if model != "projective":
         paths.append(folder / f"{name}-AffinePlane-px2mm.xml")
     return [staging.plan(p, "--micmac") for p in paths]
-
-
-def micmac_texts(cam: Camera, res: InteriorOrientation) -> list[str]:
-    """The texts of :func:`micmac_files`, in its order."""
-    used = res.used
-    m = Measurements(np.array([[f.x_px, f.y_px] for f in used]), tuple(f.name for f in used), res.image or "image")
-    texts = [measures_im_xml(m), measures_camera_xml(cam)]
-    if res.model != "projective":
-        texts.append(affine_plane_xml(res.pixel_to_mm))
-    return texts
 
 
 __all__ = ["REPORT_SUFFIXES", "check_outputs", "micmac_files", "micmac_texts"]

@@ -35,6 +35,7 @@ from aerofid.io.atomic import write_text_atomic
 from aerofid.io.files import read_text_input
 from aerofid.orientation.camera import Camera, Fiducial
 from aerofid.orientation.measurements import Measurements
+from aerofid.orientation.result import InteriorOrientation
 
 
 def _parse(path: Path) -> ET.Element:
@@ -194,3 +195,14 @@ def number_text(v: float) -> str:
 
 def _esc(s: str) -> str:
     return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def micmac_texts(cam: Camera, res: InteriorOrientation) -> list[str]:
+    """The MicMac files of an orientation, as texts: ``MeasuresIm`` of the used (not rejected) fiducials,
+    ``MeasuresCamera`` of ``cam``, and the ``AffinePlane`` pixel -> mm (not for the projective model)."""
+    used = res.used
+    m = Measurements(np.array([[f.x_px, f.y_px] for f in used]), tuple(f.name for f in used), res.image or "image")
+    texts = [measures_im_xml(m), measures_camera_xml(cam)]
+    if res.model != "projective":
+        texts.append(affine_plane_xml(res.pixel_to_mm))
+    return texts

@@ -1,0 +1,113 @@
+"""A whole batch: plan it (the frames, their settings, which are already complete), then run what is left on a
+runner, keeping the summary up to date as frames complete.
+
+No printing here: :func:`run_batch` calls back with each record (the command line shows progress with it).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+from aerofid.batch.inputs import expand_inputs, frame_keys
+from aerofid.batch.job import FrameRecord, record_from_document
+from aerofid.batch.plan import (
+    MEASURES_CAMERA,
+    MICMAC_FOLDER,
+    BatchSettings,
+    batch_settings,
+    prepare_outdir,
+    read_complete,
+)
+from aerofid.batch.runners import Runner, Task
+from aerofid.batch.summary import write_summary
+from aerofid.formats.camera_file import read_camera
+from aerofid.formats.micmac import write_measures_camera
+from aerofid.orientation.camera import Camera
+
+SUMMARY_REFRESH_S = 10.0
+"""The summary is rewritten at most this often while frames complete (and at the end), so that a batch killed
+part-way leaves a summary of what it did, without rewriting a summary of thousands of frames after each one."""
+
+
+@dataclass(frozen=True)
+class BatchPlan:
+    """A batch before it runs: its settings, every frame (absolute scan path, key) in order, and the records of
+    the frames already complete (read from their JSON: a rerun skips them)."""
+
+    camera: Camera
+    settings: BatchSettings
+    frames: tuple[Task, ...]
+    done: dict[str, FrameRecord]
+
+    @property
+    def todo(self) -> tuple[Task, ...]:
+        """The frames to do: those not complete."""
+        return tuple(t for t in self.frames if t[1] not in self.done)
+
+    def ordered(self, records: dict[str, FrameRecord]) -> list[FrameRecord]:
+        """``records`` (by key) in the frames' order."""
+        return [records[k] for _, k in self.frames if k in records]
+
+
+def _complete_record(path: str, frame: str, settings: BatchSettings) -> FrameRecord | None:
+    doc = read_complete(path, frame, settings)
+    if doc is None:
+        return None
+    try:
+        return record_from_document(frame, path, doc)
+    except (KeyError, TypeError, ValueError):  # a JSON edited by hand: the frame is done again
+        return None
+
+
+def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdir: str | os.PathLike[str], *,
+               model: str = "affine", pixel_size_mm: float | None = None,
+               lie: tuple[int, bool] | None = None) -> BatchPlan:
+    """The plan of a batch (reads the camera file and the complete frames' JSON; writes nothing).
+
+    Raises
+    ------
+    AerofidInputError
+        Inputs that name no scan, a bad camera file, a bad option: before any work.
+    """
+    paths = expand_inputs(inputs)
+    keys = frame_keys(paths)
+    camera = read_camera(os.fspath(camera_path))
+    settings = batch_settings(camera, camera_path, outdir, model=model, pixel_size_mm=pixel_size_mm, lie=lie)
+    frames = tuple((os.path.abspath(p), k) for p, k in zip(paths, keys, strict=True))
+    done = {k: r for p, k in frames if (r := _complete_record(p, k, settings)) is not None}
+    return BatchPlan(camera, settings, frames, done)
+
+
+def start_batch(plan: BatchPlan) -> Path:
+    """Create the output folder and write the batch's MicMac ``MeasuresCamera.xml``; the folder."""
+    out = prepare_outdir(plan.settings.outdir)
+    write_measures_camera(out / MICMAC_FOLDER / MEASURES_CAMERA, plan.camera)
+    return out
+
+
+def run_batch(plan: BatchPlan, runner: Runner, on_record: Callable[[FrameRecord], None] | None = None,
+              refresh_s: float = SUMMARY_REFRESH_S) -> list[FrameRecord]:
+    """Run the frames :attr:`BatchPlan.todo` on ``runner`` (:mod:`aerofid.batch.runners`), call ``on_record``
+    with each record as it completes, write the summary of every frame (the complete ones' too) at the start,
+    every ``refresh_s`` seconds and at the end, and return all the records in the frames' order."""
+    start_batch(plan)
+    records = dict(plan.done)
+    write_summary(plan.ordered(records), plan.settings)
+    last = time.monotonic()
+    for rec in runner(plan.todo, plan.settings):
+        records[rec.frame] = rec
+        if on_record is not None:
+            on_record(rec)
+        if time.monotonic() - last >= refresh_s:
+            write_summary(plan.ordered(records), plan.settings)
+            last = time.monotonic()
+    final = plan.ordered(records)
+    write_summary(final, plan.settings)
+    return final
+
+
+__all__ = ["SUMMARY_REFRESH_S", "BatchPlan", "plan_batch", "run_batch", "start_batch"]

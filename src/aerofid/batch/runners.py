@@ -1,0 +1,127 @@
+"""Where a batch's frames run: in this process, in local processes, or on a Dask distributed cluster.
+
+Each runner takes the frames to do (scan path, frame key) and yields their
+:class:`~aerofid.batch.job.FrameRecord` as they complete. The work is always
+:func:`~aerofid.batch.job.run_frame_job`; a worker reads its frame and writes that frame's outputs itself, and
+only the small record comes back. A worker that dies (a local process killed, a lost Dask worker) makes its frame
+a record with status ``error`` rather than stopping the batch.
+
+Dask is an optional extra (``pip install 'aerofid[cluster]'``), imported only when a scheduler is given.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from typing import Any
+
+from aerofid.batch.job import ERROR, FrameRecord, run_frame_job
+from aerofid.batch.plan import BatchSettings
+from aerofid.errors import AerofidInputError
+
+Task = tuple[str, str]
+"""One frame to do: its scan's absolute path and its key (the name of its outputs)."""
+Runner = Callable[[Sequence[Task], BatchSettings], Iterator[FrameRecord]]
+"""A runner: the frames and the settings in, the records out as the frames complete."""
+
+START_METHOD = "spawn"
+"""How local worker processes start: a fresh interpreter (as on macOS and Windows), never a fork of a process
+that may hold threads (Dask's, a progress bar's)."""
+CONNECT_TIMEOUT_S = 20
+"""How long to wait for a Dask scheduler to answer."""
+CLUSTER_EXTRA = "pip install 'aerofid[cluster]'"
+"""The command that installs what ``--scheduler`` needs."""
+
+
+def run_sequential(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
+    """The frames one after another in this process."""
+    for path, frame in tasks:
+        yield run_frame_job(path, frame, settings)
+
+
+def _lost(path: str, frame: str, e: BaseException) -> FrameRecord:
+    """The record of a frame whose worker did not return (killed, out of memory, lost by the cluster)."""
+    return FrameRecord(frame, path, ERROR, error=f"its worker was lost ({type(e).__name__}: "
+                                                 f"{' '.join(str(e).split()) or 'no message'}); run the batch again")
+
+
+def process_runner(workers: int) -> Runner:
+    """A runner on ``workers`` local processes (``concurrent.futures.ProcessPoolExecutor``)."""
+
+    def run(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
+        if not tasks:
+            return
+        ex = ProcessPoolExecutor(max_workers=min(workers, len(tasks)),
+                                 mp_context=multiprocessing.get_context(START_METHOD))
+        try:
+            futures: dict[Future[FrameRecord], Task] = {ex.submit(run_frame_job, p, k, settings): (p, k)
+                                                        for p, k in tasks}
+            for f in as_completed(futures):
+                try:
+                    yield f.result()
+                except Exception as e:  # BrokenProcessPool: a worker died
+                    yield _lost(*futures[f], e)
+        finally:
+            ex.shutdown(wait=True, cancel_futures=True)
+
+    return run
+
+
+def _dask() -> tuple[Any, Any]:
+    """``distributed.Client`` and ``distributed.as_completed``, or the error that says how to install them."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise AerofidInputError(f"--scheduler needs Dask's distributed, which is not installed: {CLUSTER_EXTRA}"
+                                ) from None
+    return Client, as_completed
+
+
+@contextlib.contextmanager
+def dask_runner(address: str) -> Iterator[Runner]:
+    """A runner on the Dask distributed cluster whose scheduler is at ``address`` (``tcp://HOST:PORT``): each
+    frame is one ``client.submit`` of the job, the records come back by ``as_completed``.
+
+    Raises
+    ------
+    AerofidInputError
+        Dask is not installed, or the scheduler does not answer (before any frame is done).
+    """
+    client_class, dask_completed = _dask()
+    try:
+        client = client_class(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+    except (OSError, TimeoutError, ValueError, TypeError) as e:
+        raise AerofidInputError(f"cannot reach the Dask scheduler at {address!r} ({' '.join(str(e).split())}); "
+                                "check the address (tcp://HOST:PORT) and that the scheduler runs") from None
+
+    def run(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
+        futures = {client.submit(run_frame_job, p, k, settings, pure=False): (p, k) for p, k in tasks}
+        try:
+            for f in dask_completed(list(futures)):
+                try:
+                    yield f.result()
+                except Exception as e:  # KilledWorker, a lost connection
+                    yield _lost(*futures[f], e)
+        finally:
+            client.cancel(list(futures))
+
+    try:
+        yield run
+    finally:
+        client.close()
+
+
+@contextlib.contextmanager
+def open_runner(workers: int = 1, scheduler: str | None = None) -> Iterator[Runner]:
+    """The runner for the options: a Dask cluster (``scheduler``), local processes (``workers`` > 1), or this
+    process; a Dask client is connected on entering (errors before any work) and closed on leaving."""
+    if scheduler is not None:
+        with dask_runner(scheduler) as run:
+            yield run
+    else:
+        yield run_sequential if workers <= 1 else process_runner(workers)
+
+
+__all__ = ["CLUSTER_EXTRA", "Runner", "Task", "dask_runner", "open_runner", "process_runner", "run_sequential"]

@@ -110,6 +110,13 @@ class ResampleGrid:
         """Film mm (n x 2) -> output pixels."""
         return self.transform.inverse(xy_mm)
 
+    def scan_to_output(self, pixel_to_mm: ProjectiveTransform) -> np.ndarray:
+        """3x3 homography scan pixel -> output pixel (``[2, 2]`` = 1) for a scan whose interior orientation is
+        ``pixel_to_mm``: what ``cv2.warpAffine`` / ``cv2.warpPerspective`` take as ``M`` (``dst = M src``, pixel
+        centres at integers in both)."""
+        M = self.mm_to_pixel @ pixel_to_mm.matrix
+        return M / M[2, 2]
+
     def to_dict(self) -> dict:
         return {"pixel_size_mm": self.pixel_size_mm, "extent_mm": list(self.extent_mm), "y_axis": self.y_axis,
                 "width": self.width, "height": self.height}

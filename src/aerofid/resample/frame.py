@@ -75,12 +75,6 @@ def sidecar_path(output: str | os.PathLike[str]) -> Path:
     return p.with_name(p.stem + SIDECAR_SUFFIX)
 
 
-def scan_to_output(pixel_to_mm: ProjectiveTransform, grid: ResampleGrid) -> np.ndarray:
-    """3x3 homography scan pixel -> output pixel, normalised so that ``[2, 2]`` is 1."""
-    M = grid.mm_to_pixel @ pixel_to_mm.matrix
-    return M / M[2, 2]
-
-
 def block_columns(out_to_src: np.ndarray, grid: ResampleGrid) -> int:
     """Columns per block: :data:`BLOCK_COLUMNS`, fewer when output pixels span many scan pixels; an input
     error when even one band of :data:`TILE` rows would need too large a window."""
@@ -117,7 +111,7 @@ def resample_scan(scan: Raster, pixel_to_mm: ProjectiveTransform, grid: Resample
     """
     check_kernel(kernel)
     check_dtype(scan.dtype, str(scan.path))
-    M = scan_to_output(pixel_to_mm, grid)
+    M = grid.scan_to_output(pixel_to_mm)
     out_to_src = np.linalg.inv(M)
     cols = block_cols or block_columns(out_to_src, grid)
     result = Resampled(image or Path(path).name, scan.path.name, grid, kernel, M, fiducials)
@@ -127,4 +121,4 @@ def resample_scan(scan: Raster, pixel_to_mm: ProjectiveTransform, grid: Resample
 
 
 __all__ = ["BLOCK_COLUMNS", "MICMAC_PREFIX", "SIDECAR_SUFFIX", "Resampled", "output_name", "resample_scan",
-           "resampled_bands", "scan_to_output", "sidecar_path"]
+           "resampled_bands", "sidecar_path"]

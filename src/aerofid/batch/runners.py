@@ -99,7 +99,7 @@ def dask_runner(address: str) -> Iterator[Runner]:
     def run(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
         futures = {client.submit(run_frame_job, p, k, settings, pure=False): (p, k) for p, k in tasks}
         try:
-            for f in dask_completed(list(futures)):
+            for f in dask_completed(list(futures), loop=client.loop):
                 try:
                     yield f.result()
                 except Exception as e:  # KilledWorker, a lost connection

@@ -1,0 +1,264 @@
+"""`aerofid batch`: a roll of synthetic frames with known marks, corrupt frames among them, a batch killed and
+resumed, local processes and a real Dask cluster (scheduler and two workers on 127.0.0.1) giving the same
+results as one process."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from aerofid.batch import runners
+from aerofid.batch.inputs import expand_inputs, frame_keys
+from aerofid.batch.job import run_frame_job
+from aerofid.batch.plan import batch_settings, frame_outputs, read_complete
+from aerofid.cli import main
+from aerofid.errors import AerofidInputError
+from aerofid.formats.camera_file import write_camera
+from aerofid.synth_frame import frame_spec, wild_rc10_camera, write_frame
+
+CAMERA = wild_rc10_camera()
+PIXEL_MM = 0.2
+"""1250 x 1250 px frames: 2-4 s each through orient_frame."""
+GOOD = {"a.tif": (1, 0, False), "b.tif": (2, 90, True), "c.tif": (3, 180, False)}
+"""The good frames: seed, rotation, mirrored."""
+BAD = ("d_truncated.tif", "e_text.tif")
+TRUTH_PX = 0.1
+"""How far a found mark may lie from its true centre (the frame tests' bound, test_frame.py)."""
+
+
+@pytest.fixture(scope="module")
+def roll(tmp_path_factory):
+    """A folder of three good frames, a truncated TIFF and a text file named .tif; the camera file; the truth."""
+    root = tmp_path_factory.mktemp("roll")
+    scans = root / "scans"
+    scans.mkdir()
+    truth = {}
+    for name, (seed, rot, mir) in GOOD.items():
+        spec = frame_spec(CAMERA, PIXEL_MM, np.random.default_rng(seed), rotation_deg=rot, mirrored=mir)
+        truth[name] = write_frame(spec, scans / name, "tiled").marks
+    whole = (scans / "a.tif").read_bytes()
+    (scans / BAD[0]).write_bytes(whole[: len(whole) // 3])
+    (scans / BAD[1]).write_text("not a scan\n")
+    cam = root / "camera.json"
+    write_camera(cam, CAMERA)
+    return scans, cam, truth
+
+
+def batch(*args, cwd=None, timeout=300):
+    return subprocess.run([sys.executable, "-m", "aerofid.cli", "batch", *map(str, args)], capture_output=True,
+                          text=True, cwd=cwd, timeout=timeout)
+
+
+def results(outdir: Path) -> dict[str, dict]:
+    """Every frame's record in the summary and its JSON document, without the times (which differ by run)."""
+    summary = json.loads((outdir / "summary.json").read_text())
+    out = {}
+    for rec in summary["frames"]:
+        rec.pop("seconds")
+        doc = None
+        if rec["status"] != "error":
+            doc = json.loads((outdir / frame_outputs(rec["frame"], "affine").json).read_text())
+            doc["batch"].pop("seconds")
+        out[rec["frame"]] = {"record": rec, "document": doc}
+    return out
+
+
+@pytest.fixture(scope="module")
+def sequential(roll, tmp_path_factory):
+    """The roll run in one process: (completed process, output folder)."""
+    scans, cam, _ = roll
+    out = tmp_path_factory.mktemp("seq") / "out"
+    return batch(scans, "--camera", cam, "-o", out), out
+
+
+def test_a_batch_with_corrupt_frames_finishes_every_good_frame_and_reports_every_bad_one(roll, sequential):
+    _, _, truth = roll
+    r, out = sequential
+    assert r.returncode == 1, r.stderr                                  # a frame not ok: exit 1
+    assert "Traceback" not in r.stderr
+    assert r.stdout.strip().startswith("5 frames: 3 ok, 0 doubtful, 0 failed, 2 error")
+    got = results(out)
+    assert list(got) == sorted(list(GOOD) + list(BAD))
+    for name, marks in truth.items():
+        doc = got[name]["document"]
+        assert got[name]["record"]["status"] == "ok" and doc["status"] == "ok"
+        found = {f["name"]: f for f in doc["fiducials"] if f["x"] is not None}
+        assert len(found) >= 6
+        err = [math.hypot(f["x"] - marks[n][0], f["y"] - marks[n][1]) for n, f in found.items()]
+        assert max(err) < TRUTH_PX, err
+        o = frame_outputs(name, "affine")
+        for rel in (o.html, o.crops, o.measures_im, o.affine_plane):
+            assert (out / rel).is_file(), rel
+    truncated, text = got[BAD[0]]["record"], got[BAD[1]]["record"]
+    assert truncated["status"] == text["status"] == "error"
+    assert "corrupt or truncated" in truncated["error"] and "not a supported image format" in text["error"]
+    for rec in (truncated, text):                                       # one line each, no outputs
+        assert "\n" not in rec["error"]
+        assert not list(out.glob(f"{rec['frame']}*"))
+        assert f"note: {rec['frame']}: error: {rec['error']}" in r.stderr
+    # stderr is not a terminal: one log line per frame
+    assert sum(line.startswith("frame ") for line in r.stderr.splitlines()) == 5
+    assert (out / "Ori-InterneScan" / "MeasuresCamera.xml").is_file()
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert rows[0].startswith("frame,path,status,rms_px") and len(rows) == 6
+
+
+def test_the_summary_gallery_shows_every_mark_worst_frames_first(sequential):
+    _, out = sequential
+    page = (out / "summary.html").read_text()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["statistics"]["counts"] == {"error": 2, "failed": 0, "doubtful": 0, "ok": 3}
+    assert summary["statistics"]["residual_px"]["n"] >= 18
+    frames = summary["frames"]
+    marks = sum(len(f["marks"]) for f in frames)
+    assert page.count('loading="lazy"') == marks == 24                  # every mark of the 3 good frames
+    worst_ok = max((f for f in frames if f["status"] == "ok"), key=lambda f: f["rms_px"])["frame"]
+    table = page[page.index("Frames, worst first"):]
+    assert table.index(BAD[0]) < table.index(worst_ok)                  # errors before any ok frame
+    gallery = page[page.index("Every mark"):]
+    firsts = [gallery.index(f"<h3 class=\"ok\">{f['frame']}") for f in frames if f["status"] == "ok"]
+    assert min(firsts) == gallery.index(f'<h3 class="ok">{worst_ok}')    # the largest RMS first
+
+
+def test_a_batch_killed_part_way_resumes_and_redoes_only_what_is_incomplete(roll, tmp_path):
+    scans, cam, _ = roll
+    good = tmp_path / "good"
+    good.mkdir()
+    for name in GOOD:
+        shutil.copy2(scans / name, good / name)
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "aerofid.cli", "batch", str(good), "--camera", str(cam), "-o",
+                          str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    second = out / frame_outputs("b.tif", "affine").json                # frames run in order: a, b, c
+    deadline = time.monotonic() + 120
+    while not second.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    assert second.exists()
+    done = {n: (out / frame_outputs(n, "affine").json).stat().st_mtime_ns
+            for n in GOOD if (out / frame_outputs(n, "affine").json).exists()}
+    assert len(done) < len(GOOD)                                        # killed part-way
+    os.remove(out / frame_outputs("a.tif", "affine").html)             # one frame made incomplete
+    (out / ".c.tif.json.aerofid-999999-x.tmp").write_text("{")         # a killed run's temporary file
+    r = batch(good, "--camera", cam, "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert f"{len(done) - 1} of 3 frames are complete" in r.stderr
+    for name in GOOD:
+        mtime = (out / frame_outputs(name, "affine").json).stat().st_mtime_ns
+        assert (mtime == done.get(name)) == (name in done and name != "a.tif"), name
+    assert all(v["record"]["status"] == "ok" for v in results(out).values()) and len(results(out)) == 3
+    assert not list(out.glob(".*.tmp"))
+    again = batch(good, "--camera", cam, "-o", out)                     # all complete: nothing redone
+    assert again.returncode == 0 and "3 of 3 frames are complete" in again.stderr
+    assert again.stdout.startswith("3 frames: 3 ok")
+
+
+def test_a_frame_is_complete_only_with_the_same_settings_and_scan(roll, sequential):
+    scans, cam, _ = roll
+    _, out = sequential
+    path = str(scans / "a.tif")
+    same = batch_settings(CAMERA, cam, out)
+    assert read_complete(path, "a.tif", same) is not None
+    assert read_complete(path, "a.tif", batch_settings(CAMERA, cam, out, model="similarity")) is None
+    assert read_complete(path, "a.tif", batch_settings(CAMERA, cam, out, lie=(0, False))) is None
+    assert read_complete(str(scans / BAD[0]), BAD[0], same) is None
+
+
+def test_local_processes_give_the_sequential_results(roll, sequential, tmp_path):
+    scans, cam, _ = roll
+    r, out = batch(scans, "--camera", cam, "-o", tmp_path / "out", "--workers", "2"), tmp_path / "out"
+    assert r.returncode == 1, r.stderr
+    assert results(out) == results(sequential[1])
+
+
+def test_bad_input_is_one_line_and_exit_2_before_any_work(roll, tmp_path):
+    scans, cam, _ = roll
+    (tmp_path / "empty").mkdir()
+    bad_cam = tmp_path / "bad.json"
+    bad_cam.write_text("{")
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    cases = [((tmp_path / "empty", "--camera", cam, "-o", tmp_path / "o1"), "no scan"),
+             ((scans / "*.png", "--camera", cam, "-o", tmp_path / "o2"), "no scan"),
+             ((scans, "--camera", bad_cam, "-o", tmp_path / "o3"), "bad.json"),
+             ((scans, "--camera", cam, "-o", blocker / "out"), "cannot create output folder"),
+             ((scans, "--camera", cam, "-o", tmp_path / "o4", "--workers", "2", "--scheduler", "tcp://x:1"),
+              "not both"),
+             ((scans, "--camera", cam, "-o", tmp_path / "o5", "--lie", "45"), "--lie")]
+    for args, words in cases:
+        r = CliRunner().invoke(main, ["batch", *map(str, args)])            # in this process: no start-up
+        assert r.exit_code == 2, (args, r.stderr)
+        assert r.stderr.startswith("error: ") and words in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+    assert not any((tmp_path / f"o{i}").exists() for i in range(1, 6))
+
+
+def test_inputs_expand_to_sorted_unique_scans_and_outputs_never_collide(tmp_path):
+    for rel in ("r1/x.TIF", "r1/y.jpeg", "r1/notes.txt", "r2/x.tif", "r2/sub/z.png"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(b"")
+    paths = expand_inputs([str(tmp_path / "r1"), str(tmp_path / "r1" / "x.TIF"), str(tmp_path / "r2" / "**")])
+    assert [p.relative_to(tmp_path).as_posix() for p in paths] == ["r1/x.TIF", "r1/y.jpeg", "r2/sub/z.png",
+                                                                   "r2/x.tif"]
+    assert frame_keys(paths) == ("r1__x.TIF", "y.jpeg", "z.png", "r2__x.tif")
+    with pytest.raises(AerofidInputError, match="no scan .* 'nowhere/\\*.tif'"):
+        expand_inputs([str(tmp_path / "r1"), "nowhere/*.tif"])
+
+
+def test_a_job_never_raises_and_scheduler_without_dask_is_one_error(tmp_path, monkeypatch):
+    cam = tmp_path / "cam.json"
+    write_camera(cam, CAMERA)
+    rec = run_frame_job(str(tmp_path / "missing.tif"), "missing.tif", batch_settings(CAMERA, cam, tmp_path))
+    assert rec.status == "error" and "missing.tif: No such file" in rec.error
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(AerofidInputError, match=r"--scheduler needs Dask.*aerofid\[cluster\]"):
+        with runners.open_runner(scheduler="tcp://127.0.0.1:1"):
+            pass
+
+
+@pytest.fixture
+def dask_cluster(tmp_path):
+    """A real Dask scheduler and two single-threaded workers on 127.0.0.1; its address; all ended after."""
+    pytest.importorskip("distributed")
+    dask = [sys.executable, "-m", "dask"]                               # `dask scheduler`, `dask worker`
+    sched_file = tmp_path / "scheduler.json"
+    logs = open(tmp_path / "dask.log", "w")
+    procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                               "--scheduler-file", str(sched_file)], stdout=logs, stderr=logs)]
+    try:
+        deadline = time.monotonic() + 60
+        while not sched_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        procs += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                    "--host", "127.0.0.1"], stdout=logs, stderr=logs) for _ in range(2)]
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        logs.close()
+
+
+def test_a_dask_cluster_gives_the_local_results(roll, sequential, dask_cluster, tmp_path):
+    scans, cam, _ = roll
+    out = tmp_path / "out"
+    r = batch(scans, "--camera", cam, "-o", out, "--scheduler", dask_cluster)
+    assert r.returncode == 1, r.stderr
+    assert results(out) == results(sequential[1])

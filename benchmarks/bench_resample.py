@@ -14,7 +14,7 @@ resampling's and the locating's alone.
 Each run is a fresh process: ``aerofid.resample.resample_frame`` onto the film's -115..115 mm square at the
 scan's own pixel size, timed around the call (imports excluded), peak memory the process's ``ru_maxrss``
 (imports included) read right after it. Then, in the same process, every fiducial is located in the output
-(``aerofid.locate``, mark ``external``, a 4 mm box around where the grid puts its calibrated position) and its
+(``aerofid.locate``, mark ``external``, a 6 mm box around where the grid puts its calibrated position) and its
 landing error is the located centre minus that position, in output pixels. Times are medians of
 ``--repeats`` runs; the load average (1 minute) is read before and after each size.
 """
@@ -46,8 +46,9 @@ FILM_MM = 250.0
 """Film (240 mm) plus margins: the scan's side in mm, as benchmarks/bench_frames.py."""
 EXTENT_MM = (-115.0, -115.0, 115.0, 115.0)
 """The output: the film's image area and every fiducial (corners near 106 mm, midsides near 110 mm)."""
-BOX_MM = 4.0
-"""Half side of the box each fiducial is located in (marks are 3.5-4 mm)."""
+BOX_MM = 3.0
+"""Half side of the box each fiducial is located in: marks are 3.5-4 mm across, and the midside mark at -110 mm
+has the data strip's bars from -113.5 mm (a 4 mm box reached them: ambiguous, not found)."""
 
 
 def source_hash() -> str:
@@ -97,7 +98,7 @@ def resample(path: str, truth_path: str, kernel: str, out: str) -> dict:
     for f in cam.fiducials:
         x, y = res.grid.to_pixel([(f.x_mm, f.y_mm)])[0]
         loc = aerofid.locate(out, (x - half, y - half, x + half, y + half), mark="external")
-        errors[f.name] = [loc.x - x, loc.y - y] if loc.found else None
+        errors[f.name] = [loc.x - x, loc.y - y] if loc.found else loc.reason
     return {"time_s": t, "maxrss_mb": peak, "size": [res.grid.width, res.grid.height],
             "bytes": os.path.getsize(out), "errors": errors}
 
@@ -112,9 +113,10 @@ def worker(cmd: list[str]) -> dict:
 
 
 def row(size: int, kernel: str, runs: list[dict]) -> str:
-    errs = [np.hypot(*e) for r in runs for e in r["errors"].values() if e is not None]
-    missing = sum(e is None for r in runs for e in r["errors"].values())
-    mean = np.mean([e for r in runs for e in r["errors"].values() if e is not None], axis=0)
+    found = [e for r in runs for e in r["errors"].values() if isinstance(e, list)]
+    errs = [np.hypot(*e) for e in found]
+    missing = sum(not isinstance(e, list) for r in runs for e in r["errors"].values())
+    mean = np.mean(found, axis=0)
     w, h = runs[0]["size"]
     return (f"| {size}² | {w} x {h} | {kernel} | {statistics.median(r['time_s'] for r in runs):.1f} | "
             f"{max(r['maxrss_mb'] for r in runs):.0f} | {runs[0]['bytes'] / 1e6:.0f} | "

@@ -12,12 +12,12 @@ the features themselves, like a star tracker identifies a constellation:
 2. For each lie (:func:`aerofid.orientation.correspondence.arrangement_matrix`) the similarity that maps
    fiducials j, l onto features i, k is kept when it rotates the frame by at most :data:`MAX_ROTATION_DEG`;
    it predicts every fiducial on the scan, and the fiducials with a feature within the tolerance are counted.
-3. The hypothesis with the most such fiducials (then the least mean distance) wins; an affine
-   transformation fitted to its matches predicts every fiducial, the matches found again with a tighter
-   tolerance.
+3. The hypotheses with the most such fiducials (then the least mean distance) are each refined: a
+   transformation fitted to its matches predicts every fiducial and the matches are found again. The one with
+   the most fiducials within a tight tolerance of the refined prediction (then the least RMS distance) wins.
 
-When the pixel size is unknown, every pair of pairs votes for the pixel size its distances imply; the
-:data:`SCALE_PEAKS` strongest votes are each tried.
+When the pixel size is unknown, the pixel sizes the scan's size allows are tried on a grid (:func:`scale_grid`)
+and the layouts found are ranked alike (:func:`layout_candidates`).
 """
 
 from __future__ import annotations
@@ -40,10 +40,9 @@ PIXEL_SIZE_RANGE_MM = (0.004, 0.2)
 """Pixel sizes considered when the scan says none: 4 um (6350 dpi) to 200 um (127 dpi)."""
 MIN_SPAN = 0.5
 """Least share of the scan's shorter side that the fiducials span (bounds an unknown pixel size)."""
-SCALE_BIN = 0.01
-"""Width of a pixel-size vote's bin, in natural log (1 %)."""
-SCALE_PEAKS = 3
-"""The strongest pixel-size votes tried when the pixel size is unknown."""
+SCALE_STEP = 1.05
+"""Ratio of successive pixel sizes tried when the scan says none: a hypothesis allows :data:`SCALE_TOLERANCE`
+either way, so a step of 5 % misses no scale."""
 MIN_SPREAD = 0.3
 """Least ratio of matched points' extents across and along their main direction for an affine fit (three
 fiducials along one edge fix no affinity across it)."""
@@ -53,6 +52,11 @@ MAX_HYPOTHESES = 400_000
 """Most (pair of features, pair of fiducials) hypotheses scored per pixel size (in chunks)."""
 CHUNK = 20_000
 """Hypotheses scored at once."""
+SHORTLIST = 64
+"""Hypotheses per chunk and lie, and in all, that are refined and scored again (:func:`_best_hypothesis`)."""
+FIT_TOLERANCE_MM = 0.3
+"""How far (film mm) a fiducial may lie from the prediction of the transformation fitted to the matches, beyond
+the features' own position error: the scanner's and the film's residual distortion, a few hundredths of a mm."""
 
 
 @dataclass(frozen=True)
@@ -83,17 +87,27 @@ class LayoutMatch:
     mirrored: bool
     pixel_size_mm: float
     tolerance_px: float
+    turn: np.ndarray
+    """The inverse of the lie's arrangement matrix: the fiducials turned into the scan's axes (mm)."""
 
     @property
     def n_matched(self) -> int:
         return sum(m is not None for m in self.matched)
+
+    def predict_from(self, fiducials_mm: np.ndarray, which: list[int], points: np.ndarray) -> np.ndarray:
+        """Every fiducial's pixel centre predicted from measured ``points`` (k x 2) of the fiducials ``which``: the
+        calibrated layout turned by the lie and fitted to them (:func:`fit_points`: a similarity when they lie
+        along one edge, so that only the scanner's small affinity is left to extrapolate, not the coarse
+        features' error in this layout's own fit)."""
+        A = fit_points(fiducials_mm[which] @ self.turn.T, np.asarray(points, float))
+        return np.c_[fiducials_mm @ self.turn.T, np.ones(len(fiducials_mm))] @ A.T
 
 
 def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "up",
                  pixel_size_mm: float | None = None, position_error_px: float = 0.0,
                  tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None) -> LayoutMatch | None:
     """The camera's fiducial layout on the scan (module docstring), or None when fewer than
-    :data:`MIN_MATCHED` fiducials coincide with features.
+    :data:`MIN_MATCHED` fiducials coincide with features: the first of :func:`layout_candidates`.
 
     Parameters
     ----------
@@ -124,21 +138,34 @@ def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "
     >>> m.matched, m.predicted.round(3).tolist()[0]
     ((3, 4, 5, 6), [300.0, 200.0])
     """
+    found = layout_candidates(features, fiducials_mm, y_axis, pixel_size_mm, position_error_px, tolerance_mm,
+                              scan_size)
+    return found[0] if found else None
+
+
+def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "up",
+                      pixel_size_mm: float | None = None, position_error_px: float = 0.0,
+                      tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None) -> list[LayoutMatch]:
+    """The layouts found (:func:`match_layout`'s parameters), best first, each with at least :data:`MIN_MATCHED`
+    matches and a different set of them: one per pixel size tried. An unknown pixel size is tried on a
+    geometric grid of step :data:`SCALE_STEP` over :func:`pixel_size_range` (each layout's fit then gives its
+    own); the second and later are what the frame's measurement tries when the first one's marks are not found
+    (a frame's image corners and edges can mimic a square layout at another scale)."""
     features = np.asarray(features, float).reshape(-1, 2)
     fiducials_mm = np.asarray(fiducials_mm, float).reshape(-1, 2)
     if len(features) < 2 or len(fiducials_mm) < 2:
-        return None
-    scales = ([pixel_size_mm] if pixel_size_mm is not None
-              else pixel_size_votes(features, fiducials_mm, pixel_size_range(fiducials_mm, scan_size)))
-    best: tuple[tuple[int, float], LayoutMatch] | None = None
+        return []
+    scales = [pixel_size_mm] if pixel_size_mm is not None else scale_grid(pixel_size_range(fiducials_mm, scan_size))
+    found: dict[tuple[int | None, ...], tuple[tuple[int, float], LayoutMatch]] = {}
     for s in scales:
-        tol = tolerance_mm / s + position_error_px
-        got = _best_hypothesis(features, fiducials_mm, y_axis, s, tol)
-        if got is not None and (best is None or got[0] > best[0]):
-            best = got
-    if best is None or best[1].n_matched < MIN_MATCHED:
-        return None
-    return best[1]
+        got = _best_hypothesis(features, fiducials_mm, y_axis, s, tolerance_mm / s + position_error_px,
+                               position_error_px)
+        if got is None or got[1].n_matched < MIN_MATCHED:
+            continue
+        key = got[1].matched + (got[1].rotation_deg, got[1].mirrored)
+        if key not in found or got[0] > found[key][0]:
+            found[key] = got
+    return [m for _, m in sorted(found.values(), key=lambda g: g[0], reverse=True)]
 
 
 def pixel_size_range(fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None) -> tuple[float, float]:
@@ -152,24 +179,15 @@ def pixel_size_range(fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None
     return max(lo, extent / max(scan_size)), min(hi, extent / (MIN_SPAN * min(scan_size)))
 
 
-def pixel_size_votes(features: np.ndarray, fiducials_mm: np.ndarray,
-                     size_range: tuple[float, float] = PIXEL_SIZE_RANGE_MM) -> list[float]:
-    """The :data:`SCALE_PEAKS` pixel sizes (mm/px) most voted for by pairs of features and pairs of fiducials
-    (each fiducial distance / feature distance within ``size_range`` is a vote)."""
-    d_px = _pair_distances(features)
-    d_mm = np.unique(np.round(_pair_distances(fiducials_mm), 6))
-    ratio = d_mm[None, :] / np.maximum(d_px[:, None], 1e-9)
+def scale_grid(size_range: tuple[float, float]) -> list[float]:
+    """Pixel sizes from ``size_range``'s low end up to its high end by factors :data:`SCALE_STEP`.
+
+    >>> [round(s, 4) for s in scale_grid((0.02, 0.022))]
+    [0.02, 0.021, 0.022]
+    """
     lo, hi = size_range
-    if lo >= hi:
-        return []
-    logs = np.log(ratio[(ratio >= lo) & (ratio <= hi)])
-    if logs.size == 0:
-        return []
-    edges = np.arange(math.log(lo), math.log(hi) + SCALE_BIN, SCALE_BIN)
-    votes, _ = np.histogram(logs, edges)
-    votes = votes + np.roll(votes, 1) + np.roll(votes, -1)    # a true scale straddling two bins
-    peaks = np.argsort(-votes, kind="stable")[:SCALE_PEAKS]
-    return [float(math.exp(edges[i] + SCALE_BIN / 2)) for i in peaks if votes[i] > 0]
+    n = max(int(math.ceil(math.log(hi / lo) / math.log(SCALE_STEP) - 1e-9)), 0) if hi > lo else -1
+    return [lo * SCALE_STEP ** i for i in range(n + 1)]
 
 
 def _pair_distances(p: np.ndarray) -> np.ndarray:
@@ -190,33 +208,49 @@ def _hypotheses(features: np.ndarray, fiducials_mm: np.ndarray, s: float) -> np.
     return np.stack([i[a], k[a], j[b], l[b]], axis=1)[:MAX_HYPOTHESES]
 
 
-def _best_hypothesis(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str, s: float,
-                     tol: float) -> tuple[tuple[int, float], LayoutMatch] | None:
-    """The best-scoring hypothesis at pixel size ``s``, refined (score: matched fiducials, -mean distance)."""
+def _best_hypothesis(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str, s: float, tol: float,
+                     position_error_px: float) -> tuple[tuple[int, float], LayoutMatch] | None:
+    """The best hypothesis at pixel size ``s`` (module docstring, step 3). The :data:`SHORTLIST` hypotheses with
+    the most fiducials on a feature within ``tol`` (then the least mean distance), one per set of matches, are
+    each refined (:func:`_refine`) and scored again by the fiducials whose feature lies within
+    :data:`FIT_TOLERANCE_MM` (plus ``position_error_px``) of the refined prediction, then by the RMS of those
+    distances: ``tol`` must allow for a two-feature similarity's error, within which a frame dense with dots and
+    texture offers chance matches for all 8 fiducials (a synthetic striped frame: 8 chance matches against 6
+    true ones), while the true features fit a transformation to a few reduced pixels."""
     hyp = _hypotheses(features, fiducials_mm, s)
     if len(hyp) == 0:
         return None
     tree = cKDTree(features)
-    best_key: tuple[int, float] = (0, 0.0)
-    best: tuple[np.ndarray, int, bool] | None = None
+    shortlist: dict[tuple[int, ...], tuple[int, float, np.ndarray, int, bool]] = {}
     for rot, mir in ARRANGEMENTS:
         cp = fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s   # layout in scan axes, px
         for c0 in range(0, len(hyp), CHUNK):
             pred = _predict(features, cp, hyp[c0:c0 + CHUNK])
             if pred is None:
                 continue
-            d, _ = tree.query(pred.reshape(-1, 2), distance_upper_bound=tol)
-            d = d.reshape(pred.shape[:2])
+            d, idx = tree.query(pred.reshape(-1, 2), distance_upper_bound=tol)
+            d, idx = d.reshape(pred.shape[:2]), idx.reshape(pred.shape[:2])
             hit = np.isfinite(d)
             count = hit.sum(axis=1)
             mean_d = np.where(hit, d, 0.0).sum(axis=1) / np.maximum(count, 1)
-            h = int(np.lexsort((mean_d, -count))[0])
-            key = (int(count[h]), -float(mean_d[h]))
-            if key > best_key:
-                best_key, best = key, (pred[h], rot, mir)
-    if best is None:
+            for h in np.lexsort((mean_d, -count))[:SHORTLIST]:
+                key = tuple(np.where(hit[h], idx[h], -1).tolist()) + (rot, int(mir))
+                got = (int(count[h]), float(mean_d[h]), pred[h], rot, mir)
+                if key not in shortlist or got[:2] < shortlist[key][:2]:
+                    shortlist[key] = got
+    ranked = sorted(shortlist.values(), key=lambda g: (-g[0], g[1]))[:SHORTLIST]
+    if not ranked:
         return None
-    return best_key, _refine(features, fiducials_mm, best[0], best[1], best[2], y_axis, tol)
+    fit_tol = FIT_TOLERANCE_MM / s + position_error_px
+    best: tuple[tuple[int, float], LayoutMatch] | None = None
+    for _, _, pred, rot, mir in ranked:
+        m = _refine(features, fiducials_mm, pred, rot, mir, y_axis, tol, fit_tol)
+        d = np.array([math.hypot(*(features[k] - m.predicted[f])) for f, k in enumerate(m.matched) if k is not None])
+        close = d[d <= fit_tol]
+        key = (len(close), -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0)  # ties: first lie
+        if best is None or key > best[0]:
+            best = key, m
+    return best
 
 
 def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarray | None:
@@ -237,19 +271,23 @@ def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarra
 
 
 def _refine(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, rot: int, mir: bool, y_axis: str,
-            tol: float) -> LayoutMatch:
-    """The hypothesis's matches refitted (:func:`fit_points`), and the matches found again around its
-    predictions, twice."""
+            tol: float, fit_tol: float) -> LayoutMatch:
+    """The hypothesis's matches within ``tol`` refitted (:func:`fit_points`); then, twice, the matches found again
+    within ``fit_tol`` of the fit's predictions and refitted (so that a feature that is not the mark, taken within
+    the loose ``tol``, does not bend the fit), as long as :data:`MIN_MATCHED` remain."""
     turn = np.linalg.inv(arrangement_matrix(rot, mir, y_axis))
     matched = _nearest(features, pred, tol)
     A = _fit_mm_to_px(fiducials_mm, features, matched, turn)
     for _ in range(2):
         pred = np.c_[fiducials_mm, np.ones(len(fiducials_mm))] @ A.T
-        matched = _nearest(features, pred, tol)
+        close = _nearest(features, pred, fit_tol)
+        if sum(m is not None for m in close) < MIN_MATCHED:
+            break
+        matched = close
         A = _fit_mm_to_px(fiducials_mm, features, matched, turn)
     pred = np.c_[fiducials_mm, np.ones(len(fiducials_mm))] @ A.T
     pixel_mm = 1.0 / math.sqrt(abs(np.linalg.det(A[:, :2])))
-    return LayoutMatch(pred, matched, A, rot, mir, pixel_mm, tol)
+    return LayoutMatch(pred, matched, A, rot, mir, pixel_mm, tol, turn)
 
 
 def _nearest(features: np.ndarray, pred: np.ndarray, tol: float) -> tuple[int | None, ...]:
@@ -296,4 +334,5 @@ def _fit_mm_to_px(fiducials_mm: np.ndarray, features: np.ndarray, matched: tuple
     return np.c_[A[:, :2] @ turn, A[:, 2]]
 
 
-__all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "match_layout", "pixel_size_votes"]
+__all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_candidates", "match_layout",
+           "pixel_size_range", "scale_grid"]

@@ -42,7 +42,7 @@ from aerofid.find import (
     shows_mark_bright,
 )
 from aerofid.formats.camera_file import read_camera
-from aerofid.frame.layout import LayoutMatch, fit_points, match_layout
+from aerofid.frame.layout import LayoutMatch, layout_candidates
 from aerofid.frame.result import FAILED, OK, FrameOrientation
 from aerofid.frame.verdict import verdict
 from aerofid.io.array import open_image
@@ -74,6 +74,9 @@ ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan has no 
 """Appended to the reasons of a frame that is not ok when nothing declared the pixel size."""
 MIN_TOLERANCE_PX = 8.0
 """Least tolerance (px) of a prediction by the found marks."""
+ALTERNATIVES = 3
+"""Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
+the first whose frame is ok is taken."""
 
 
 def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camera | str | os.PathLike[str], *,
@@ -129,22 +132,32 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
         size, size_source = scan_pixel_size(source, cam, pixel_size_mm)
         features, f = frame_features(source)
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
-        layout = match_layout(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, cam.y_axis,
-                              size, position_error_px=POSITION_ERROR * f,
-                              scan_size=(source.width, source.height))
+        layouts = layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, cam.y_axis,
+                                    size, position_error_px=POSITION_ERROR * f,
+                                    scan_size=(source.width, source.height))
         name = "" if source.path is None else os.path.basename(str(source.path))
         head = dict(image=name, camera=cam.name, width=source.width, height=source.height, features=len(features),
                     reduction=f)
-        if layout is None:
+        if not layouts:
             return _no_layout(head, len(fid_mm), size, size_source)
-        measurer = Measurer(source, detector, polarities, colour)
-        located = measure_marks(measurer, layout, fid_mm, features)
-    if size is None:
-        size, size_source = layout.pixel_size_mm, "estimated"
-    res = verdict(cam, layout, located, model, head, size, size_source, lie)
-    if res.status != OK and size_source == "estimated":
-        res = replace(res, reasons=(*res.reasons, ESTIMATED_HINT))
-    return res
+        best: FrameOrientation | None = None
+        for layout in layouts[:1 if size is not None else ALTERNATIVES]:
+            located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features)
+            res = verdict(cam, layout, located, model, head, layout.pixel_size_mm if size is None else size,
+                          size_source, lie)
+            if best is None or _standing(res) > _standing(best):
+                best = res
+            if res.ok:
+                break
+    assert best is not None
+    if best.status != OK and size_source == "estimated":
+        best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
+    return best
+
+
+def _standing(res: FrameOrientation) -> tuple[int, int]:
+    """How good a frame's answer is: ok, doubtful, failed; then the more fiducials found."""
+    return (res.ok + (res.status != FAILED), len(res.found))
 
 
 def _no_layout(head: dict[str, Any], n: int, size: float | None, size_source: str) -> FrameOrientation:
@@ -179,17 +192,20 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
                   features: tuple[Candidate, ...]) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go
-    first, strongest first; the first mark found fixes the polarity for the rest, and once :data:`MIN_REFIT`
+    first, strongest first; the first mark found fixes the polarity tried first for the rest, and once :data:`MIN_REFIT`
     marks are found a transformation fitted to them (:func:`fit_points`) predicts the others (to a few px,
     :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
     out: list[tuple[Located | None, str]] = [(None, "")] * n
+    other: Polarity | None = None               # the polarity tried when the frame's (fixed by its first mark) fails
     for k in order:
         done = [j for j in range(n) if out[j][0] is not None]
         if len(done) >= MIN_REFIT:
-            at = _refitted(layout.predicted, out, done, k)
+            found = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
+            p = layout.predict_from(fiducials_mm, done, found)[k]
+            at = (float(p[0]), float(p[1]))
             extent = float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
             start = Candidate(at[0], at[1], extent, 0.0)
             tolerance = max(REFINED_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
@@ -199,10 +215,11 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             start = (_first_window(features[m]) if m is not None
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
             tolerance = layout.tolerance_px
-        out[k] = measure_fiducial(measurer, start, at, tolerance)
+        out[k] = measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             out[k], polarity = _settle_polarity(measurer, out[k], start, at, tolerance)
             measurer = replace(measurer, polarities=(polarity,))
+            other = "dark" if polarity == "bright" else "bright"
     return out
 
 
@@ -221,15 +238,6 @@ def _settle_polarity(measurer: Measurer, first: tuple[Located | None, str], star
     return (again, other) if again[0] is not None else (first, got.polarity)
 
 
-def _refitted(predicted: np.ndarray, out: list[tuple[Located | None, str]], done: list[int],
-              k: int) -> tuple[float, float]:
-    """Fiducial ``k``'s layout prediction corrected by the transformation (:func:`fit_points`) from the layout's
-    predictions to the marks found so far."""
-    dst = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
-    p = fit_points(predicted[done], dst) @ np.r_[predicted[k], 1.0]
-    return float(p[0]), float(p[1])
-
-
 def _first_window(c: Candidate) -> Candidate:
     """A screened feature sized for its first window: the geometric mean of its largest radius (coarse levels
     see the mark's surroundings too) and its smallest (the real RC20 marks: 80-96 and 12 px; the marks are about
@@ -241,15 +249,20 @@ def _median_radius(layout: LayoutMatch, features: tuple[Candidate, ...]) -> floa
     return float(np.median([_first_window(features[m]).radius for m in layout.matched if m is not None]))
 
 
-def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, float],
-                     tolerance: float) -> tuple[Located | None, str]:
-    """One fiducial: the mark measured from ``start`` (a feature, or the prediction sized like the marks), else
-    the mark nearest the prediction ``at`` in its area searched like a region, within ``tolerance`` px."""
+def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,
+                     other_polarity: Polarity | None = None) -> tuple[Located | None, str]:
+    """One fiducial: the mark measured from ``start`` (a feature, or the prediction sized like the marks), else in
+    ``other_polarity`` (a ring and cross on film is a mark in both: each loses some windows), else the mark
+    nearest the prediction ``at`` in its area searched like a region, within ``tolerance`` px."""
     if not in_box(at[0], at[1], (0, 0, measurer.source.width, measurer.source.height)):
         return None, f"the predicted ({at[0]:.0f}, {at[1]:.0f}) lies outside the scan"
     got = measurer.candidate(start)
     if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
         return got, ""
+    if other_polarity is not None:
+        again = replace(measurer, polarities=(other_polarity,)).candidate(start)
+        if again.found and math.hypot(again.x - at[0], again.y - at[1]) <= tolerance:
+            return again, ""
     half = tolerance + AREA_MARGIN * start.radius
     area, _ = clip_box((at[0] - half, at[1] - half, at[0] + half + 1, at[1] + half + 1), measurer.source.width,
                        measurer.source.height)

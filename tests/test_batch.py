@@ -205,13 +205,17 @@ def test_bad_input_is_one_line_and_exit_2_before_any_work(roll, tmp_path):
 
 
 def test_inputs_expand_to_sorted_unique_scans_and_outputs_never_collide(tmp_path):
-    for rel in ("r1/x.TIF", "r1/y.jpeg", "r1/notes.txt", "r2/x.tif", "r2/sub/z.png"):
+    for rel in ("r1/x.TIF", "r1/y.jpeg", "r1/notes.txt", "r1/.x.tif.aerofid-1-a.tmp.tif", "r2/x.tif",
+                "r2/sub/z.png", "r2/out/crops/x.tif.png"):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(b"")
-    paths = expand_inputs([str(tmp_path / "r1"), str(tmp_path / "r1" / "x.TIF"), str(tmp_path / "r2" / "**")])
+    paths = expand_inputs([str(tmp_path / "r1"), str(tmp_path / "r1" / "x.TIF"), str(tmp_path / "r2" / "**")],
+                          exclude=tmp_path / "r2" / "out")              # the output folder's crops are no input
     assert [p.relative_to(tmp_path).as_posix() for p in paths] == ["r1/x.TIF", "r1/y.jpeg", "r2/sub/z.png",
                                                                    "r2/x.tif"]
     assert frame_keys(paths) == ("r1__x.TIF", "y.jpeg", "z.png", "r2__x.tif")
+    (tmp_path / "link.tif").symlink_to(tmp_path / "r1" / "y.jpeg")
+    assert expand_inputs([str(tmp_path / "link.tif"), str(tmp_path / "r1" / "y.jpeg")]) == (tmp_path / "link.tif",)
     with pytest.raises(AerofidInputError, match="no scan .* 'nowhere/\\*.tif'"):
         expand_inputs([str(tmp_path / "r1"), "nowhere/*.tif"])
 

@@ -73,7 +73,7 @@ def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdi
     AerofidInputError
         Inputs that name no scan, a bad camera file, a bad option: before any work.
     """
-    paths = expand_inputs(inputs)
+    paths = expand_inputs(inputs, exclude=outdir)
     keys = frame_keys(paths)
     camera = read_camera(os.fspath(camera_path))
     settings = batch_settings(camera, camera_path, outdir, model=model, pixel_size_mm=pixel_size_mm, lie=lie)

@@ -29,7 +29,8 @@ def is_scan(path: Path) -> bool:
 
 def _expand_one(item: str) -> list[Path]:
     """The scan files one input names: itself (a file), the scans in it (a folder, not its subfolders), or the
-    scans a glob matches (folders it matches give their scans)."""
+    scans a glob matches (folders it matches give their scans). Hidden files (``.x.tif``: a system's or a
+    killed run's temporary files) come only when named directly."""
     if any(c in item for c in GLOB_CHARACTERS) and not os.path.lexists(item):
         found: list[Path] = []
         for m in glob.glob(item, recursive=True):
@@ -37,13 +38,18 @@ def _expand_one(item: str) -> list[Path]:
         return found
     p = Path(item)
     if p.is_dir():
-        return [c for c in p.iterdir() if is_scan(c) and not c.is_dir()]
+        return [c for c in p.iterdir() if is_scan(c) and not c.name.startswith(".") and not c.is_dir()]
     return [p] if os.path.lexists(item) else []
 
 
-def expand_inputs(inputs: Iterable[str]) -> tuple[Path, ...]:
+def _inside(path: Path, folder: str) -> bool:
+    return os.path.commonpath([os.path.realpath(path), folder]) == folder
+
+
+def expand_inputs(inputs: Iterable[str], exclude: str | os.PathLike[str] | None = None) -> tuple[Path, ...]:
     """The scan files that ``inputs`` name, sorted and each once (the same file named twice, by another path
-    or a symbolic link, counts once).
+    or a symbolic link, counts once), none of them inside the folder ``exclude`` (the batch's output folder,
+    whose crops are PNG files).
 
     A file named directly is taken whatever its ending (a corrupt or mis-named file is a frame that fails, not
     a reason to stop); folders and globs contribute only files ending in :data:`SCAN_SUFFIXES`.
@@ -72,8 +78,9 @@ def expand_inputs(inputs: Iterable[str]) -> tuple[Path, ...]:
         raise AerofidInputError("give the scans to process: files, folders or globs (e.g. 'roll1/*.tif')")
     seen: dict[str, Path] = {}
     empty: list[str] = []
+    skip = None if exclude is None else os.path.realpath(exclude)
     for item in items:
-        found = _expand_one(item)
+        found = [p for p in _expand_one(item) if skip is None or not _inside(p, skip)]
         if not found:
             empty.append(item)
         for p in found:
@@ -102,16 +109,16 @@ def frame_keys(paths: Sequence[Path]) -> tuple[str, ...]:
     >>> frame_keys([Path("a/roll1/x.tif"), Path("a/roll2/x.tif"), Path("a/roll2/y.tif")])
     ('roll1__x.tif', 'roll2__x.tif', 'y.tif')
     """
-    real = [Path(os.path.realpath(p)) for p in paths]
+    full = [Path(os.path.abspath(p)) for p in paths]
     by_name: dict[str, list[int]] = {}
-    for i, p in enumerate(real):
+    for i, p in enumerate(full):
         by_name.setdefault(p.name.casefold(), []).append(i)
-    keys = [p.name for p in real]
+    keys = [p.name for p in full]
     for same in by_name.values():
         if len(same) > 1:
-            common = Path(os.path.commonpath([real[i].parent for i in same]))
+            common = Path(os.path.commonpath([full[i].parent for i in same]))
             for i in same:
-                keys[i] = KEY_SEPARATOR.join(real[i].relative_to(common).parts)
+                keys[i] = KEY_SEPARATOR.join(full[i].relative_to(common).parts)
     owners: dict[str, int] = {}
     for i, k in enumerate(keys):
         j = owners.setdefault(k.casefold(), i)

@@ -94,7 +94,7 @@ def _progress(plan: BatchPlan, stream: TextIO | None = None) -> Iterator[Any]:
     log line per frame (stderr)."""
     err = stream or sys.stderr
     counts = _Counts(plan)
-    if not err.isatty():
+    if not err.isatty() or not plan.todo:
         def log(rec: FrameRecord) -> None:
             counts.add(rec)
             click.echo(_line(counts.before + counts.done, counts.total, rec), file=err)

@@ -1,0 +1,179 @@
+"""Batches: frames per second of ``aerofid batch`` in one process, on 1 and 2 local worker processes and on a local
+Dask cluster of 2 single-threaded workers, and the scaling efficiency per added worker.
+
+    python benchmarks/bench_batch.py [--frames 8] [--size 2500] [--repeats 3] [--cache DIR]
+                                     [--out docs/benchmarks_batch.md]
+
+``--frames`` synthetic frames (:mod:`aerofid.synth_frame`, the Wild RC10-like test camera, each with its own
+seed and lie; tiled TIFFs with the pixel size as resolution tags) of ``--size`` px square are written once to
+the cache folder (never the repository). Each configuration runs the whole batch into a fresh output folder
+(:func:`aerofid.batch.driver.run_batch`: every frame oriented, its outputs and the summary written), timed
+from the call to the last summary, pool start-up and the workers' imports included; the Dask cluster
+(``dask scheduler`` and two ``dask worker --nthreads 1 --no-nanny`` on 127.0.0.1) is started once before the
+timing and waits for its workers, as an existing cluster would. Configurations are interleaved per repeat so
+that a change of the machine's load hits them alike; the table gives the median over the repeats and the load
+average (``os.getloadavg``) seen around the runs.
+
+Scaling efficiency of n workers: frames/s on n divided by n times frames/s on 1 worker process. The Dask run's
+records (status, reasons, marks and residuals, RMS) are compared with the one-process run's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")     # one thread per worker: the workers are the parallelism
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from aerofid.batch.driver import plan_batch, run_batch  # noqa: E402
+from aerofid.batch.job import FrameRecord  # noqa: E402
+from aerofid.batch.runners import Runner, dask_runner, process_runner, run_sequential  # noqa: E402
+from aerofid.formats.camera_file import write_camera  # noqa: E402
+from aerofid.synth_frame import FILM_HALF_MM, MARGIN_MM, frame_spec, wild_rc10_camera, write_frame  # noqa: E402
+
+LIES = [(r, m) for r in (0, 90, 180, 270) for m in (False, True)]
+"""The frames' lies, in turn."""
+DASK_WORKERS = 2
+"""Workers of the local Dask cluster."""
+START_TIMEOUT_S = 120
+"""How long the local Dask cluster may take to start."""
+
+
+def make_frames(n: int, size: int, cache: Path) -> tuple[Path, Path]:
+    """``n`` frames of ``size`` px (written once) and the camera file, in ``cache``; (folder, camera file)."""
+    folder = cache / f"frames-{size}"
+    folder.mkdir(parents=True, exist_ok=True)
+    cam = wild_rc10_camera()
+    pixel_mm = 2 * (FILM_HALF_MM + MARGIN_MM) / size
+    for i in range(n):
+        path = folder / f"frame{i:03d}.tif"
+        if not path.exists():
+            rot, mir = LIES[i % len(LIES)]
+            write_frame(frame_spec(cam, pixel_mm, np.random.default_rng(100 + i), rotation_deg=rot, mirrored=mir),
+                        path, "tiled")
+    camera = cache / "camera.json"
+    write_camera(camera, cam)
+    return folder, camera
+
+
+@contextmanager
+def local_dask_cluster(workdir: Path) -> Iterator[str]:
+    """``dask scheduler`` and :data:`DASK_WORKERS` ``dask worker`` processes on 127.0.0.1; the address once
+    every worker has joined; all ended on leaving."""
+    from distributed import Client
+
+    dask = [sys.executable, "-m", "dask"]
+    sched = workdir / "scheduler.json"
+    log = open(workdir / "dask.log", "w")
+    procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                               "--scheduler-file", str(sched)], stdout=log, stderr=log)]
+    try:
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not sched.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(sched.read_text())["address"]
+        procs += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                    "--host", "127.0.0.1"], stdout=log, stderr=log) for _ in range(DASK_WORKERS)]
+        with Client(address, timeout=START_TIMEOUT_S) as client:
+            client.wait_for_workers(DASK_WORKERS, timeout=START_TIMEOUT_S)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        log.close()
+
+
+def timed_batch(folder: Path, camera: Path, runner: Runner, work: Path) -> tuple[float, list[FrameRecord]]:
+    """One whole batch of ``folder`` into a fresh output folder: (seconds, records)."""
+    out = work / "out"
+    shutil.rmtree(out, ignore_errors=True)
+    plan = plan_batch([str(folder)], camera, out)
+    t0 = time.perf_counter()
+    records = run_batch(plan, runner)
+    return time.perf_counter() - t0, records
+
+
+def comparable(records: list[FrameRecord]) -> list[dict]:
+    """Records without their times."""
+    return [{k: v for k, v in r.to_dict().items() if k != "seconds"} for r in records]
+
+
+def run(args: argparse.Namespace) -> tuple[dict[str, list[float]], dict[str, list[dict]], list[tuple[float, ...]]]:
+    folder, camera = make_frames(args.frames, args.size, Path(args.cache))
+    times: dict[str, list[float]] = {}
+    records: dict[str, list[dict]] = {}
+    loads = [os.getloadavg()]
+    with tempfile.TemporaryDirectory() as tmp, local_dask_cluster(Path(tmp)) as address, \
+            dask_runner(address) as on_dask:
+        configs: dict[str, Callable[[], Runner]] = {
+            "one process (no pool)": lambda: run_sequential,
+            "1 local worker process": lambda: process_runner(1),
+            "2 local worker processes": lambda: process_runner(2),
+            f"Dask, {DASK_WORKERS} workers x 1 thread": lambda: on_dask,
+        }
+        for rep in range(args.repeats):
+            for name, make in configs.items():
+                seconds, recs = timed_batch(folder, camera, make(), Path(tmp))
+                times.setdefault(name, []).append(seconds)
+                records.setdefault(name, comparable(recs))
+                loads.append(os.getloadavg())
+                print(f"repeat {rep + 1} {name}: {seconds:.1f} s, {len(recs)} frames, "
+                      f"{sum(r.ok for r in recs)} ok; load {loads[-1][0]:.2f}", flush=True)
+    return times, records, loads
+
+
+def table(args: argparse.Namespace, times: dict[str, list[float]], records: dict[str, list[dict]],
+          loads: list[tuple[float, ...]]) -> str:
+    n = args.frames
+    fps = {k: n / statistics.median(v) for k, v in times.items()}
+    one = fps["1 local worker process"]
+    workers = {"one process (no pool)": 1, "1 local worker process": 1, "2 local worker processes": 2}
+    base = next(iter(records.values()))
+    lines = [f"| configuration | median s ({args.repeats} runs) | frames/s | efficiency per worker | same results as "
+             "one process |", "|---|---|---|---|---|"]
+    for k, v in times.items():
+        w = workers.get(k, DASK_WORKERS)
+        lines.append(f"| {k} | {statistics.median(v):.1f} (runs {', '.join(f'{s:.1f}' for s in v)}) | "
+                     f"{fps[k]:.3f} | {fps[k] / (w * one):.0%} | {'yes' if records[k] == base else 'NO'} |")
+    la = np.array(loads)
+    lines += ["", f"{n} frames of {args.size} x {args.size} px; load average (1 min) during the runs "
+              f"{la[:, 0].min():.2f}-{la[:, 0].max():.2f}; {os.cpu_count()} cores, {platform.python_version()}."]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=8)
+    ap.add_argument("--size", type=int, default=2500, help="frame side in px")
+    ap.add_argument("--repeats", type=int, default=3, help="runs per configuration (median time)")
+    ap.add_argument("--cache", default=str(Path.home() / ".cache" / "aerofid-bench" / "batch"))
+    ap.add_argument("--out", default=None, help="write the table to this Markdown file too")
+    args = ap.parse_args()
+    times, records, loads = run(args)
+    text = table(args, times, records, loads)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text)
+
+
+if __name__ == "__main__":
+    main()

@@ -171,6 +171,8 @@ def test_bad_inputs_are_one_line_and_write_nothing(frame, tmp_path):
     failed = FrameOrientation("scan.tif", cam.name, 1924, 1924, FAILED, ("3 of 8 marks found",), (), None, None,
                               None, None, "estimated")
     (tmp_path / "failed.json").write_text(json.dumps(failed.to_dict()))
+    small = tmp_path / "small.tif"
+    tifffile.imwrite(small, tifffile.imread(folder / "scan.tif")[::2, ::2], tile=(256, 256))
     readonly = tmp_path / "readonly.tif"
     readonly.write_bytes(b"old")
     readonly.chmod(0o444)
@@ -187,12 +189,14 @@ def test_bad_inputs_are_one_line_and_write_nothing(frame, tmp_path):
         (scan, "--orientation", io, "--pixel-size", 0.5, "--export", f"asp={tmp_path / 'x.tsai'}",
          "-o", tmp_path / "g.tif"),
         (scan, "--orientation", io, "--pixel-size", 0.5, "--micmac-name", "-o", tmp_path / "h.tif"),
+        (small, "--orientation", io, "--pixel-size", 0.5, "-o", tmp_path / "i.tif"),      # another scan's
     ]
     for args in cases:
         r = run(*args)
         assert_one_line_error(r)
         assert _listing(tmp_path) == before, args
     assert "failed (3 of 8 marks found)" in run(*cases[0]).stderr
+    assert "lie outside" in run(*cases[-1]).stderr
     assert readonly.read_bytes() == b"old"
 
 

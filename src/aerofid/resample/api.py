@@ -71,6 +71,17 @@ def make_grid(orientation: StoredOrientation, pixel_size_mm: float,
     return ResampleGrid(pixel_size_mm, tuple(extent_mm), y_axis or orientation.y_axis or "down")  # type: ignore[arg-type]
 
 
+def check_fits(orientation: StoredOrientation, width: int, height: int, image: str) -> None:
+    """An input error when the orientation's measured fiducials lie outside the scan: it is another scan's (or
+    another resolution's) orientation, whose resampling would be silently wrong."""
+    outside = [f.name for f in orientation.fiducials
+               if not (-0.5 <= f.x_px <= width - 0.5 and -0.5 <= f.y_px <= height - 0.5)]
+    if outside:
+        raise AerofidInputError(f"fiducial(s) {', '.join(outside)} of {orientation.source!r} lie outside {image!r} "
+                                f"({width} x {height} px): is it this scan's orientation (image "
+                                f"{orientation.image!r})?")
+
+
 def resample_frame(image: str | os.PathLike[str], orientation: StoredOrientation, output: str | os.PathLike[str], *,
                    pixel_size_mm: float, extent_mm: Sequence[float] | None = None, kernel: str = DEFAULT_KERNEL,
                    y_axis: str | None = None, sidecar: bool = True,
@@ -101,6 +112,7 @@ def resample_frame(image: str | os.PathLike[str], orientation: StoredOrientation
         extras = {staging.plan(p, "export"): make for p, make in (extra_outputs or {}).items()}
         fiducials = tuple((f.name, f.x_mm, f.y_mm) for f in orientation.fiducials)
         with open_raster(image) as scan:
+            check_fits(orientation, scan.width, scan.height, str(image))
             assert out.tmp is not None
             result = resample_scan(scan, orientation.transform, grid, out.tmp, kernel=kernel,
                                    image=out.path.name, fiducials=fiducials)
@@ -118,4 +130,4 @@ def resample_frame(image: str | os.PathLike[str], orientation: StoredOrientation
     return result
 
 
-__all__ = ["DEFAULT_KERNEL", "StreamedOutput", "make_grid", "resample_frame"]
+__all__ = ["DEFAULT_KERNEL", "StreamedOutput", "check_fits", "make_grid", "resample_frame"]

@@ -210,13 +210,13 @@ class Measurer:
     def recentre(self, got: Located, c: Candidate | None) -> Located:
         """Step 3: measure again on a window centred on the answer, of half-size from its extent, until the size
         settles; the answer's covariance gains the window term (:meth:`window_term`)."""
-        half = max(RECENTRED_WINDOW[0] * got.extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
+        half = recentred_half(got.extent)
         for _ in range(RECENTRE_ROUNDS):
             again = self.at(got.x, got.y, half, c)
             if not again.found:
                 return again
             got, seen = again, half
-            half = max(RECENTRED_WINDOW[0] * again.extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
+            half = recentred_half(again.extent)
             if abs(half - seen) <= 0.15 * seen:
                 break
         return self.window_term(got, half)
@@ -248,6 +248,11 @@ def with_window_term(final: Located, differences: Sequence[tuple[float, float]])
                   sigma_x=float(np.sqrt(det.sigma_x ** 2 + vx)), sigma_y=float(np.sqrt(det.sigma_y ** 2 + vy)),
                   cov_xy=float(det.cov_xy + cxy))
     return replace(final, detection=det)
+
+
+def recentred_half(extent: float) -> float:
+    """Half-size of the window a mark of radius ``extent`` is measured on again (:data:`RECENTRED_WINDOW`)."""
+    return max(RECENTRED_WINDOW[0] * extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
 
 
 def window_ladder(radius: float, inner: float) -> list[float]:
@@ -431,4 +436,4 @@ def in_box(x: float, y: float, box: Box) -> bool:
 
 
 __all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "configure", "find_marks", "in_box",
-           "read_reduced_levels", "search", "shows_mark_bright"]
+           "read_reduced_levels", "recentred_half", "search", "shows_mark_bright"]

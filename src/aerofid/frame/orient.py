@@ -36,6 +36,7 @@ from aerofid.find import (
     configure,
     in_box,
     read_reduced_levels,
+    recentred_half,
     reduction_for,
     screen_region,
     search,
@@ -74,6 +75,11 @@ ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan has no 
 """Appended to the reasons of a frame that is not ok when nothing declared the pixel size."""
 MIN_TOLERANCE_PX = 8.0
 """Least tolerance (px) of a prediction by the found marks."""
+FRAME_METHOD_TOLERANCE_MM = 0.3
+"""How far (film mm) a mark measured by the frame's own method alone may lie from its prediction by the found
+marks: the scanner's affinity across an edge a similarity cannot follow, 0.1 % of the frame."""
+METHODS = ("hough", "symmetry", "circles", "lines")
+"""The seed methods a frame's marks can be measured by alone (:func:`_by_frame_method`)."""
 ALTERNATIVES = 3
 """Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
 the first whose frame is ok is taken."""
@@ -142,7 +148,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
             return _no_layout(head, len(fid_mm), size, size_source)
         best: FrameOrientation | None = None
         for layout in layouts[:1 if size is not None else ALTERNATIVES]:
-            located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features)
+            located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features,
+                                    mark)
             res = verdict(cam, layout, located, model, head, layout.pixel_size_mm if size is None else size,
                           size_source, lie)
             if best is None or _standing(res) > _standing(best):
@@ -190,11 +197,12 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 
 
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
-                  features: tuple[Candidate, ...]) -> list[tuple[Located | None, str]]:
+                  features: tuple[Candidate, ...], mark: str = "auto") -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go
     first, strongest first; the first mark found fixes the polarity tried first for the rest, and once :data:`MIN_REFIT`
     marks are found a transformation fitted to them (:func:`fit_points`) predicts the others (to a few px,
-    :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent."""
+    :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent; each is first measured by
+    the method that found most of them alone (:func:`_by_frame_method`), then, if that fails, like the first."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
@@ -215,12 +223,37 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             start = (_first_window(features[m]) if m is not None
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
             tolerance = layout.tolerance_px
-        out[k] = measure_fiducial(measurer, start, at, tolerance, other)
+        quick = _by_frame_method(measurer, start, at, layout.pixel_size_mm, mark, out, done)
+        out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             out[k], polarity = _settle_polarity(measurer, out[k], start, at, tolerance)
             measurer = replace(measurer, polarities=(polarity,))
             other = "dark" if polarity == "bright" else "bright"
     return out
+
+
+def _by_frame_method(measurer: Measurer, start: Candidate, at: tuple[float, float], pixel_size_mm: float,
+                     mark: str, out: list[tuple[Located | None, str]], done: list[int]) -> Located | None:
+    """Once :data:`MIN_REFIT` marks are found (``done``), the next one measured by the method that found most of
+    them, alone (the marks of one frame are alike), on the window their extent sizes at the prediction ``at``,
+    re-centred and with its window term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within
+    :data:`FRAME_METHOD_TOLERANCE_MM` of the prediction by the found marks, else None (then ``auto`` measures it
+    as it did the first). ``auto``'s cross-checks and uniqueness pass (three quarters of its time on a ring and
+    cross) are what the found marks' geometry replaces here."""
+    if len(done) < MIN_REFIT or len(measurer.polarities) != 1:
+        return None
+    methods = [out[j][0].detection.method for j in done]  # type: ignore[union-attr]
+    name = max(set(methods), key=methods.count)
+    if name not in METHODS:
+        return None
+    detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
+    alone = replace(measurer, detector=detector)
+    tolerance = max(FRAME_METHOD_TOLERANCE_MM / pixel_size_mm, MIN_TOLERANCE_PX)
+    got = alone.at(at[0], at[1], recentred_half(start.radius), start)
+    if not got.found or math.hypot(got.x - at[0], got.y - at[1]) > tolerance:
+        return None
+    got = alone.recentre(got, start)
+    return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
 
 
 def _settle_polarity(measurer: Measurer, first: tuple[Located | None, str], start: Candidate, at: tuple[float, float],

@@ -94,11 +94,11 @@ HIPP_WORKER = r"""
 import json, resource, sys, time
 from hipp.aerial.core import detect_fiducials
 image, templates = sys.argv[1:3]
-t = time.perf_counter()
+t, c = time.perf_counter(), time.process_time()
 s = detect_fiducials(image, templates, 8, 3)
-t = time.perf_counter() - t
+t, c = time.perf_counter() - t, time.process_time() - c
 keys = sorted({k.rsplit("_", 1)[0] for k in s.index if k.endswith("_x")})
-print(json.dumps({"time_s": t, "maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+print(json.dumps({"time_s": t, "cpu_s": c, "maxrss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                   "marks": {k: [float(s[k + "_x"]) - 0.5, float(s[k + "_y"]) - 0.5] for k in keys}}))
 """
 
@@ -194,11 +194,11 @@ def orient(path: str, camera: str) -> dict:
     orient_frame = getattr(aerofid, "orient_frame", None)
     if orient_frame is None:
         return {"error": "aerofid.orient_frame is not there yet"}
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     res = orient_frame(path, camera)
-    t = time.perf_counter() - t
+    t, c = time.perf_counter() - t, time.process_time() - c
     marks = {f.name: [f.x, f.y] for f in res.fiducials if f.status == "found" and f.x is not None}
-    return {"time_s": t, "maxrss_mb": maxrss_mb(), "status": res.status, "reasons": list(res.reasons),
+    return {"time_s": t, "cpu_s": c, "maxrss_mb": maxrss_mb(), "status": res.status, "reasons": list(res.reasons),
             "lie": [res.rotation_deg, res.mirrored], "marks": marks,
             "statuses": {f.name: f.status for f in res.fiducials},
             "pixel_size_mm": res.pixel_size_mm, "pixel_size_source": res.pixel_size_source}
@@ -217,6 +217,7 @@ def run_repeats(cmd: list[str], repeats: int) -> dict:
     if any("error" in o for o in outs):
         return next(o for o in outs if "error" in o)
     return {**outs[0], "time_s": float(np.median([o["time_s"] for o in outs])),
+            "cpu_s": float(np.median([o.get("cpu_s", np.nan) for o in outs])),
             "maxrss_mb": max(o["maxrss_mb"] for o in outs)}
 
 
@@ -254,6 +255,7 @@ def score(truth: dict, out: dict) -> dict:
 def summary_row(label: str, who: str, runs: list[tuple[Frame, dict, dict]]) -> str:
     n = len(runs)
     times = [o["time_s"] for _, o, _ in runs if "time_s" in o]
+    cpu = [o.get("cpu_s", np.nan) for _, o, _ in runs if "time_s" in o]
     mem = [o["maxrss_mb"] for _, o, _ in runs if "maxrss_mb" in o]
     err = np.array([e for _, _, s in runs for e in s["errors"] if np.hypot(*e) <= WRONG]).reshape(-1, 2)
     rms = f"{np.sqrt(np.mean(np.sum(err ** 2, axis=1))):.3f}" if len(err) else "-"
@@ -265,16 +267,18 @@ def summary_row(label: str, who: str, runs: list[tuple[Frame, dict, dict]]) -> s
     verdicts = "/".join(str(statuses.count(k)) for k in ("ok", "doubtful", "failed"))
     errors = statuses.count("error")
     lie = "-" if who == "hipp" else f"{sum(s['lie_ok'] for _, _, s in runs)}/{n}"
-    return (f"| {label} | {who} | {n} | {np.median(times):.2f} | {max(mem):.0f} | {found}/{total} | {wrong} | {rms} "
+    return (f"| {label} | {who} | {n} | {np.median(times):.2f} | {np.median(cpu):.2f} | {max(mem):.0f} "
+            f"| {found}/{total} | {wrong} | {rms} "
             f"| {mean} | {lie} | {verdicts}{f' ({errors} errors)' if errors else ''} | "
             f"{sum(s['ok_wrong'] for _, _, s in runs)} |" if times else
-            f"| {label} | {who} | {n} | - | - | - | - | - | - | - | {verdicts} ({errors} errors: "
+            f"| {label} | {who} | {n} | - | - | - | - | - | - | - | - | {verdicts} ({errors} errors: "
             f"{runs[0][1].get('error', '?')}) | - |")
 
 
-HEADER = ["| frames | contender | n | time (s, median) | peak memory (MB) | marks found | wrong (> 1.5 px) | "
-          "error RMS (px) | mean error x, y (px) | lie recovered | ok/doubtful/failed | ok but wrong |",
-          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+HEADER = ["| frames | contender | n | time (s, median) | CPU (s, median) | peak memory (MB) | marks found | "
+          "wrong (> 1.5 px) | error RMS (px) | mean error x, y (px) | lie recovered | ok/doubtful/failed | "
+          "ok but wrong |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
 
 def synthetic_tables(results: dict, frames: list[Frame], decodes: dict) -> list[str]:

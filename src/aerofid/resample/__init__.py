@@ -1,9 +1,9 @@
 """Resampling a scanned frame into its camera's fiducial (film mm) frame, like MicMac ReSampFid, block by block
 into a tiled TIFF with overviews (docs/resample.md)."""
 
-from aerofid.resample.api import DEFAULT_KERNEL, make_grid, resample_frame
+from aerofid.resample.api import make_grid, resample_frame
 from aerofid.resample.frame import Resampled, output_name, resample_scan, sidecar_path
-from aerofid.resample.warp import KERNELS
+from aerofid.resample.warp import DEFAULT_KERNEL, KERNELS
 
 __all__ = ["DEFAULT_KERNEL", "KERNELS", "Resampled", "make_grid", "output_name", "resample_frame", "resample_scan",
            "sidecar_path"]

@@ -16,9 +16,7 @@ from aerofid.io.atomic import TEMP_TAG, Staging, check_output, sweep_stale
 from aerofid.io.raster import open_raster
 from aerofid.orientation.grid import ResampleGrid, bounding_extent
 from aerofid.resample.frame import Resampled, resample_scan, sidecar_path
-
-DEFAULT_KERNEL = "bicubic"
-"""OpenCV's 4 x 4 cubic convolution: sharper than bilinear, without Lanczos' wider ringing (MicMac's Kern=1)."""
+from aerofid.resample.warp import DEFAULT_KERNEL
 
 
 class StreamedOutput:

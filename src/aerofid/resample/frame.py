@@ -24,13 +24,16 @@ from aerofid.io.raster import Raster
 from aerofid.orientation.grid import ResampleGrid
 from aerofid.orientation.transform import ProjectiveTransform
 from aerofid.resample.tiff import TILE, write_tiled
-from aerofid.resample.warp import MAX_WINDOW_PX, block_boxes, check_dtype, check_kernel, remap_block, scale_ratio
+from aerofid.resample.warp import DEFAULT_KERNEL, block_boxes, check_dtype, check_kernel, remap_block, scale_ratio
 
 BLOCK_COLUMNS = 2048
 """Output columns of one block: its scan window (about 512 x 2048 px for a frame resampled near its own pixel
 size, a few MB) is read once, and a tile the window spans is decoded by at most 2-3 blocks."""
 WINDOW_TARGET_PX = 8192
 """A block's scan window is kept below this side when the output pixels are much larger than the scan's."""
+MAX_RATIO = 32.0
+"""Largest output pixel, in scan pixels: one block of 512 output px then reads a window of 16384 scan px a side
+(268 MB of 8-bit grey); resampling does not low-pass, so a coarser output would alias anyway."""
 MICMAC_PREFIX = "OIS-Reech_"
 """MicMac ReSampFid's output name: ``OIS-Reech_`` + the scan's file name."""
 SIDECAR_SUFFIX = ".px2mm.json"
@@ -79,9 +82,9 @@ def block_columns(out_to_src: np.ndarray, grid: ResampleGrid) -> int:
     """Columns per block: :data:`BLOCK_COLUMNS`, fewer when output pixels span many scan pixels; an input
     error when even one band of :data:`TILE` rows would need too large a window."""
     ratio = scale_ratio(out_to_src, grid.width, grid.height)
-    if not math.isfinite(ratio) or ratio * TILE > MAX_WINDOW_PX:
+    if not math.isfinite(ratio) or ratio > MAX_RATIO:
         raise AerofidInputError(f"an output pixel spans {ratio:.3g} scan pixels: the pixel size is far coarser than "
-                                "the scan's; give a pixel size at most about 30 times the scan's")
+                                f"the scan's; give a pixel size at most {MAX_RATIO:g} times the scan's")
     return max(TILE, min(BLOCK_COLUMNS, int(WINDOW_TARGET_PX / max(ratio, 1e-9)) // TILE * TILE))
 
 
@@ -94,8 +97,9 @@ def resampled_bands(scan: Raster, out_to_src: np.ndarray, grid: ResampleGrid, ke
 
 
 def resample_scan(scan: Raster, pixel_to_mm: ProjectiveTransform, grid: ResampleGrid, path: str | os.PathLike[str],
-                  *, kernel: str = "bicubic", image: str = "", fiducials: tuple[tuple[str, float, float], ...] = (),
-                  block_cols: int | None = None, progress: Callable[[], None] | None = None) -> Resampled:
+                  *, kernel: str = DEFAULT_KERNEL, image: str = "",
+                  fiducials: tuple[tuple[str, float, float], ...] = (), block_cols: int | None = None,
+                  progress: Callable[[], None] | None = None) -> Resampled:
     """Resample the open ``scan`` onto ``grid`` and write it to ``path`` (a tiled Deflate TIFF with overviews,
     the scan's dtype and bands, the sidecar's JSON in its ImageDescription). Writes ``path`` directly: stage it
     (:func:`aerofid.resample.resample_frame` does).

@@ -21,13 +21,10 @@ records (status, reasons, marks and residuals, RMS) are compared with the one-pr
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import shutil
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterator
@@ -41,7 +38,7 @@ import numpy as np  # noqa: E402
 
 from aerofid.batch.driver import plan_batch, run_batch  # noqa: E402
 from aerofid.batch.job import FrameRecord  # noqa: E402
-from aerofid.batch.runners import Runner, dask_runner, process_runner, run_sequential  # noqa: E402
+from aerofid.batch.runners import Runner, dask_runner, local_cluster, process_runner, run_sequential  # noqa: E402
 from aerofid.formats.camera_file import write_camera  # noqa: E402
 from aerofid.synth_frame import FILM_HALF_MM, MARGIN_MM, frame_spec, wild_rc10_camera, write_frame  # noqa: E402
 
@@ -71,35 +68,14 @@ def make_frames(n: int, size: int, cache: Path) -> tuple[Path, Path]:
 
 
 @contextmanager
-def local_dask_cluster(workdir: Path) -> Iterator[str]:
-    """``dask scheduler`` and :data:`DASK_WORKERS` ``dask worker`` processes on 127.0.0.1; the address once
-    every worker has joined; all ended on leaving."""
+def ready_cluster(workdir: Path) -> Iterator[str]:
+    """A local Dask cluster (:func:`aerofid.batch.runners.local_cluster`) once all its workers have joined."""
     from distributed import Client
 
-    dask = [sys.executable, "-m", "dask"]
-    sched = workdir / "scheduler.json"
-    log = open(workdir / "dask.log", "w")
-    procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                               "--scheduler-file", str(sched)], stdout=log, stderr=log)]
-    try:
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while not sched.exists() and time.monotonic() < deadline:
-            time.sleep(0.1)
-        address = json.loads(sched.read_text())["address"]
-        procs += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                                    "--host", "127.0.0.1"], stdout=log, stderr=log) for _ in range(DASK_WORKERS)]
+    with local_cluster(workdir, DASK_WORKERS) as address:
         with Client(address, timeout=START_TIMEOUT_S) as client:
             client.wait_for_workers(DASK_WORKERS, timeout=START_TIMEOUT_S)
         yield address
-    finally:
-        for p in reversed(procs):
-            p.terminate()
-        for p in reversed(procs):
-            try:
-                p.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                p.kill()
-        log.close()
 
 
 def timed_batch(folder: Path, camera: Path, runner: Runner, work: Path) -> tuple[float, list[FrameRecord]]:
@@ -122,7 +98,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, list[float]], dict[str, lis
     times: dict[str, list[float]] = {}
     records: dict[str, list[dict]] = {}
     loads = [os.getloadavg()]
-    with tempfile.TemporaryDirectory() as tmp, local_dask_cluster(Path(tmp)) as address, \
+    with tempfile.TemporaryDirectory() as tmp, ready_cluster(Path(tmp)) as address, \
             dask_runner(address) as on_dask:
         configs: dict[str, Callable[[], Runner]] = {
             "one process (no pool)": lambda: run_sequential,

@@ -79,7 +79,9 @@ def sequential(roll, tmp_path_factory):
     """The roll run in one process: (completed process, output folder)."""
     scans, cam, _ = roll
     out = tmp_path_factory.mktemp("seq") / "out"
-    return batch(scans, "--camera", cam, "-o", out), out
+    r = batch(scans, "--camera", cam, "-o", out)
+    assert (out / "summary.json").is_file(), r.stderr
+    return r, out
 
 
 def test_a_batch_with_corrupt_frames_finishes_every_good_frame_and_reports_every_bad_one(roll, sequential):
@@ -235,29 +237,8 @@ def test_a_job_never_raises_and_scheduler_without_dask_is_one_error(tmp_path, mo
 def dask_cluster(tmp_path):
     """A real Dask scheduler and two single-threaded workers on 127.0.0.1; its address; all ended after."""
     pytest.importorskip("distributed")
-    dask = [sys.executable, "-m", "dask"]                               # `dask scheduler`, `dask worker`
-    sched_file = tmp_path / "scheduler.json"
-    logs = open(tmp_path / "dask.log", "w")
-    procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                               "--scheduler-file", str(sched_file)], stdout=logs, stderr=logs)]
-    try:
-        deadline = time.monotonic() + 60
-        while not sched_file.exists() and time.monotonic() < deadline:
-            time.sleep(0.1)
-        address = json.loads(sched_file.read_text())["address"]
-        procs += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                                    "--host", "127.0.0.1"], stdout=logs, stderr=logs) for _ in range(2)]
+    with runners.local_cluster(tmp_path, workers=2) as address:
         yield address
-    finally:
-        for p in reversed(procs):
-            p.terminate()
-        for p in reversed(procs):
-            try:
-                p.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-        logs.close()
 
 
 def test_a_dask_cluster_gives_the_local_results(roll, sequential, dask_cluster, tmp_path):

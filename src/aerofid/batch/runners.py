@@ -12,9 +12,14 @@ Dask is an optional extra (``pip install 'aerofid[cluster]'``), imported only wh
 from __future__ import annotations
 
 import contextlib
+import json
 import multiprocessing
+import subprocess
+import sys
+import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from pathlib import Path
 from typing import Any
 
 from aerofid.batch.job import ERROR, FrameRecord, run_frame_job
@@ -31,6 +36,10 @@ START_METHOD = "spawn"
 that may hold threads (Dask's, a progress bar's)."""
 CONNECT_TIMEOUT_S = 20
 """How long to wait for a Dask scheduler to answer."""
+CLUSTER_START_S = 60
+"""How long a local cluster's scheduler (:func:`local_cluster`) may take to write its address."""
+CLUSTER_STOP_S = 10
+"""How long a local cluster's process may take to end once asked before it is killed."""
 CLUSTER_EXTRA = "pip install 'aerofid[cluster]'"
 """The command that installs what ``--scheduler`` needs."""
 
@@ -114,6 +123,37 @@ def dask_runner(address: str) -> Iterator[Runner]:
 
 
 @contextlib.contextmanager
+def local_cluster(folder: str | Path, workers: int = 2) -> Iterator[str]:
+    """A Dask cluster on this machine for tests, benchmarks and trying ``--scheduler``: a ``dask scheduler`` and
+    ``workers`` single-threaded ``dask worker`` processes on 127.0.0.1 (their log and the scheduler file in
+    ``folder``); its address once the scheduler has written it (workers join when they are up: submitted
+    frames wait for them); every process ended on leaving."""
+    dask = [sys.executable, "-m", "dask"]
+    sched = Path(folder) / "scheduler.json"
+    with open(Path(folder) / "dask.log", "w") as log:
+        procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                   "--scheduler-file", str(sched)], stdout=log, stderr=log)]
+        try:
+            deadline = time.monotonic() + CLUSTER_START_S
+            while not sched.exists() and time.monotonic() < deadline and procs[0].poll() is None:
+                time.sleep(0.1)
+            address = json.loads(sched.read_text())["address"]
+            procs += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                        "--host", "127.0.0.1"], stdout=log, stderr=log) for _ in range(workers)]
+            yield address
+        finally:  # the workers first (they tell the scheduler they leave), then the scheduler
+            for group in (procs[1:], procs[:1]):
+                for p in group:
+                    p.terminate()
+                for p in group:
+                    try:
+                        p.wait(timeout=CLUSTER_STOP_S)
+                    except subprocess.TimeoutExpired:
+                        p.kill()
+                        p.wait()
+
+
+@contextlib.contextmanager
 def open_runner(workers: int = 1, scheduler: str | None = None) -> Iterator[Runner]:
     """The runner for the options: a Dask cluster (``scheduler``), local processes (``workers`` > 1), or this
     process; a Dask client is connected on entering (errors before any work) and closed on leaving."""
@@ -124,4 +164,5 @@ def open_runner(workers: int = 1, scheduler: str | None = None) -> Iterator[Runn
         yield run_sequential if workers <= 1 else process_runner(workers)
 
 
-__all__ = ["CLUSTER_EXTRA", "Runner", "Task", "dask_runner", "open_runner", "process_runner", "run_sequential"]
+__all__ = ["CLUSTER_EXTRA", "Runner", "Task", "dask_runner", "local_cluster", "open_runner", "process_runner",
+           "run_sequential"]

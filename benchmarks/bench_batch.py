@@ -25,6 +25,7 @@ import os
 import platform
 import shutil
 import statistics
+import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Iterator
@@ -36,6 +37,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+import aerofid  # noqa: E402
 from aerofid.batch.driver import plan_batch, run_batch  # noqa: E402
 from aerofid.batch.job import FrameRecord  # noqa: E402
 from aerofid.batch.runners import Runner, dask_runner, local_cluster, process_runner, run_sequential  # noqa: E402
@@ -117,6 +119,18 @@ def run(args: argparse.Namespace) -> tuple[dict[str, list[float]], dict[str, lis
     return times, records, loads
 
 
+def source_version() -> str:
+    """The commit of the aerofid that ran (its checkout's HEAD, ``+changes`` when its tree is not clean)."""
+    src = Path(aerofid.__file__).resolve().parents[2]
+    git = ["git", "-C", str(src)]
+    try:
+        head = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run([*git, "status", "--porcelain", "src"], capture_output=True, text=True).stdout.strip()
+    except OSError:
+        return "(not a git checkout)"
+    return f"{head}{'+changes' if dirty else ''}"
+
+
 def table(args: argparse.Namespace, times: dict[str, list[float]], records: dict[str, list[dict]],
           loads: list[tuple[float, ...]]) -> str:
     n = args.frames
@@ -128,11 +142,14 @@ def table(args: argparse.Namespace, times: dict[str, list[float]], records: dict
              "one process |", "|---|---|---|---|---|"]
     for k, v in times.items():
         w = workers.get(k, DASK_WORKERS)
+        differ = [a["frame"] for a, b in zip(records[k], base, strict=True) if a != b]
+        same = "yes" if not differ else f"NO: {', '.join(differ)}"
         lines.append(f"| {k} | {statistics.median(v):.1f} (runs {', '.join(f'{s:.1f}' for s in v)}) | "
-                     f"{fps[k]:.3f} | {fps[k] / (w * one):.0%} | {'yes' if records[k] == base else 'NO'} |")
+                     f"{fps[k]:.3f} | {fps[k] / (w * one):.0%} | {same} |")
     la = np.array(loads)
     lines += ["", f"{n} frames of {args.size} x {args.size} px; load average (1 min) during the runs "
-              f"{la[:, 0].min():.2f}-{la[:, 0].max():.2f}; {os.cpu_count()} cores, {platform.python_version()}."]
+              f"{la[:, 0].min():.2f}-{la[:, 0].max():.2f}; {os.cpu_count()} cores, {platform.python_version()}; "
+              f"aerofid {source_version()}."]
     return "\n".join(lines) + "\n"
 
 

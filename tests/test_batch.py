@@ -152,6 +152,7 @@ def test_a_batch_killed_part_way_resumes_and_redoes_only_what_is_incomplete(roll
     done = {n: (out / frame_outputs(n, "affine").json).stat().st_mtime_ns
             for n in GOOD if (out / frame_outputs(n, "affine").json).exists()}
     assert len(done) < len(GOOD)                                        # killed part-way
+    assert json.loads((out / "summary.json").read_text())["settings"]["model"] == "affine"   # a whole summary
     os.remove(out / frame_outputs("a.tif", "affine").html)             # one frame made incomplete
     (out / ".c.tif.json.aerofid-999999-x.tmp").write_text("{")         # a killed run's temporary file
     r = batch(good, "--camera", cam, "-o", out)

@@ -93,20 +93,25 @@ def run_batch(plan: BatchPlan, runner: Runner, on_record: Callable[[FrameRecord]
               refresh_s: float = SUMMARY_REFRESH_S) -> list[FrameRecord]:
     """Run the frames :attr:`BatchPlan.todo` on ``runner`` (:mod:`aerofid.batch.runners`), call ``on_record``
     with each record as it completes, write the summary of every frame (the complete ones' too) at the start,
-    every ``refresh_s`` seconds and at the end, and return all the records in the frames' order."""
+    every ``refresh_s`` seconds and at the end (also an interrupted end), and return all the records in the
+    frames' order."""
     start_batch(plan)
     records = dict(plan.done)
     write_summary(plan.ordered(records), plan.settings)
     last = time.monotonic()
-    for rec in runner(plan.todo, plan.settings):
-        records[rec.frame] = rec
-        if on_record is not None:
-            on_record(rec)
-        if time.monotonic() - last >= refresh_s:
-            write_summary(plan.ordered(records), plan.settings)
-            last = time.monotonic()
-    final = plan.ordered(records)
-    write_summary(final, plan.settings)
+    try:
+        for rec in runner(plan.todo, plan.settings):
+            records[rec.frame] = rec
+            if on_record is not None:
+                on_record(rec)
+            if time.monotonic() - last >= refresh_s:
+                write_summary(plan.ordered(records), plan.settings)
+                last = time.monotonic()
+    finally:  # also when interrupted (Ctrl-C): the summary of what was done, frames finished meanwhile too
+        records |= {k: r for p, k in plan.frames
+                    if k not in records and (r := _complete_record(p, k, plan.settings)) is not None}
+        final = plan.ordered(records)
+        write_summary(final, plan.settings)
     return final
 
 

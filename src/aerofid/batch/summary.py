@@ -32,10 +32,11 @@ CSV_COLUMNS = ("frame", "path", "status", "rms_px", "marks_found", "marks", "max
                "seconds", "reasons", "error")
 
 
-def frame_order(r: FrameRecord) -> tuple[int, float, str]:
-    """Sort key of a frame, worst first: by status (:data:`~aerofid.batch.job.STATUS_ORDER`), then by RMS."""
+def frame_order(r: FrameRecord) -> tuple[int, int, float, str]:
+    """Sort key of a frame, worst first: by status (:data:`~aerofid.batch.job.STATUS_ORDER`), then by the marks
+    not found or rejected, then by RMS."""
     rank = STATUS_ORDER.index(r.status) if r.status in STATUS_ORDER else 0
-    return rank, -(r.rms_px or 0.0), r.frame
+    return rank, -sum(m.status != FOUND_MARK for m in r.marks), -(r.rms_px or 0.0), r.frame
 
 
 def mark_order(m: MarkRecord) -> tuple[int, float, str]:

@@ -4,7 +4,8 @@ Layout (the Cloud-Optimized GeoTIFF conventions tifffile can write): :data:`TILE
 horizontal differencing (TIFF predictor 2; floating-point samples predictor 3), the full-resolution image
 first, then one reduced-resolution page per overview level (``NewSubfileType`` = 1, each half the size of the
 one before, 2 x 2 block means, until it fits one tile), as GDAL writes internal overviews. Unlike GDAL's COG
-driver, tifffile writes each page's IFD beside its data rather than every IFD at the start of the file.
+driver, tifffile writes each page's IFD just before its data (the first one at the start of the file) rather
+than every IFD at the start.
 
 The full-resolution bands come from an iterator (one row of tiles at a time); each band is also reduced into
 every overview level at once and the levels are kept in temporary raw files beside the output (not in memory),

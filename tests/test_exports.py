@@ -14,7 +14,7 @@ import pytest
 from aerofid.errors import AerofidInputError
 from aerofid.formats.exports import asp_tsai, check_format, fiducials_csv, matrices, opencv_yaml, orientation_json
 from aerofid.formats.micmac import affine_plane_xml
-from aerofid.formats.orientation import read_orientation
+from aerofid.formats.orientation import from_result, read_orientation
 from aerofid.frame.result import OK, FrameOrientation
 from aerofid.io.array import ArrayRaster
 from aerofid.orientation.grid import ResampleGrid
@@ -43,10 +43,10 @@ def oriented(tmp_path_factory):
 
 def test_every_stored_form_reads_back_to_the_same_transformation(oriented):
     folder, cam, _, res = oriented
-    forms = [read_orientation(folder / n) for n in ("io.json", "frame.json", "px2mm.xml")]
+    forms = [read_orientation(folder / n) for n in ("io.json", "frame.json", "px2mm.xml")] + [from_result(res)]
     for stored in forms:
         assert np.allclose(stored.transform.matrix, res.pixel_to_mm, rtol=1e-12, atol=1e-12)
-    assert forms[0].y_axis == forms[1].y_axis == cam.y_axis          # told by the handedness and 'mirrored'
+    assert forms[0].y_axis == forms[1].y_axis == forms[3].y_axis == cam.y_axis   # handedness and 'mirrored'
     assert forms[2].y_axis is None and forms[2].fiducials == ()      # an AffinePlane tells neither
     assert [f.name for f in forms[0].fiducials] == [f.name for f in res.fiducials]
 

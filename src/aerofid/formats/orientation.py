@@ -28,6 +28,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.formats.micmac import read_affine_plane
 from aerofid.formats.text import load_json
 from aerofid.io.files import read_text_input
+from aerofid.orientation.result import InteriorOrientation
 from aerofid.orientation.transform import AffineTransform, ProjectiveTransform, as_matrix, transform_class
 
 
@@ -108,6 +109,12 @@ def read_orientation(path: str | os.PathLike[str]) -> StoredOrientation:
     return _from_dict(data, where, str(p))
 
 
+def from_result(result: InteriorOrientation) -> StoredOrientation:
+    """An orientation just computed, as :func:`read_orientation` would read it from its JSON (for a caller that
+    resamples without writing the JSON first, such as a batch)."""
+    return _from_dict(result.to_dict(), f"the orientation of {result.image!r}", "")
+
+
 def _from_dict(d: dict[str, Any], where: str, source: str) -> StoredOrientation:
     model = d.get("model", "affine")
     try:
@@ -139,4 +146,4 @@ def _fiducial(f: Any, where: str) -> FiducialRecord:
                                 f"{str(f)[:80]}") from None
 
 
-__all__ = ["FiducialRecord", "StoredOrientation", "read_orientation"]
+__all__ = ["FiducialRecord", "StoredOrientation", "from_result", "read_orientation"]

@@ -4,7 +4,7 @@ every function is short enough to read at once.
 
 Layers, lowest first (a module may import its own layer and those below):
 ``conventions, errors, robust`` < ``io`` < ``detect``, ``orientation`` < ``formats`` < ``synth, synth_frame,
-methods, resample`` < ``find, testing`` < ``locate, frame`` < ``render`` < ``cli``. ``detect`` and
+methods, resample`` < ``find, testing`` < ``locate, frame`` < ``render, batch`` < ``cli``. ``detect`` and
 ``orientation`` are independent of each other.
 """
 
@@ -21,7 +21,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
 
 LAYER = {"conventions": 0, "errors": 0, "robust": 0, "io": 1, "detect": 2, "orientation": 2, "formats": 3,
          "synth": 4, "synth_frame": 4, "methods": 4, "resample": 4, "testing": 5, "find": 5, "locate": 6,
-         "frame": 6, "render": 7, "cli": 8, "__init__": 9, "__main__": 10}
+         "frame": 6, "render": 7, "batch": 7, "cli": 8, "__init__": 9, "__main__": 10}
 """Each top-level part of the package and its layer."""
 INDEPENDENT = {frozenset({"detect", "orientation"}), frozenset({"detect", "formats"})}
 """Parts that must not import each other although their layers would allow it."""

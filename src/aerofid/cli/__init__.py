@@ -69,11 +69,12 @@ def main() -> None:
 
 
 def _register() -> None:
-    from aerofid.cli import batch_cmd, demo_cmd, locate_cmd, orient_cmd, resample_cmd
+    from aerofid.cli import batch_cmd, demo_cmd, frame_cmd, locate_cmd, orient_cmd, resample_cmd
 
     main.add_command(locate_cmd.locate)
     main.add_command(demo_cmd.demo)
     main.add_command(orient_cmd.orient)
+    main.add_command(frame_cmd.learn)
     main.add_command(batch_cmd.batch)
     main.add_command(resample_cmd.resample)
 

@@ -16,6 +16,7 @@ from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.orient import orient_frame
+from aerofid.frame.profile import learn_profile, read_profile
 from aerofid.frame.report import frame_html, frame_text
 from aerofid.io.atomic import Staging
 
@@ -34,17 +35,18 @@ def parse_lie(text: str | None) -> tuple[int, bool] | None:
 
 
 def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: str | None, model: str,
-              as_json: bool, output: str | None, micmac_dir: str | None) -> int:
+              as_json: bool, output: str | None, micmac_dir: str | None, profile_path: str | None = None) -> int:
     """Orient the whole frame ``image``; print, write the report and MicMac files; the exit status."""
     check_outputs(output, micmac_dir)
     the_lie = parse_lie(lie)
-    with Staging([image, camera_path]) as staging:
+    with Staging([p for p in (image, camera_path, profile_path) if p]) as staging:
         if output is not None:
             staging.plan(output, "report")
         name = Path(image).name
         micmac = micmac_files(Path(micmac_dir), name, model, staging) if micmac_dir is not None else None
         cam = read_camera(camera_path)
-        res = orient_frame(image, cam, pixel_size_mm=pixel_size, model=model, lie=the_lie)
+        profile = read_profile(profile_path) if profile_path is not None else None
+        res = orient_frame(image, cam, pixel_size_mm=pixel_size, model=model, lie=the_lie, profile=profile)
         if output is not None:
             suffix = Path(output).suffix.lower()
             staging.put(output, json.dumps(res.to_dict(), indent=2) + "\n" if suffix == ".json"
@@ -58,3 +60,35 @@ def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: st
     for r in res.reasons:
         click.echo(f"note: {res.status}: {r}", err=True)
     return 0 if res.ok else 1
+
+
+@click.command()
+@click.argument("frame")
+@click.option("--camera", "camera_path", required=True, metavar="CAMERA",
+              help="camera file: JSON/YAML certificate or MicMac MeasuresCamera.xml")
+@click.option("-o", "--output", required=True, metavar="ROLL", help="the roll profile to write (.json)")
+@click.option("--pixel-size", type=float, metavar="MM",
+              help="the scan's pixel size in mm (default: the file's resolution tags, the camera file)")
+@click.option("--lie", metavar="ROT[m]", help="the film's lie when the fiducials cannot tell it (e.g. 0, 90m)")
+def learn(frame, camera_path, output, pixel_size, lie) -> int:
+    """Learn a roll's profile from one of its frames: the marks' style (the method that measures them), size and
+    polarity, the film's lie and the pixel size, for 'aerofid orient --profile' on the roll's other frames. The
+    frame must orient ok (exit 1 with the reasons, nothing written, if not)."""
+    if Path(output).suffix.lower() != ".json":
+        raise AerofidInputError(f"roll profile {output!r} must end in .json")
+    with Staging([frame, camera_path]) as staging:
+        staging.plan(output, "roll profile")
+        cam = read_camera(camera_path)
+        res = orient_frame(frame, cam, pixel_size_mm=pixel_size, lie=parse_lie(lie))
+        if not res.ok:
+            click.echo(f"error: cannot learn from {Path(frame).name}: it is {res.status}: " + "; ".join(res.reasons),
+                       err=True)
+            return 1
+        profile = learn_profile(res)
+        staging.put(output, json.dumps(profile.to_dict(), indent=2) + "\n")
+        click.echo(f"{Path(frame).name}: {len(res.found)} marks, {profile.method}, {profile.polarity}, radius "
+                   f"{profile.mark_radius_mm:.3f} mm, lie {profile.rotation_deg}{'m' if profile.mirrored else ''}, "
+                   f"pixel {profile.pixel_size_mm * 1000:.3f} um -> {output}")
+        flush_stdout()
+        staging.commit()
+    return 0

@@ -51,18 +51,22 @@ from aerofid.orientation.result import InteriorOrientation
 @click.option("--lie", metavar="ROT[m]",
               help="whole frame: the film's lie when the fiducials cannot tell it: 0, 90, 180 or 270 degrees, "
                    "'m' if mirrored (e.g. 90m)")
+@click.option("--profile", "profile_path", metavar="ROLL",
+              help="whole frame: the roll's profile (aerofid learn): its pixel size, lie, polarity, method and mark "
+                   "size are used; a frame that disagrees with it is doubtful")
 def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir,
-           pixel_size, lie) -> int:
+           pixel_size, lie, profile_path) -> int:
     """Interior orientation (pixel -> film mm) of a scan: from its measured fiducials (--measurements), or from
     the scan itself (IMAGE alone: the fiducials found from the camera file's layout)."""
     if meas_path is None:
         if image:
             return run_frame(image, camera_path, pixel_size=pixel_size, lie=lie, model=model, as_json=as_json,
-                             output=output, micmac_dir=micmac_dir)
+                             output=output, micmac_dir=micmac_dir, profile_path=profile_path)
         raise AerofidInputError("give the scan (aerofid orient IMAGE --camera CAMERA) or --measurements FILE "
                                 "(fiducial pixel coordinates)")
-    if pixel_size is not None or lie is not None:
-        raise AerofidInputError("--pixel-size and --lie are for a whole frame (IMAGE without --measurements)")
+    if pixel_size is not None or lie is not None or profile_path is not None:
+        raise AerofidInputError("--pixel-size, --lie and --profile are for a whole frame (IMAGE without "
+                                "--measurements)")
     check_outputs(output, micmac_dir)
     inputs = [p for p in (image, camera_path, meas_path) if p]
     with Staging(inputs) as staging:

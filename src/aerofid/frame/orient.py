@@ -44,7 +44,8 @@ from aerofid.find import (
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, layout_candidates
-from aerofid.frame.result import FAILED, OK, FrameOrientation
+from aerofid.frame.profile import METHODS, RollProfile, disagreements
+from aerofid.frame.result import DOUBTFUL, FAILED, OK, FrameOrientation
 from aerofid.frame.verdict import verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
@@ -78,8 +79,6 @@ MIN_TOLERANCE_PX = 8.0
 FRAME_METHOD_TOLERANCE_MM = 0.3
 """How far (film mm) a mark measured by the frame's own method alone may lie from its prediction by the found
 marks: the scanner's affinity across an edge a similarity cannot follow, 0.1 % of the frame."""
-METHODS = ("hough", "symmetry", "circles", "lines")
-"""The seed methods a frame's marks can be measured by alone (:func:`_by_frame_method`)."""
 ALTERNATIVES = 3
 """Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
 the first whose frame is ok is taken."""
@@ -88,7 +87,7 @@ the first whose frame is ok is taken."""
 def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camera | str | os.PathLike[str], *,
                  pixel_size_mm: float | None = None, mark: str = "auto", method: str = "auto",
                  polarity: str = "auto", colour: str = "auto", model: str = "affine",
-                 lie: tuple[int, bool] | None = None) -> FrameOrientation:
+                 lie: tuple[int, bool] | None = None, profile: RollProfile | None = None) -> FrameOrientation:
     """The fiducials of a whole scanned frame and its interior orientation, from the camera file alone.
 
     Parameters
@@ -105,8 +104,11 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     model : str
         The adjustment's model: ``"affine"`` (seed 004), ``"similarity"`` or ``"projective"``.
     lie : (rotation_deg, mirrored), optional
-        The film's lie in the scanner when the fiducials cannot tell it (a symmetric layout); default: as the
-        camera file draws the frame (0, False), and the frame is then doubtful.
+        The film's lie in the scanner when the fiducials cannot tell it (a symmetric layout); default: the
+        profile's, else as the camera file draws the frame (0, False), and the frame is then doubtful.
+    profile : RollProfile, optional
+        What the roll's marks look like (:mod:`aerofid.frame.profile`, ``aerofid learn``): its pixel size (unless
+        given), lie, polarity, method and mark size are used, and a frame that disagrees with it is doubtful.
 
     Returns
     -------
@@ -134,8 +136,14 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     detector, polarities = configure(method, mark, polarity, colour, {})
     if pixel_size_mm is not None and not (isinstance(pixel_size_mm, int | float) and 0 < pixel_size_mm < 1):
         raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
+    if profile is not None:
+        if profile.camera != cam.name:
+            raise AerofidInputError(f"the roll profile was learnt with camera {profile.camera!r}, not {cam.name!r}: "
+                                    "give its camera file or learn the profile again")
+        lie = lie if lie is not None else (profile.rotation_deg, profile.mirrored)
     with open_image(image) as source:
-        size, size_source = scan_pixel_size(source, cam, pixel_size_mm)
+        size, size_source = ((profile.pixel_size_mm, "profile") if profile is not None and pixel_size_mm is None
+                             else scan_pixel_size(source, cam, pixel_size_mm))
         features, f = frame_features(source)
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
         layouts = layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, cam.y_axis,
@@ -149,9 +157,11 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
         best: FrameOrientation | None = None
         for layout in layouts[:1 if size is not None else ALTERNATIVES]:
             located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features,
-                                    mark)
+                                    mark, profile)
             res = verdict(cam, layout, located, model, head, layout.pixel_size_mm if size is None else size,
                           size_source, lie)
+            if profile is not None and res.orientation is not None:
+                res = _reviewed(res, disagreements(profile, res))
             if best is None or _standing(res) > _standing(best):
                 best = res
             if res.ok:
@@ -160,6 +170,13 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
     return best
+
+
+def _reviewed(res: FrameOrientation, doubts: list[str]) -> FrameOrientation:
+    """``res`` doubtful for review when it disagrees with the roll's profile (``doubts``)."""
+    if not doubts:
+        return res
+    return replace(res, status=DOUBTFUL, reasons=(*res.reasons, *(f"review: {d}" for d in doubts)))
 
 
 def _standing(res: FrameOrientation) -> tuple[int, int]:
@@ -197,19 +214,25 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 
 
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
-                  features: tuple[Candidate, ...], mark: str = "auto") -> list[tuple[Located | None, str]]:
-    """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go
-    first, strongest first; the first mark found fixes the polarity tried first for the rest, and once :data:`MIN_REFIT`
-    marks are found a transformation fitted to them (:func:`fit_points`) predicts the others (to a few px,
-    :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent; each is first measured by
-    the method that found most of them alone (:func:`_by_frame_method`), then, if that fails, like the first."""
+                  features: tuple[Candidate, ...], mark: str = "auto",
+                  profile: RollProfile | None = None) -> list[tuple[Located | None, str]]:
+    """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
+    strongest first; the first mark found fixes the polarity tried first for the rest, and once :data:`MIN_REFIT`
+    marks are found a transformation fitted to them (:meth:`LayoutMatch.predict_from`) predicts the others (to a
+    few px, :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent; each is first
+    measured by the method that found most of them alone (:func:`_by_method`), then, if that fails, like the
+    first. A roll ``profile`` gives the polarity, the method and the marks' size from the first mark on."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
     out: list[tuple[Located | None, str]] = [(None, "")] * n
     other: Polarity | None = None               # the polarity tried when the frame's (fixed by its first mark) fails
+    if profile is not None and len(measurer.polarities) > 1:
+        measurer = replace(measurer, polarities=(profile.polarity,))
+        other = _opposite(profile.polarity)
     for k in order:
         done = [j for j in range(n) if out[j][0] is not None]
+        name = profile.method if profile is not None else None
         if len(done) >= MIN_REFIT:
             found = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
             p = layout.predict_from(fiducials_mm, done, found)[k]
@@ -217,38 +240,45 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             extent = float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
             start = Candidate(at[0], at[1], extent, 0.0)
             tolerance = max(REFINED_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
+            name = name or _frame_method(out, done)
+            alone_tolerance = max(FRAME_METHOD_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
         else:
             at = (float(layout.predicted[k][0]), float(layout.predicted[k][1]))
             m = layout.matched[k]
-            start = (_first_window(features[m]) if m is not None
+            start = (Candidate(at[0], at[1], profile.mark_radius_px(layout.pixel_size_mm), 0.0) if profile is not None
+                     else _first_window(features[m]) if m is not None
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
-            tolerance = layout.tolerance_px
-        quick = _by_frame_method(measurer, start, at, layout.pixel_size_mm, mark, out, done)
+            tolerance = alone_tolerance = layout.tolerance_px
+        quick = (_by_method(measurer, name, mark, start, at, alone_tolerance)
+                 if name is not None and len(measurer.polarities) == 1 else None)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             out[k], polarity = _settle_polarity(measurer, out[k], start, at, tolerance)
             measurer = replace(measurer, polarities=(polarity,))
-            other = "dark" if polarity == "bright" else "bright"
+            other = _opposite(polarity)
     return out
 
 
-def _by_frame_method(measurer: Measurer, start: Candidate, at: tuple[float, float], pixel_size_mm: float,
-                     mark: str, out: list[tuple[Located | None, str]], done: list[int]) -> Located | None:
-    """Once :data:`MIN_REFIT` marks are found (``done``), the next one measured by the method that found most of
-    them, alone (the marks of one frame are alike), on the window their extent sizes at the prediction ``at``,
-    re-centred and with its window term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within
-    :data:`FRAME_METHOD_TOLERANCE_MM` of the prediction by the found marks, else None (then ``auto`` measures it
-    as it did the first). ``auto``'s cross-checks and uniqueness pass (three quarters of its time on a ring and
-    cross) are what the found marks' geometry replaces here."""
-    if len(done) < MIN_REFIT or len(measurer.polarities) != 1:
-        return None
+def _opposite(polarity: Polarity) -> Polarity:
+    return "dark" if polarity == "bright" else "bright"
+
+
+def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str | None:
+    """The seed method that found most of the marks ``done`` (None if ``auto``'s own answers: none)."""
     methods = [out[j][0].detection.method for j in done]  # type: ignore[union-attr]
     name = max(set(methods), key=methods.count)
-    if name not in METHODS:
-        return None
+    return name if name in METHODS else None
+
+
+def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: tuple[float, float],
+               tolerance: float) -> Located | None:
+    """A mark measured by the method ``name`` alone (the marks of one frame, or of one roll, are alike), on the
+    window the marks' extent (``start.radius``) sizes at the prediction ``at``, re-centred and with its window
+    term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within ``tolerance`` px of the
+    prediction, else None (then ``auto`` measures it). The geometry of the marks found (or the layout) is what
+    replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross."""
     detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
     alone = replace(measurer, detector=detector)
-    tolerance = max(FRAME_METHOD_TOLERANCE_MM / pixel_size_mm, MIN_TOLERANCE_PX)
     got = alone.at(at[0], at[1], recentred_half(start.radius), start)
     if not got.found or math.hypot(got.x - at[0], got.y - at[1]) > tolerance:
         return None
@@ -266,7 +296,7 @@ def _settle_polarity(measurer: Measurer, first: tuple[Located | None, str], star
     assert got is not None
     if shows_mark_bright(got):
         return first, got.polarity
-    other: Polarity = "dark" if got.polarity == "bright" else "bright"
+    other = _opposite(got.polarity)
     again = measure_fiducial(replace(measurer, polarities=(other,)), start, at, tolerance)
     return (again, other) if again[0] is not None else (first, got.polarity)
 

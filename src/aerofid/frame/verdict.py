@@ -59,7 +59,7 @@ def verdict(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | 
     findings = _by_orientation(cam, layout, located, found, io)
     reasons += _doubts(io, findings, size, size_source)
     if size_source == "estimated":
-        common["pixel_size_mm"] = _adjusted_pixel_mm(io)
+        common["pixel_size_mm"] = adjusted_pixel_mm(io)
     return FrameOrientation(**common, status=DOUBTFUL if reasons else OK, reasons=tuple(reasons),
                             fiducials=findings, orientation=io, rotation_deg=lie_fit.rotation_deg,
                             mirrored=lie_fit.mirrored)
@@ -113,13 +113,13 @@ def _doubts(io: InteriorOrientation, findings: Sequence[FiducialFinding], size: 
     if math.isfinite(io.rms_px) and io.rms_px > MAX_RMS_PX:
         out.append(f"residual RMS {io.rms_px:.2f} px is more than the marks and the film explain (<= {MAX_RMS_PX} px)")
     if size is not None and size_source != "estimated":
-        fitted = _adjusted_pixel_mm(io)
+        fitted = adjusted_pixel_mm(io)
         if abs(fitted / size - 1) > SCALE_AGREEMENT:
             out.append(f"the adjusted pixel size {fitted:.5f} mm differs from the {size_source}' {size:.5f} mm")
     return out
 
 
-def _adjusted_pixel_mm(io: InteriorOrientation) -> float:
+def adjusted_pixel_mm(io: InteriorOrientation) -> float:
     """The adjustment's mean pixel size (mm): the geometric mean of its x and y pixel sizes."""
     return math.sqrt(io.pixel_size_um[0] * io.pixel_size_um[1]) / 1000.0
 
@@ -165,4 +165,4 @@ def _by_layout(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located
     return tuple(out)
 
 
-__all__ = ["MAX_RMS_PX", "verdict"]
+__all__ = ["MAX_RMS_PX", "adjusted_pixel_mm", "verdict"]

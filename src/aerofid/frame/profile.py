@@ -1,0 +1,182 @@
+"""A roll's profile: what one frame's marks look like, learnt once and used on every frame of the roll.
+
+The frames of one roll come from one camera and one scanner set-up: the marks' style, size and polarity, the
+method that measures them, the film's lie and the pixel size are the same on every frame. ``aerofid learn``
+stores them from one frame oriented ok (:func:`learn_profile`); ``aerofid orient --profile`` then
+
+- takes the pixel size and the lie from it (a symmetric layout's lie is no longer open),
+- measures every mark by the learnt method alone from the first one on, on the window the learnt size gives
+  (the frame's geometry checks it; ``auto`` is the fallback), and
+- flags a frame that disagrees with it for review (:func:`disagreements`): another lie, another pixel size,
+  marks of another size or polarity, or marks the learnt method did not find.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import Counter
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from aerofid.conventions import POLARITIES, Polarity
+from aerofid.errors import AerofidInputError
+from aerofid.formats.text import load_json
+from aerofid.frame.result import FOUND_MARK, FrameOrientation
+from aerofid.frame.verdict import adjusted_pixel_mm
+from aerofid.io.files import read_text_input
+from aerofid.orientation.correspondence import ARRANGEMENTS
+
+PROFILE_FORMAT = "aerofid-roll-profile"
+"""The ``format`` entry that names a profile file."""
+PROFILE_VERSION = 1
+"""The version of the profile file this code writes and reads."""
+SIZE_AGREEMENT = 0.25
+"""Largest relative difference between a frame's mark radius and the profile's before the frame is flagged: the
+radius a method reports varies by a few per cent between frames; another mark style differs by more."""
+PIXEL_AGREEMENT = 0.01
+"""Largest relative difference between a frame's adjusted pixel size and the profile's: one scanner set-up
+gives the same size to a few tenths of a per cent."""
+METHODS = ("hough", "symmetry", "circles", "lines")
+"""The seed methods a roll's marks can be measured by alone."""
+
+
+@dataclass(frozen=True)
+class RollProfile:
+    """What the marks of a roll look like (see the module docstring).
+
+    Attributes
+    ----------
+    camera : str
+        The camera file's name: a profile is used with the camera it was learnt with.
+    pixel_size_mm : float
+        The learnt frame's adjusted pixel size.
+    rotation_deg, mirrored : int, bool
+        The film's lie in the scanner (:data:`aerofid.orientation.correspondence.ARRANGEMENTS`).
+    polarity : str
+        ``"bright"`` or ``"dark"``: the marks against their ground.
+    method : str
+        The seed method that measured most of the learnt frame's marks.
+    mark_radius_mm : float
+        The marks' median radius by that method's model (film mm).
+    image : str
+        The frame it was learnt from.
+    """
+
+    camera: str
+    pixel_size_mm: float
+    rotation_deg: int
+    mirrored: bool
+    polarity: Polarity
+    method: str
+    mark_radius_mm: float
+    image: str = ""
+
+    def __post_init__(self) -> None:
+        if (self.rotation_deg, self.mirrored) not in ARRANGEMENTS:
+            raise AerofidInputError(f"profile: lie ({self.rotation_deg}, {self.mirrored}) is not one of the 8 lies")
+        if self.polarity not in POLARITIES:
+            raise AerofidInputError(f"profile: polarity {self.polarity!r} must be bright or dark")
+        if self.method not in METHODS:
+            raise AerofidInputError(f"profile: method {self.method!r} must be one of {', '.join(METHODS)}")
+        for what, v in (("pixel_size_mm", self.pixel_size_mm), ("mark_radius_mm", self.mark_radius_mm)):
+            if not (math.isfinite(v) and 0 < v < 50):
+                raise AerofidInputError(f"profile: {what} {v!r} must be a positive size in mm")
+
+    def mark_radius_px(self, pixel_size_mm: float) -> float:
+        return self.mark_radius_mm / pixel_size_mm
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"format": PROFILE_FORMAT, "version": PROFILE_VERSION, "camera": self.camera,
+                "pixel_size_mm": self.pixel_size_mm, "lie": {"rotation_deg": self.rotation_deg,
+                                                             "mirrored": self.mirrored},
+                "polarity": self.polarity, "method": self.method, "mark_radius_mm": self.mark_radius_mm,
+                "image": self.image}
+
+    @classmethod
+    def from_dict(cls, d: Any, source: str = "profile") -> RollProfile:
+        """The profile :meth:`to_dict` wrote; anything else is one line saying what is wrong."""
+        if not isinstance(d, dict) or d.get("format") != PROFILE_FORMAT:
+            raise AerofidInputError(f"{source}: not a roll profile (make one with 'aerofid learn FRAME --camera C "
+                                    "-o roll.json')")
+        if d.get("version") != PROFILE_VERSION:
+            raise AerofidInputError(f"{source}: profile version {d.get('version')!r}; this aerofid reads version "
+                                    f"{PROFILE_VERSION}: learn it again")
+        try:
+            lie = d["lie"]
+            return cls(camera=str(d["camera"]), pixel_size_mm=_number(d["pixel_size_mm"]),
+                       rotation_deg=int(lie["rotation_deg"]), mirrored=_flag(lie["mirrored"]),
+                       polarity=d["polarity"], method=str(d["method"]), mark_radius_mm=_number(d["mark_radius_mm"]),
+                       image=str(d.get("image", "")))
+        except (KeyError, TypeError) as e:
+            raise AerofidInputError(f"{source}: the profile lacks or mistypes {e}: learn it again") from None
+        except AerofidInputError as e:
+            raise AerofidInputError(f"{source}: {e}") from None
+
+
+def _number(v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise TypeError(repr(v))
+    return float(v)
+
+
+def _flag(v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise TypeError(repr(v))
+    return v
+
+
+def read_profile(path: str | os.PathLike[str]) -> RollProfile:
+    """A roll profile file (JSON, as ``aerofid learn`` writes it)."""
+    p, text = read_text_input(path, "roll profile")
+    return RollProfile.from_dict(load_json(text, str(p)), str(p))
+
+
+def learn_profile(res: FrameOrientation) -> RollProfile:
+    """The profile of the roll ``res`` belongs to, learnt from its found marks; the frame must be ok (else the
+    one line says why and what to do)."""
+    if not res.ok:
+        raise AerofidInputError(f"cannot learn from a frame that is {res.status}: " + "; ".join(res.reasons)
+                                + " (give --lie or --pixel-size, or learn from another frame of the roll)")
+    found = [f.located for f in res.fiducials if f.status == FOUND_MARK and f.located is not None]
+    methods = [m.detection.method for m in found if m.detection.method in METHODS]
+    if not methods or res.rotation_deg is None or res.mirrored is None or res.orientation is None:
+        raise AerofidInputError("cannot learn from this frame: its marks were not found by a seed method alone")
+    size = _pixel_mm(res)
+    return RollProfile(camera=res.camera, pixel_size_mm=size, rotation_deg=res.rotation_deg,
+                       mirrored=res.mirrored, polarity=Counter(m.polarity for m in found).most_common(1)[0][0],
+                       method=Counter(methods).most_common(1)[0][0],
+                       mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image)
+
+
+def _pixel_mm(res: FrameOrientation) -> float:
+    """The frame's adjusted mean pixel size (mm), else the one its search assumed."""
+    return adjusted_pixel_mm(res.orientation) if res.orientation is not None else float(res.pixel_size_mm or math.nan)
+
+
+def disagreements(profile: RollProfile, res: FrameOrientation) -> list[str]:
+    """Why a frame oriented with ``profile`` should be reviewed: it disagrees with the roll (none: it agrees)."""
+    out = []
+    if res.rotation_deg is not None and (res.rotation_deg, res.mirrored) != (profile.rotation_deg, profile.mirrored):
+        out.append(f"the film lies rotated {res.rotation_deg} deg{' mirrored' if res.mirrored else ''}, the roll "
+                   f"profile's {profile.rotation_deg} deg{' mirrored' if profile.mirrored else ''}")
+    size = _pixel_mm(res)
+    if math.isfinite(size) and abs(size / profile.pixel_size_mm - 1) > PIXEL_AGREEMENT:
+        out.append(f"the adjusted pixel size {size:.5f} mm differs from the roll profile's "
+                   f"{profile.pixel_size_mm:.5f} mm")
+    found = [f for f in res.fiducials if f.status == FOUND_MARK and f.located is not None]
+    if found:
+        radius = float(np.median([f.located.extent for f in found])) * size  # type: ignore[union-attr]
+        if abs(radius / profile.mark_radius_mm - 1) > SIZE_AGREEMENT:
+            out.append(f"the marks' radius {radius:.3f} mm differs from the roll profile's "
+                       f"{profile.mark_radius_mm:.3f} mm")
+        flipped = [f.name for f in found if f.located.polarity != profile.polarity]  # type: ignore[union-attr]
+        if flipped:
+            out.append(f"marks {', '.join(flipped)} are {('dark' if profile.polarity == 'bright' else 'bright')}, "
+                       f"the roll's are {profile.polarity}")
+    return out
+
+
+__all__ = ["PROFILE_FORMAT", "RollProfile", "disagreements", "learn_profile", "read_profile"]

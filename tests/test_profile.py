@@ -1,0 +1,122 @@
+"""A roll's profile (aerofid learn, orient --profile): learnt from one frame, it orients the roll's other frames
+at their true centres, settles a symmetric layout's lie, and flags a frame that disagrees with it."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import aerofid
+from aerofid.errors import AerofidInputError
+from aerofid.formats.camera_file import write_camera
+from aerofid.frame.profile import RollProfile, read_profile
+from aerofid.orientation.camera import Camera
+from aerofid.synth_frame import frame_spec, render_frame, wild_rc10_camera, write_frame
+
+CAMERA = wild_rc10_camera()
+COARSE_MM = 0.08
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "aerofid", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd)
+
+
+@pytest.fixture(scope="module")
+def roll(tmp_path_factory):
+    """Three frames of one roll (the film lying 90 degrees mirrored) and a fourth scanned the other way round."""
+    folder = tmp_path_factory.mktemp("roll")
+    truths = {}
+    for name, seed, lie in (("a.tif", 3, (90, True)), ("b.tif", 5, (90, True)), ("c.tif", 8, (180, False))):
+        spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(seed), rotation_deg=lie[0], mirrored=lie[1])
+        truths[name] = write_frame(spec, folder / name, "tiled")
+    write_camera(folder / "cam.json", CAMERA)
+    return folder, truths
+
+
+@pytest.fixture(scope="module")
+def learnt(roll):
+    """The profile ``aerofid learn`` writes from the roll's first frame."""
+    folder, _ = roll
+    r = _cli("learn", "a.tif", "--camera", "cam.json", "-o", "roll.json", cwd=folder)
+    assert r.returncode == 0, r.stderr
+    return read_profile(folder / "roll.json")
+
+
+def test_a_profile_learnt_from_one_frame_orients_the_next_one(roll, learnt):
+    folder, truths = roll
+    profile = learnt
+    assert (profile.rotation_deg, profile.mirrored) == (90, True)
+    assert profile.polarity == "bright"
+    assert profile.pixel_size_mm == pytest.approx(COARSE_MM, rel=1e-3)
+    assert 1.5 < profile.mark_radius_mm < 2.5                   # the synthetic ring-and-cross marks: 4 mm across
+    res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=profile)
+    assert res.status == "ok", res.reasons
+    assert res.pixel_size_source == "profile"
+    marks = truths["b.tif"].marks
+    err = [math.hypot(f.x - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials if f.x is not None]
+    assert len(err) == 8 and max(err) < 0.1, err
+    assert sum(f.method == profile.method for f in res.fiducials) >= 6
+
+
+def test_a_frame_that_disagrees_with_the_profile_is_flagged_for_review(roll, learnt):
+    folder, _ = roll
+    res = aerofid.orient_frame(folder / "c.tif", CAMERA, profile=learnt)
+    assert res.status == "doubtful"
+    assert any(r.startswith("review: the film lies rotated 180 deg") for r in res.reasons), res.reasons
+    assert (res.rotation_deg, res.mirrored) == (180, False)     # the answer is still the frame's own lie
+
+
+def test_the_profile_settles_the_lie_a_symmetric_layout_leaves_open():
+    nominal = Camera.from_dict({"name": "nominal", "fiducials": {
+        f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}})
+    image = render_frame(frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3)))
+    assert aerofid.orient_frame(image, nominal, pixel_size_mm=COARSE_MM).status == "doubtful"
+    profile = RollProfile(camera="nominal", pixel_size_mm=COARSE_MM, rotation_deg=0, mirrored=False,
+                          polarity="bright", method="symmetry", mark_radius_mm=2.0)
+    res = aerofid.orient_frame(image, nominal, profile=profile)
+    assert res.status == "ok", res.reasons
+    assert (res.rotation_deg, res.mirrored) == (0, False)
+
+
+def test_learning_from_a_doubtful_frame_writes_nothing(tmp_path):
+    nominal = {"name": "nominal", "fiducials": {f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}}
+    (tmp_path / "cam.json").write_text(json.dumps(nominal))
+    write_frame(frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3)), tmp_path / "f.tif", "tiled")
+    r = _cli("learn", "f.tif", "--camera", "cam.json", "-o", "roll.json", cwd=tmp_path)
+    assert r.returncode == 1
+    assert "lie cannot be told" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "roll.json").exists()
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('{"camera": "x"}', "not a roll profile"),
+    ('{"format": "aerofid-roll-profile", "version": 99}', "version 99"),
+    ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
+     '"lie": {"rotation_deg": 45, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
+     '"mark_radius_mm": 2}', "lie"),
+    ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": "big", '
+     '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
+     '"mark_radius_mm": 2}', "mistypes"),
+])
+def test_a_bad_profile_is_one_line(tmp_path, text, message):
+    (tmp_path / "roll.json").write_text(text)
+    with pytest.raises(AerofidInputError, match=message):
+        read_profile(tmp_path / "roll.json")
+
+
+def test_the_cli_refuses_a_profile_of_another_camera(roll, tmp_path):
+    folder, _ = roll
+    other = RollProfile(camera="another", pixel_size_mm=COARSE_MM, rotation_deg=0, mirrored=False,
+                        polarity="bright", method="symmetry", mark_radius_mm=2.0)
+    (tmp_path / "roll.json").write_text(json.dumps(other.to_dict()))
+    r = _cli("orient", folder / "b.tif", "--camera", folder / "cam.json", "--profile", tmp_path / "roll.json",
+             "-o", tmp_path / "r.json", cwd=tmp_path)
+    assert r.returncode == 2
+    assert r.stderr.startswith("error:") and "learnt with camera 'another'" in r.stderr
+    assert not (tmp_path / "r.json").exists()

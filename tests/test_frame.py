@@ -13,8 +13,6 @@ import numpy as np
 import pytest
 
 import aerofid
-from aerofid import synth
-from aerofid.find import Located, configure, shows_mark_bright
 from aerofid.formats.camera_file import write_camera
 from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.io.resolution import pixel_size_from_tags
@@ -91,18 +89,6 @@ def test_chance_matches_in_dense_clutter_lose_to_the_layout_that_fits():
     m = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
     assert m is not None
     assert _farthest(m.predicted, marks) < 10
-
-
-def test_the_polarity_a_mark_fixes_is_the_one_it_is_bright_in():
-    """A bright ring and '+' on dark film is centred as well in its negative; find.shows_mark_bright tells which
-    of the two shows the mark brighter than its ground."""
-    img = synth.paint_shape(np.full((161, 161), 0.1, np.float32), (80.3, 79.6), synth.mark_shape("ring_cross", 60.0),
-                            0.9)
-    det, _ = configure("auto", "auto", "auto", "auto", {})
-    for polarity, grey, bright in (("bright", img, True), ("dark", 1.0 - img, False)):
-        got = Located(det(grey.astype(np.float32)), polarity, (0, 0, 161, 161), grey)
-        assert got.found and math.hypot(got.x - 80.3, got.y - 79.6) < 0.05
-        assert shows_mark_bright(got) is bright
 
 
 def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():

@@ -122,19 +122,6 @@ class Located:
         return min(self.box[2] - self.box[0], self.box[3] - self.box[1]) / 4.0
 
 
-def shows_mark_bright(got: Located) -> bool:
-    """Does ``got``'s window (grey levels in its polarity) show the mark brighter than its ground: the mean within
-    the mark's extent above the median of the window outside it? Both polarities can centre a symmetric mark equally
-    well (a bright ring and '+' on dark film, and its negative), but only in one is the mark what is bright."""
-    w = got.window
-    h, wd = w.shape
-    yy, xx = np.mgrid[0:h, 0:wd]
-    inside = np.hypot(xx - (got.x - got.box[0]), yy - (got.y - got.box[1])) <= got.extent
-    if not inside.any() or inside.all():
-        return True
-    return bool(w[inside].mean() > np.median(w[~inside]))
-
-
 @dataclass(frozen=True)
 class MarkSearch:
     """The answer of :func:`find_marks`: the marks found (strongest first) and how the search went.
@@ -436,4 +423,4 @@ def in_box(x: float, y: float, box: Box) -> bool:
 
 
 __all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "configure", "find_marks", "in_box",
-           "read_reduced_levels", "recentred_half", "search", "shows_mark_bright"]
+           "read_reduced_levels", "recentred_half", "search"]

@@ -40,7 +40,6 @@ from aerofid.find import (
     reduction_for,
     screen_region,
     search,
-    shows_mark_bright,
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, layout_candidates
@@ -253,7 +252,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                  if name is not None and len(measurer.polarities) == 1 else None)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:
-            out[k], polarity = _settle_polarity(measurer, out[k], start, at, tolerance)
+            polarity = out[k][0].polarity  # type: ignore[union-attr]
             measurer = replace(measurer, polarities=(polarity,))
             other = _opposite(polarity)
     return out
@@ -284,21 +283,6 @@ def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: t
         return None
     got = alone.recentre(got, start)
     return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
-
-
-def _settle_polarity(measurer: Measurer, first: tuple[Located | None, str], start: Candidate, at: tuple[float, float],
-                     tolerance: float) -> tuple[tuple[Located | None, str], Polarity]:
-    """The polarity the first found mark fixes for the frame: the one in which the mark is brighter than its ground
-    (:func:`aerofid.find.shows_mark_bright`). A bright ring and cross on dark film is centred as well in the negative
-    (the real one won a window there on the 90-degree synthetic frames), where the other marks' lone '+' then has
-    no bright core and is refused; so a mark found dark is measured again in the other polarity, kept if found."""
-    got = first[0]
-    assert got is not None
-    if shows_mark_bright(got):
-        return first, got.polarity
-    other = _opposite(got.polarity)
-    again = measure_fiducial(replace(measurer, polarities=(other,)), start, at, tolerance)
-    return (again, other) if again[0] is not None else (first, got.polarity)
 
 
 def _first_window(c: Candidate) -> Candidate:

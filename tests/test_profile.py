@@ -52,7 +52,8 @@ def test_a_profile_learnt_from_one_frame_orients_the_next_one(roll, learnt):
     folder, truths = roll
     profile = learnt
     assert (profile.rotation_deg, profile.mirrored) == (90, True)
-    assert profile.polarity == "bright"
+    learnt_frame = aerofid.orient_frame(folder / "a.tif", CAMERA)
+    assert profile.polarity == learnt_frame.found[0].located.polarity
     assert profile.pixel_size_mm == pytest.approx(COARSE_MM, rel=1e-3)
     assert 1.5 < profile.mark_radius_mm < 2.5                   # the synthetic ring-and-cross marks: 4 mm across
     res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=profile)

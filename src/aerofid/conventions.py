@@ -15,6 +15,12 @@ POLARITIES: tuple[Polarity, ...] = ("bright", "dark")
 POLARITY_CHOICES = (*POLARITIES, "auto")
 """What a user may ask for: one polarity, or ``"auto"`` (both are tried; the more confident answer wins)."""
 
+
+def opposite(polarity: Polarity) -> Polarity:
+    """The other polarity."""
+    return "dark" if polarity == "bright" else "bright"
+
+
 MarkKind = Literal["auto", "external", "panel"]
 MARKS: tuple[str, ...] = ("auto", "external", "panel")
 """Kinds of mark: let the detector decide, an external (film) fiducial, or a cloth ground panel."""
@@ -39,5 +45,5 @@ def finite_or_none(v: float | None) -> float | None:
     return None if v is None or not math.isfinite(v) else float(v)
 
 
-__all__ = ["FOUND", "MARKS", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "Box", "MarkKind", "Polarity",
+__all__ = ["FOUND", "MARKS", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "Box", "MarkKind", "Polarity", "opposite",
            "finite_or_none"]

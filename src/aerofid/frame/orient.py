@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import Box, Polarity
+from aerofid.conventions import Box, Polarity, opposite
 from aerofid.detect.screen import Candidate, screen
 from aerofid.errors import AerofidInputError
 from aerofid.find import (
@@ -228,7 +228,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     other: Polarity | None = None               # the polarity tried when the frame's (fixed by its first mark) fails
     if profile is not None and len(measurer.polarities) > 1:
         measurer = replace(measurer, polarities=(profile.polarity,))
-        other = _opposite(profile.polarity)
+        other = opposite(profile.polarity)
     for k in order:
         done = [j for j in range(n) if out[j][0] is not None]
         name = profile.method if profile is not None else None
@@ -254,12 +254,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
             measurer = replace(measurer, polarities=(polarity,))
-            other = _opposite(polarity)
+            other = opposite(polarity)
     return out
-
-
-def _opposite(polarity: Polarity) -> Polarity:
-    return "dark" if polarity == "bright" else "bright"
 
 
 def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str | None:

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import POLARITIES, Polarity
+from aerofid.conventions import POLARITIES, Polarity, opposite
 from aerofid.errors import AerofidInputError
 from aerofid.formats.text import load_json
 from aerofid.frame.result import FOUND_MARK, FrameOrientation
@@ -56,7 +56,8 @@ class RollProfile:
     rotation_deg, mirrored : int, bool
         The film's lie in the scanner (:data:`aerofid.orientation.correspondence.ARRANGEMENTS`).
     polarity : str
-        ``"bright"`` or ``"dark"``: the marks against their ground.
+        ``"bright"`` or ``"dark"``: the polarity the marks were measured in (a symmetric mark, a bright ring and
+        cross on dark film, can be measured in either: the one that gave the better answers on the learnt frame).
     method : str
         The seed method that measured most of the learnt frame's marks.
     mark_radius_mm : float
@@ -173,9 +174,9 @@ def disagreements(profile: RollProfile, res: FrameOrientation) -> list[str]:
             out.append(f"the marks' radius {radius:.3f} mm differs from the roll profile's "
                        f"{profile.mark_radius_mm:.3f} mm")
         flipped = [f.name for f in found if f.located.polarity != profile.polarity]  # type: ignore[union-attr]
-        if flipped:
-            out.append(f"marks {', '.join(flipped)} are {('dark' if profile.polarity == 'bright' else 'bright')}, "
-                       f"the roll's are {profile.polarity}")
+        if 2 * len(flipped) > len(found):
+            out.append(f"marks {', '.join(flipped)} were measured {opposite(profile.polarity)}, the roll's "
+                       f"{profile.polarity}")
     return out
 
 

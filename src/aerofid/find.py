@@ -194,16 +194,18 @@ class Measurer:
         assert first is not None
         return first
 
-    def recentre(self, got: Located, c: Candidate | None) -> Located:
-        """Step 3: measure again on a window centred on the answer, of half-size from its extent, until the size
-        settles; the answer's covariance gains the window term (:meth:`window_term`)."""
-        half = recentred_half(got.extent)
+    def recentre(self, got: Located, c: Candidate | None,
+                 window: tuple[float, float] = RECENTRED_WINDOW) -> Located:
+        """Step 3: measure again on a window centred on the answer, of half-size from its extent (``window``:
+        :func:`recentred_half`), until the size settles; the answer's covariance gains the window term
+        (:meth:`window_term`)."""
+        half = recentred_half(got.extent, window)
         for _ in range(RECENTRE_ROUNDS):
             again = self.at(got.x, got.y, half, c)
             if not again.found:
                 return again
             got, seen = again, half
-            half = recentred_half(again.extent)
+            half = recentred_half(again.extent, window)
             if abs(half - seen) <= 0.15 * seen:
                 break
         return self.window_term(got, half)
@@ -237,9 +239,10 @@ def with_window_term(final: Located, differences: Sequence[tuple[float, float]])
     return replace(final, detection=det)
 
 
-def recentred_half(extent: float) -> float:
-    """Half-size of the window a mark of radius ``extent`` is measured on again (:data:`RECENTRED_WINDOW`)."""
-    return max(RECENTRED_WINDOW[0] * extent + RECENTRED_WINDOW[1], MIN_RECENTRED_HALF)
+def recentred_half(extent: float, window: tuple[float, float] = RECENTRED_WINDOW) -> float:
+    """Half-size of the window a mark of radius ``extent`` is measured on again: ``window`` = (times the
+    extent, plus px), :data:`RECENTRED_WINDOW` by default."""
+    return max(window[0] * extent + window[1], MIN_RECENTRED_HALF)
 
 
 def window_ladder(radius: float, inner: float) -> list[float]:

@@ -78,6 +78,10 @@ MIN_TOLERANCE_PX = 8.0
 FRAME_METHOD_TOLERANCE_MM = 0.3
 """How far (film mm) a mark measured by the frame's own method alone may lie from its prediction by the found
 marks: the scanner's affinity across an edge a similarity cannot follow, 0.1 % of the frame."""
+ALONE_WINDOW = (1.5, 8.0)
+"""The window (half-size: times the marks' radius, plus px) a mark is measured on by the frame's method alone:
+tighter than a box's re-centred window (:data:`aerofid.find.RECENTRED_WINDOW`, 2.5 times), whose ground around
+the mark is there for ``auto`` to see a second mark; the cost of symmetry falls with the area."""
 ALTERNATIVES = 3
 """Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
 the first whose frame is ok is taken."""
@@ -220,7 +224,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     marks are found a transformation fitted to them (:meth:`LayoutMatch.predict_from`) predicts the others (to a
     few px, :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent; each is first
     measured by the method that found most of them alone (:func:`_by_method`), then, if that fails, like the
-    first. A roll ``profile`` gives the polarity, the method and the marks' size from the first mark on."""
+    first. From the second mark on, the method that found the first ones measures alone (within the layout's
+    tolerance until three are found; the adjustment's blunder tests check them all). A roll ``profile`` gives the
+    polarity, the method and the marks' size from the first mark on."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
@@ -236,8 +242,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             found = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
             p = layout.predict_from(fiducials_mm, done, found)[k]
             at = (float(p[0]), float(p[1]))
-            extent = float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
-            start = Candidate(at[0], at[1], extent, 0.0)
+            start = Candidate(at[0], at[1], _median_extent(out, done), 0.0)
             tolerance = max(REFINED_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
             name = name or _frame_method(out, done)
             alone_tolerance = max(FRAME_METHOD_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
@@ -245,9 +250,11 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             at = (float(layout.predicted[k][0]), float(layout.predicted[k][1]))
             m = layout.matched[k]
             start = (Candidate(at[0], at[1], profile.mark_radius_px(layout.pixel_size_mm), 0.0) if profile is not None
+                     else Candidate(at[0], at[1], _median_extent(out, done), 0.0) if done
                      else _first_window(features[m]) if m is not None
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
             tolerance = alone_tolerance = layout.tolerance_px
+            name = name or (_frame_method(out, done) if done else None)
         quick = (_by_method(measurer, name, mark, start, at, alone_tolerance)
                  if name is not None and len(measurer.polarities) == 1 else None)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
@@ -256,6 +263,10 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             measurer = replace(measurer, polarities=(polarity,))
             other = opposite(polarity)
     return out
+
+
+def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> float:
+    return float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
 
 
 def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str | None:
@@ -274,10 +285,10 @@ def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: t
     replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross."""
     detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
     alone = replace(measurer, detector=detector)
-    got = alone.at(at[0], at[1], recentred_half(start.radius), start)
+    got = alone.at(at[0], at[1], recentred_half(start.radius, ALONE_WINDOW), start)
     if not got.found or math.hypot(got.x - at[0], got.y - at[1]) > tolerance:
         return None
-    got = alone.recentre(got, start)
+    got = alone.recentre(got, start, ALONE_WINDOW)
     return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
 
 

@@ -14,7 +14,10 @@ timing and waits for its workers, as an existing cluster would. Configurations a
 that a change of the machine's load hits them alike; the table gives the median over the repeats and the load
 average (``os.getloadavg``) seen around the runs.
 
-Scaling efficiency of n workers: frames/s on n divided by n times frames/s on 1 worker process. The Dask run's
+Scaling efficiency of n workers: frames/s on n divided by n times frames/s on 1 worker process. The CPU time
+of each run (this process and its pool's workers, or the Dask workers' own) per frame says whether a worker
+adds work (it should not), and CPU seconds per second of the run how many cores the batch obtained: on a
+machine busy with other work, 2 workers cannot scale if they do not get 2 cores. The Dask run's
 records (status, reasons, marks and residuals, RMS) are compared with the one-process run's.
 """
 
@@ -23,6 +26,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import resource
 import shutil
 import statistics
 import subprocess
@@ -31,6 +35,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")     # one thread per worker: the workers are the parallelism
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -70,24 +75,31 @@ def make_frames(n: int, size: int, cache: Path) -> tuple[Path, Path]:
 
 
 @contextmanager
-def ready_cluster(workdir: Path) -> Iterator[str]:
-    """A local Dask cluster (:func:`aerofid.batch.runners.local_cluster`) once all its workers have joined."""
+def ready_cluster(workdir: Path) -> Iterator[tuple[str, Any]]:
+    """A local Dask cluster (:func:`aerofid.batch.runners.local_cluster`) once all its workers have joined: its
+    address and a client of our own (to read the workers' CPU time)."""
     from distributed import Client
 
-    with local_cluster(workdir, DASK_WORKERS) as address:
-        with Client(address, timeout=START_TIMEOUT_S) as client:
-            client.wait_for_workers(DASK_WORKERS, timeout=START_TIMEOUT_S)
-        yield address
+    with local_cluster(workdir, DASK_WORKERS) as address, Client(address, timeout=START_TIMEOUT_S) as client:
+        client.wait_for_workers(DASK_WORKERS, timeout=START_TIMEOUT_S)
+        yield address, client
 
 
-def timed_batch(folder: Path, camera: Path, runner: Runner, work: Path) -> tuple[float, list[FrameRecord]]:
-    """One whole batch of ``folder`` into a fresh output folder: (seconds, records)."""
+def cpu_seconds() -> float:
+    """CPU time of this process and of its children that have ended (a pool's workers, once it is shut down)."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def timed_batch(folder: Path, camera: Path, runner: Runner, work: Path, cpu: Callable[[], float]
+                ) -> tuple[float, float, list[FrameRecord]]:
+    """One whole batch of ``folder`` into a fresh output folder: (seconds, CPU seconds by ``cpu``, records)."""
     out = work / "out"
     shutil.rmtree(out, ignore_errors=True)
     plan = plan_batch([str(folder)], camera, out)
-    t0 = time.perf_counter()
+    c0, t0 = cpu(), time.perf_counter()
     records = run_batch(plan, runner)
-    return time.perf_counter() - t0, records
+    return time.perf_counter() - t0, cpu() - c0, records
 
 
 def comparable(records: list[FrameRecord]) -> list[dict]:
@@ -95,28 +107,34 @@ def comparable(records: list[FrameRecord]) -> list[dict]:
     return [{k: v for k, v in r.to_dict().items() if k != "seconds"} for r in records]
 
 
-def run(args: argparse.Namespace) -> tuple[dict[str, list[float]], dict[str, list[dict]], list[tuple[float, ...]]]:
+def run(args: argparse.Namespace) -> tuple[dict[str, list[float]], dict[str, list[float]], dict[str, list[dict]],
+                                           list[tuple[float, ...]]]:
     folder, camera = make_frames(args.frames, args.size, Path(args.cache))
     times: dict[str, list[float]] = {}
+    cpus: dict[str, list[float]] = {}
     records: dict[str, list[dict]] = {}
     loads = [os.getloadavg()]
-    with tempfile.TemporaryDirectory() as tmp, ready_cluster(Path(tmp)) as address, \
+    with tempfile.TemporaryDirectory() as tmp, ready_cluster(Path(tmp)) as (address, client), \
             dask_runner(address) as on_dask:
-        configs: dict[str, Callable[[], Runner]] = {
-            "one process (no pool)": lambda: run_sequential,
-            "1 local worker process": lambda: process_runner(1),
-            "2 local worker processes": lambda: process_runner(2),
-            f"Dask, {DASK_WORKERS} workers x 1 thread": lambda: on_dask,
+        def dask_cpu() -> float:  # the workers' own CPU time
+            return cpu_seconds() + sum(client.run(cpu_seconds).values())
+
+        configs: dict[str, tuple[Callable[[], Runner], Callable[[], float]]] = {
+            "one process (no pool)": (lambda: run_sequential, cpu_seconds),
+            "1 local worker process": (lambda: process_runner(1), cpu_seconds),
+            "2 local worker processes": (lambda: process_runner(2), cpu_seconds),
+            f"Dask, {DASK_WORKERS} workers x 1 thread": (lambda: on_dask, dask_cpu),
         }
         for rep in range(args.repeats):
-            for name, make in configs.items():
-                seconds, recs = timed_batch(folder, camera, make(), Path(tmp))
+            for name, (make, cpu) in configs.items():
+                seconds, used, recs = timed_batch(folder, camera, make(), Path(tmp), cpu)
                 times.setdefault(name, []).append(seconds)
+                cpus.setdefault(name, []).append(used)
                 records.setdefault(name, comparable(recs))
                 loads.append(os.getloadavg())
-                print(f"repeat {rep + 1} {name}: {seconds:.1f} s, {len(recs)} frames, "
+                print(f"repeat {rep + 1} {name}: {seconds:.1f} s, CPU {used:.1f} s, {len(recs)} frames, "
                       f"{sum(r.ok for r in recs)} ok; load {loads[-1][0]:.2f}", flush=True)
-    return times, records, loads
+    return times, cpus, records, loads
 
 
 def source_version() -> str:
@@ -131,21 +149,23 @@ def source_version() -> str:
     return f"{head}{'+changes' if dirty else ''}"
 
 
-def table(args: argparse.Namespace, times: dict[str, list[float]], records: dict[str, list[dict]],
-          loads: list[tuple[float, ...]]) -> str:
+def table(args: argparse.Namespace, times: dict[str, list[float]], cpus: dict[str, list[float]],
+          records: dict[str, list[dict]], loads: list[tuple[float, ...]]) -> str:
     n = args.frames
     fps = {k: n / statistics.median(v) for k, v in times.items()}
     one = fps["1 local worker process"]
     workers = {"one process (no pool)": 1, "1 local worker process": 1, "2 local worker processes": 2}
     base = next(iter(records.values()))
-    lines = [f"| configuration | median s ({args.repeats} runs) | frames/s | efficiency per worker | same results as "
-             "one process |", "|---|---|---|---|---|"]
+    lines = [f"| configuration | median s ({args.repeats} runs) | frames/s | efficiency per worker | CPU s per frame | "
+             "CPU cores obtained | same results as one process |", "|---|---|---|---|---|---|---|"]
     for k, v in times.items():
         w = workers.get(k, DASK_WORKERS)
         differ = [a["frame"] for a, b in zip(records[k], base, strict=True) if a != b]
         same = "yes" if not differ else f"NO: {', '.join(differ)}"
+        cpu = statistics.median(cpus[k])
         lines.append(f"| {k} | {statistics.median(v):.1f} (runs {', '.join(f'{s:.1f}' for s in v)}) | "
-                     f"{fps[k]:.3f} | {fps[k] / (w * one):.0%} | {same} |")
+                     f"{fps[k]:.3f} | {fps[k] / (w * one):.0%} | {cpu / n:.2f} | "
+                     f"{statistics.median(c / t for c, t in zip(cpus[k], v, strict=True)):.2f} | {same} |")
     la = np.array(loads)
     lines += ["", f"{n} frames of {args.size} x {args.size} px; load average (1 min) during the runs "
               f"{la[:, 0].min():.2f}-{la[:, 0].max():.2f}; {os.cpu_count()} cores, {platform.python_version()}; "
@@ -161,8 +181,8 @@ def main() -> None:
     ap.add_argument("--cache", default=str(Path.home() / ".cache" / "aerofid-bench" / "batch"))
     ap.add_argument("--out", default=None, help="write the table to this Markdown file too")
     args = ap.parse_args()
-    times, records, loads = run(args)
-    text = table(args, times, records, loads)
+    times, cpus, records, loads = run(args)
+    text = table(args, times, cpus, records, loads)
     print(text)
     if args.out:
         Path(args.out).write_text(text)

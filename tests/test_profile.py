@@ -121,3 +121,24 @@ def test_the_cli_refuses_a_profile_of_another_camera(roll, tmp_path):
     assert r.returncode == 2
     assert r.stderr.startswith("error:") and "learnt with camera 'another'" in r.stderr
     assert not (tmp_path / "r.json").exists()
+
+
+def test_a_profile_is_learnt_from_marks_measured_by_hand(roll):
+    """The measurements give the lie and the pixel size (a symmetric layout needs no --lie) and the marks found
+    must agree with them: clicks 1 px off agree, names swapped do not."""
+    folder, truths = roll
+    rng = np.random.default_rng(2)
+    clicks = {n: (x + rng.uniform(-1, 1), y + rng.uniform(-1, 1)) for n, (x, y) in truths["a.tif"].marks.items()}
+    nominal = {"name": CAMERA.name, "fiducials": {f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}}
+    (folder / "nominal.json").write_text(json.dumps(nominal))
+    (folder / "clicks.csv").write_text("name,x,y\n" + "".join(f"{n},{x},{y}\n" for n, (x, y) in clicks.items()))
+    r = _cli("learn", "a.tif", "--camera", "nominal.json", "-m", "clicks.csv", "-o", "hand.json", cwd=folder)
+    assert r.returncode == 0, r.stderr
+    profile = read_profile(folder / "hand.json")
+    assert (profile.rotation_deg, profile.mirrored) == (90, True)
+    assert profile.pixel_size_mm == pytest.approx(COARSE_MM, rel=0.01)
+    swapped = dict(clicks, **{"1": clicks["3"], "3": clicks["1"]})
+    (folder / "swapped.csv").write_text("name,x,y\n" + "".join(f"{n},{x},{y}\n" for n, (x, y) in swapped.items()))
+    r = _cli("learn", "a.tif", "--camera", "nominal.json", "-m", "swapped.csv", "-o", "bad.json", cwd=folder)
+    assert r.returncode in (1, 2) and r.stderr.startswith("error:") and len(r.stderr.strip().splitlines()) == 1
+    assert not (folder / "bad.json").exists()

@@ -15,10 +15,14 @@ from aerofid.cli.orient_outputs import check_outputs, micmac_files, micmac_texts
 from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
+from aerofid.formats.measurements import read_measurements
 from aerofid.frame.orient import orient_frame
 from aerofid.frame.profile import learn_profile, read_profile
 from aerofid.frame.report import frame_html, frame_text
+from aerofid.frame.verdict import adjusted_pixel_mm
 from aerofid.io.atomic import Staging
+from aerofid.orientation.correspondence import lie_of
+from aerofid.orientation.interior import orient
 
 
 def parse_lie(text: str | None) -> tuple[int, bool] | None:
@@ -70,21 +74,34 @@ def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: st
 @click.option("--pixel-size", type=float, metavar="MM",
               help="the scan's pixel size in mm (default: the file's resolution tags, the camera file)")
 @click.option("--lie", metavar="ROT[m]", help="the film's lie when the fiducials cannot tell it (e.g. 0, 90m)")
-def learn(frame, camera_path, output, pixel_size, lie) -> int:
+@click.option("--measurements", "-m", "meas_path", metavar="FILE",
+              help="the frame's fiducials measured by hand (JSON, CSV or MicMac MeasuresIm, named as in the camera "
+                   "file): they give the lie and the pixel size, and the marks found must agree with them")
+def learn(frame, camera_path, output, pixel_size, lie, meas_path) -> int:
     """Learn a roll's profile from one of its frames: the marks' style (the method that measures them), size and
     polarity, the film's lie and the pixel size, for 'aerofid orient --profile' on the roll's other frames. The
     frame must orient ok (exit 1 with the reasons, nothing written, if not)."""
     if Path(output).suffix.lower() != ".json":
         raise AerofidInputError(f"roll profile {output!r} must end in .json")
-    with Staging([frame, camera_path]) as staging:
+    if meas_path is not None and (lie is not None or pixel_size is not None):
+        raise AerofidInputError("--measurements give the lie and the pixel size: leave out --lie and --pixel-size")
+    with Staging([p for p in (frame, camera_path, meas_path) if p]) as staging:
         staging.plan(output, "roll profile")
         cam = read_camera(camera_path)
-        res = orient_frame(frame, cam, pixel_size_mm=pixel_size, lie=parse_lie(lie))
+        the_lie, measured = parse_lie(lie), None
+        if meas_path is not None:
+            meas = read_measurements(meas_path)
+            if meas.names is None:
+                raise AerofidInputError(f"{meas_path}: the measurements must name the camera file's fiducials")
+            io = orient(cam, meas, correspondence="names")
+            the_lie, pixel_size = lie_of(io.pixel_to_mm, cam.y_axis), adjusted_pixel_mm(io)
+            measured = dict(zip(meas.names, meas.xy.tolist(), strict=True))
+        res = orient_frame(frame, cam, pixel_size_mm=pixel_size, lie=the_lie)
         if not res.ok:
             click.echo(f"error: cannot learn from {Path(frame).name}: it is {res.status}: " + "; ".join(res.reasons),
                        err=True)
             return 1
-        profile = learn_profile(res)
+        profile = learn_profile(res, measured)
         staging.put(output, json.dumps(profile.to_dict(), indent=2) + "\n")
         click.echo(f"{Path(frame).name}: {len(res.found)} marks, {profile.method}, {profile.polarity}, radius "
                    f"{profile.mark_radius_mm:.3f} mm, lie {profile.rotation_deg}{'m' if profile.mirrored else ''}, "

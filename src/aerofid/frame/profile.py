@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import os
 from collections import Counter
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,6 +40,11 @@ radius a method reports varies by a few per cent between frames; another mark st
 PIXEL_AGREEMENT = 0.01
 """Largest relative difference between a frame's adjusted pixel size and the profile's: one scanner set-up
 gives the same size to a few tenths of a per cent."""
+MEASURED_AGREEMENT_PX = 3.0
+"""How far (px) a mark found may lie from a person's measurement of it when a profile is learnt from measured
+marks: a person's clicks are off by up to a pixel or two (the RC20 frame: 0.8 px RMS)."""
+MIN_MEASURED = 3
+"""Fewest marks found that the measurements name, to learn from measured marks."""
 METHODS = ("hough", "symmetry", "circles", "lines")
 """The seed methods a roll's marks can be measured by alone."""
 
@@ -135,12 +141,15 @@ def read_profile(path: str | os.PathLike[str]) -> RollProfile:
     return RollProfile.from_dict(load_json(text, str(p)), str(p))
 
 
-def learn_profile(res: FrameOrientation) -> RollProfile:
+def learn_profile(res: FrameOrientation, measured: Mapping[str, Sequence[float]] | None = None) -> RollProfile:
     """The profile of the roll ``res`` belongs to, learnt from its found marks; the frame must be ok (else the
-    one line says why and what to do)."""
+    one line says why and what to do). ``measured``: the same frame's fiducials measured by hand (name -> x, y),
+    which every mark found must agree with to :data:`MEASURED_AGREEMENT_PX`."""
     if not res.ok:
         raise AerofidInputError(f"cannot learn from a frame that is {res.status}: " + "; ".join(res.reasons)
                                 + " (give --lie or --pixel-size, or learn from another frame of the roll)")
+    if measured is not None:
+        _check_measured(res, measured)
     found = [f.located for f in res.fiducials if f.status == FOUND_MARK and f.located is not None]
     methods = [m.detection.method for m in found if m.detection.method in METHODS]
     if not methods or res.rotation_deg is None or res.mirrored is None or res.orientation is None:
@@ -150,6 +159,26 @@ def learn_profile(res: FrameOrientation) -> RollProfile:
                        mirrored=res.mirrored, polarity=Counter(m.polarity for m in found).most_common(1)[0][0],
                        method=Counter(methods).most_common(1)[0][0],
                        mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image)
+
+
+def _check_measured(res: FrameOrientation, measured: Mapping[str, Sequence[float]]) -> None:
+    """Every found mark of ``res`` that was measured by hand lies within :data:`MEASURED_AGREEMENT_PX` of the
+    measurement, and at least :data:`MIN_MEASURED` were."""
+    far = []
+    common = 0
+    for f in res.fiducials:
+        if f.status != FOUND_MARK or f.x is None or f.y is None or f.name not in measured:
+            continue
+        common += 1
+        d = math.hypot(f.x - float(measured[f.name][0]), f.y - float(measured[f.name][1]))
+        if d > MEASURED_AGREEMENT_PX:
+            far.append(f"{f.name} {d:.1f} px")
+    if far:
+        raise AerofidInputError(f"the marks found disagree with the measurements ({', '.join(far)} apart, more than "
+                                f"{MEASURED_AGREEMENT_PX:g} px): check the measurements' names and the camera file")
+    if common < MIN_MEASURED:
+        raise AerofidInputError(f"only {common} of the marks found were measured (by name): the measurements must "
+                                "name the camera file's fiducials")
 
 
 def _pixel_mm(res: FrameOrientation) -> float:

@@ -35,6 +35,17 @@ def arrangement_matrix(rotation_deg: int, mirrored: bool, y_axis: str = "up") ->
     return R @ L0 @ F
 
 
+def lie_of(pixel_to_mm: np.ndarray, y_axis: str = "up") -> tuple[int, bool]:
+    """The arrangement (rotation, mirrored) whose :func:`arrangement_matrix` is nearest the linear part of a
+    pixel -> mm transformation (a scan turned a few degrees still has its film lie).
+
+    >>> lie_of(0.02 * arrangement_matrix(270, True))
+    (270, True)
+    """
+    A = np.asarray(pixel_to_mm, float)[:2, :2]
+    return max(ARRANGEMENTS, key=lambda a: float(np.sum(arrangement_matrix(a[0], a[1], y_axis) * A)))
+
+
 @dataclass(frozen=True)
 class ArrangementFit:
     """The best assignment of the measured points under one arrangement and its fit."""
@@ -214,4 +225,4 @@ def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) ->
 
 
 __all__ = ["ALPHA_ARRANGEMENT", "ARRANGEMENTS", "AmbiguousCorrespondenceError", "ArrangementFit", "Correspondence",
-           "arrangement_matrix", "match_fiducials"]
+           "arrangement_matrix", "lie_of", "match_fiducials"]

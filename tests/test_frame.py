@@ -178,3 +178,24 @@ def test_the_cli_orients_a_frame_and_writes_its_report_and_micmac_files(tmp_path
         "MeasuresCamera.xml", "MeasuresIm-frame.tif.xml", "frame.tif-AffinePlane-px2mm.xml"]
     bad = _cli("frame.tif", "--camera", "cam.json", "--lie", "45", "-o", "s.html", cwd=tmp_path)
     assert bad.returncode == 2 and bad.stderr.startswith("error: --lie") and not (tmp_path / "s.html").exists()
+
+
+def test_a_frame_without_calibration_is_measured_on_the_formats_nominal_layout(tmp_path):
+    """--camera 23cm: every mark found at its true centre, the fiducial centre and the pixel size estimated from
+    the nominal layout, the frame doubtful and flagged uncalibrated (never ok)."""
+    spec = frame_spec(CAMERA, 0.1, np.random.default_rng(4), rotation_deg=270)
+    truth = write_frame(spec, tmp_path / "frame.tif", "tiled")
+    res = aerofid.orient_frame(tmp_path / "frame.tif", "23 cm")
+    assert res.status == "doubtful" and res.reasons[0].startswith("uncalibrated")
+    marks = np.array(list(truth.marks.values()))
+    found = [(f.x, f.y) for f in res.fiducials if f.x is not None and f.y is not None]
+    assert len(found) >= 7
+    assert max(np.hypot(*(marks - p).T).min() for p in found) < 0.1
+    assert res.pixel_size_mm == pytest.approx(0.1, rel=0.01)
+    assert res.orientation is not None
+    px_to_mm = np.array(truth.px_to_mm)
+    centre = np.linalg.solve(px_to_mm[:, :2], -px_to_mm[:, 2])               # the true fiducial centre, px
+    assert np.hypot(*(res.orientation.to_pixel([[0.0, 0.0]])[0] - centre)) < 1.0
+    (tmp_path / "mm").mkdir()
+    r = _cli("frame.tif", "--camera", "23cm", "--micmac", "mm", cwd=tmp_path)
+    assert r.returncode == 2 and "names a format" in r.stderr

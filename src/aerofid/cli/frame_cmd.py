@@ -16,6 +16,7 @@ from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.measurements import read_measurements
+from aerofid.frame.nominal import nominal_camera
 from aerofid.frame.orient import orient_frame
 from aerofid.frame.profile import learn_profile, read_profile
 from aerofid.frame.report import frame_html, frame_text
@@ -43,14 +44,19 @@ def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: st
     """Orient the whole frame ``image``; print, write the report and MicMac files; the exit status."""
     check_outputs(output, micmac_dir)
     the_lie = parse_lie(lie)
-    with Staging([p for p in (image, camera_path, profile_path) if p]) as staging:
+    nominal = nominal_camera(camera_path)
+    if nominal is not None and (micmac_dir is not None or profile_path is not None):
+        raise AerofidInputError(f"--camera {camera_path!r} names a format, not a calibration: --micmac and --profile "
+                                "need the camera file")
+    with Staging([p for p in (image, None if nominal else camera_path, profile_path) if p]) as staging:
         if output is not None:
             staging.plan(output, "report")
         name = Path(image).name
         micmac = micmac_files(Path(micmac_dir), name, model, staging) if micmac_dir is not None else None
-        cam = read_camera(camera_path)
+        cam = nominal or read_camera(camera_path)
         profile = read_profile(profile_path) if profile_path is not None else None
-        res = orient_frame(image, cam, pixel_size_mm=pixel_size, model=model, lie=the_lie, profile=profile)
+        res = orient_frame(image, camera_path if nominal else cam, pixel_size_mm=pixel_size, model=model,
+                           lie=the_lie, profile=profile)
         if output is not None:
             suffix = Path(output).suffix.lower()
             staging.put(output, json.dumps(res.to_dict(), indent=2) + "\n" if suffix == ".json"

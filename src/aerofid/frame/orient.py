@@ -43,6 +43,7 @@ from aerofid.find import (
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, layout_candidates
+from aerofid.frame.nominal import UNCALIBRATED, nominal_camera
 from aerofid.frame.profile import METHODS, RollProfile, disagreements
 from aerofid.frame.result import DOUBTFUL, FAILED, OK, FrameOrientation
 from aerofid.frame.verdict import verdict
@@ -97,8 +98,11 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     ----------
     image : path, ndarray or open raster
         The scan (any size: it is read reduced for the search and by windows for the marks).
-    camera : Camera or path
-        The calibration certificate (:func:`aerofid.read_camera` reads JSON, YAML or MicMac XML).
+    camera : Camera, path or format
+        The calibration certificate (:func:`aerofid.read_camera` reads JSON, YAML or MicMac XML); or the film
+        format alone (``"23cm"``): the marks are then found on its nominal layout
+        (:mod:`aerofid.frame.nominal`), the frame is doubtful and flagged uncalibrated, the pixel size, fiducial
+        centre (the orientation's ``mm_to_pixel`` of (0, 0)) and rotation are estimates.
     pixel_size_mm : float, optional
         The scan's pixel size; default: the file's resolution tags, else the camera file's ``pixel_size_um``,
         else estimated from the marks' layout.
@@ -133,20 +137,15 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     >>> bool(max(math.hypot(f.x - truth[f.name].x, f.y - truth[f.name].y) for f in res.fiducials) < 0.1)
     True
     """
-    cam = camera if isinstance(camera, Camera) else read_camera(os.fspath(camera))
-    if lie is not None and (tuple(lie) not in ARRANGEMENTS):
-        raise AerofidInputError(f"lie {lie!r}: give (rotation, mirrored) with rotation 0, 90, 180 or 270 degrees")
+    nominal = nominal_camera(str(camera)) if isinstance(camera, str) else None
+    cam = nominal or (camera if isinstance(camera, Camera) else read_camera(os.fspath(camera)))
+    lie = _checked_options(cam, pixel_size_mm, lie, profile)
     detector, polarities = configure(method, mark, polarity, colour, {})
-    if pixel_size_mm is not None and not (isinstance(pixel_size_mm, int | float) and 0 < pixel_size_mm < 1):
-        raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
-    if profile is not None:
-        if profile.camera != cam.name:
-            raise AerofidInputError(f"the roll profile was learnt with camera {profile.camera!r}, not {cam.name!r}: "
-                                    "give its camera file or learn the profile again")
-        lie = lie if lie is not None else (profile.rotation_deg, profile.mirrored)
     with open_image(image) as source:
         size, size_source = ((profile.pixel_size_mm, "profile") if profile is not None and pixel_size_mm is None
                              else scan_pixel_size(source, cam, pixel_size_mm))
+        if nominal is not None:                 # a nominal layout's scale is not the scan's: the layout finds it
+            size, size_source = None, "estimated"
         features, f = frame_features(source)
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
         layouts = layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, cam.y_axis,
@@ -167,12 +166,37 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
                 res = _reviewed(res, disagreements(profile, res))
             if best is None or _standing(res) > _standing(best):
                 best = res
-            if res.ok:
+            if res.ok or (nominal is not None and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
                 break
     assert best is not None
+    if nominal is not None:
+        return _uncalibrated(best, str(camera))
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
     return best
+
+
+def _checked_options(cam: Camera, pixel_size_mm: float | None, lie: tuple[int, bool] | None,
+                     profile: RollProfile | None) -> tuple[int, bool] | None:
+    """The options checked (one line each): the lie to assume, the given one or the profile's."""
+    if lie is not None and (tuple(lie) not in ARRANGEMENTS):
+        raise AerofidInputError(f"lie {lie!r}: give (rotation, mirrored) with rotation 0, 90, 180 or 270 degrees")
+    if pixel_size_mm is not None and not (isinstance(pixel_size_mm, int | float) and 0 < pixel_size_mm < 1):
+        raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
+    if profile is None:
+        return lie
+    if profile.camera != cam.name:
+        raise AerofidInputError(f"the roll profile was learnt with camera {profile.camera!r}, not {cam.name!r}: "
+                                "give its camera file or learn the profile again")
+    return lie if lie is not None else (profile.rotation_deg, profile.mirrored)
+
+
+def _uncalibrated(res: FrameOrientation, fmt: str) -> FrameOrientation:
+    """A frame oriented on a format's nominal layout: doubtful (or failed) and flagged uncalibrated; the reasons
+    that only a calibration gives a meaning to (the lie, the residuals, the pixel size) dropped."""
+    kept = tuple(r for r in res.reasons if "found" in r or "marks used" in r)
+    return replace(res, status=FAILED if res.status == FAILED else DOUBTFUL,
+                   reasons=(UNCALIBRATED.format(fmt=fmt.strip()), *kept))
 
 
 def _reviewed(res: FrameOrientation, doubts: list[str]) -> FrameOrientation:

@@ -214,7 +214,7 @@ def test_inputs_expand_to_sorted_unique_scans_and_outputs_never_collide(tmp_path
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(b"")
     paths = expand_inputs([str(tmp_path / "r1"), str(tmp_path / "r1" / "x.TIF"), str(tmp_path / "r2" / "**")],
-                          exclude=tmp_path / "r2" / "out")              # the output folder's crops are no input
+                          exclude=tmp_path / "r2" / "out" / "crops")    # the batch's crops are no input
     assert [p.relative_to(tmp_path).as_posix() for p in paths] == ["r1/x.TIF", "r1/y.jpeg", "r2/sub/z.png",
                                                                    "r2/x.tif"]
     assert frame_keys(paths) == ("r1__x.TIF", "y.jpeg", "z.png", "r2__x.tif")

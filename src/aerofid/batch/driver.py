@@ -15,6 +15,7 @@ from pathlib import Path
 from aerofid.batch.inputs import expand_inputs, frame_keys
 from aerofid.batch.job import FrameRecord, record_from_document
 from aerofid.batch.plan import (
+    CROPS_FOLDER,
     MEASURES_CAMERA,
     MICMAC_FOLDER,
     BatchSettings,
@@ -73,7 +74,7 @@ def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdi
     AerofidInputError
         Inputs that name no scan, a bad camera file, a bad option: before any work.
     """
-    paths = expand_inputs(inputs, exclude=outdir)
+    paths = expand_inputs(inputs, exclude=Path(outdir) / CROPS_FOLDER)   # the crops are PNGs; scans may share OUTDIR
     keys = frame_keys(paths)
     camera = read_camera(os.fspath(camera_path))
     settings = batch_settings(camera, camera_path, outdir, model=model, pixel_size_mm=pixel_size_mm, lie=lie)

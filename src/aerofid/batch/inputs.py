@@ -48,8 +48,8 @@ def _inside(path: Path, folder: str) -> bool:
 
 def expand_inputs(inputs: Iterable[str], exclude: str | os.PathLike[str] | None = None) -> tuple[Path, ...]:
     """The scan files that ``inputs`` name, sorted and each once (the same file named twice, by another path
-    or a symbolic link, counts once), none of them inside the folder ``exclude`` (the batch's output folder,
-    whose crops are PNG files).
+    or a symbolic link, counts once), none of them inside the folder ``exclude`` (the batch's folder of mark
+    crops, which are PNG files).
 
     A file named directly is taken whatever its ending (a corrupt or mis-named file is a frame that fails, not
     a reason to stop); folders and globs contribute only files ending in :data:`SCAN_SUFFIXES`.

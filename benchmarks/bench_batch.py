@@ -17,13 +17,16 @@ average (``os.getloadavg``) seen around the runs.
 Scaling efficiency of n workers: frames/s on n divided by n times frames/s on 1 worker process. The CPU time
 of each run (this process and its pool's workers, or the Dask workers' own) per frame says whether a worker
 adds work (it should not), and CPU seconds per second of the run how many cores the batch obtained: on a
-machine busy with other work, 2 workers cannot scale if they do not get 2 cores. The Dask run's
+machine busy with other work, 2 workers cannot scale if they do not get 2 cores. Before each repeat a machine
+control runs two pure CPU loops on 1 and on 2 worker processes: its efficiency is the most the machine allowed
+then. The Dask run's
 records (status, reasons, marks and residuals, RMS) are compared with the one-process run's.
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import platform
 import resource
@@ -33,6 +36,7 @@ import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -45,14 +49,25 @@ import numpy as np  # noqa: E402
 import aerofid  # noqa: E402
 from aerofid.batch.driver import plan_batch, run_batch  # noqa: E402
 from aerofid.batch.job import FrameRecord  # noqa: E402
-from aerofid.batch.runners import Runner, dask_runner, local_cluster, process_runner, run_sequential  # noqa: E402
+from aerofid.batch.runners import (  # noqa: E402
+    START_METHOD,
+    Runner,
+    dask_runner,
+    local_cluster,
+    process_runner,
+    run_sequential,
+)
 from aerofid.formats.camera_file import write_camera  # noqa: E402
 from aerofid.synth_frame import FILM_HALF_MM, MARGIN_MM, frame_spec, wild_rc10_camera, write_frame  # noqa: E402
 
+CONTROL = "machine control"
+"""Key of the machine control's efficiencies (:func:`machine_control`) among the times."""
 LIES = [(r, m) for r in (0, 90, 180, 270) for m in (False, True)]
 """The frames' lies, in turn."""
 DASK_WORKERS = 2
 """Workers of the local Dask cluster."""
+CONTROL_STEPS = 30_000_000
+"""Steps of each machine-control loop (about 3 s of one core)."""
 START_TIMEOUT_S = 120
 """How long the local Dask cluster may take to start."""
 
@@ -102,6 +117,27 @@ def timed_batch(folder: Path, camera: Path, runner: Runner, work: Path, cpu: Cal
     return time.perf_counter() - t0, cpu() - c0, records
 
 
+def spin(n: int) -> float:
+    """A pure CPU loop of ``n`` steps; its CPU seconds (the machine control)."""
+    t, x = time.process_time(), 0
+    for i in range(n):
+        x += i * i
+    return time.process_time() - t
+
+
+def machine_control(steps: int = CONTROL_STEPS) -> float:
+    """Efficiency per worker that the machine allows now: two pure CPU loops on 2 worker processes against the
+    same two loops on 1 (the same pool kind as the batch's), wall time."""
+    walls = []
+    for w in (1, 2):
+        with ProcessPoolExecutor(w, mp_context=multiprocessing.get_context(START_METHOD)) as ex:
+            list(ex.map(spin, [10] * w))                 # started and imported
+            t0 = time.perf_counter()
+            list(ex.map(spin, [steps] * 2))
+            walls.append(time.perf_counter() - t0)
+    return walls[0] / (2 * walls[1])
+
+
 def comparable(records: list[FrameRecord]) -> list[dict]:
     """Records without their times."""
     return [{k: v for k, v in r.to_dict().items() if k != "seconds"} for r in records]
@@ -126,6 +162,9 @@ def run(args: argparse.Namespace) -> tuple[dict[str, list[float]], dict[str, lis
             f"Dask, {DASK_WORKERS} workers x 1 thread": (lambda: on_dask, dask_cpu),
         }
         for rep in range(args.repeats):
+            control = machine_control()
+            times.setdefault(CONTROL, []).append(control)
+            print(f"repeat {rep + 1} machine control: 2 CPU loops on 2 processes {control:.0%} efficient", flush=True)
             for name, (make, cpu) in configs.items():
                 seconds, used, recs = timed_batch(folder, camera, make(), Path(tmp), cpu)
                 times.setdefault(name, []).append(seconds)
@@ -151,6 +190,8 @@ def source_version() -> str:
 
 def table(args: argparse.Namespace, times: dict[str, list[float]], cpus: dict[str, list[float]],
           records: dict[str, list[dict]], loads: list[tuple[float, ...]]) -> str:
+    control = times[CONTROL]
+    times = {k: v for k, v in times.items() if k != CONTROL}
     n = args.frames
     fps = {k: n / statistics.median(v) for k, v in times.items()}
     one = fps["1 local worker process"]
@@ -169,7 +210,9 @@ def table(args: argparse.Namespace, times: dict[str, list[float]], cpus: dict[st
     la = np.array(loads)
     lines += ["", f"{n} frames of {args.size} x {args.size} px; load average (1 min) during the runs "
               f"{la[:, 0].min():.2f}-{la[:, 0].max():.2f}; {os.cpu_count()} cores, {platform.python_version()}; "
-              f"aerofid {source_version()}."]
+              f"aerofid {source_version()}.",
+              "", f"Machine control (two pure CPU loops on 2 worker processes against 1, before each repeat): "
+              f"{', '.join(f'{c:.0%}' for c in control)} efficient: the most a batch could reach then."]
     return "\n".join(lines) + "\n"
 
 

@@ -249,3 +249,29 @@ def test_a_dask_cluster_gives_the_local_results(roll, sequential, dask_cluster, 
     r = batch(scans, "--camera", cam, "-o", out, "--scheduler", dask_cluster)
     assert r.returncode == 1, r.stderr
     assert results(out) == results(sequential[1])
+
+
+def test_a_batch_with_a_roll_profile_uses_it_and_flags_the_frames_that_disagree(roll, tmp_path):
+    """--profile: the frames are measured with the profile learnt from frame a (lie 0); frame b, scanned at 90
+    degrees mirrored, is doubtful for review; the profile's content is in the settings' fingerprint, so a batch
+    with another profile redoes the frames."""
+    scans, cam, truth = roll
+    learnt = subprocess.run([sys.executable, "-m", "aerofid", "learn", scans / "a.tif", "--camera", cam, "-o",
+                             tmp_path / "roll.json"], capture_output=True, text=True)
+    assert learnt.returncode == 0, learnt.stderr
+    out = tmp_path / "out"
+    r = batch(scans / "a.tif", scans / "b.tif", "--camera", cam, "--profile", tmp_path / "roll.json", "-o", out)
+    assert r.returncode == 1, r.stderr                                  # b is doubtful: exit 1
+    got = results(out)
+    a, b = got["a.tif"]["document"], got["b.tif"]["document"]
+    assert a["status"] == "ok" and a["pixel_size_source"] == "profile"
+    err = [math.hypot(f["x"] - truth["a.tif"][f["name"]][0], f["y"] - truth["a.tif"][f["name"]][1])
+           for f in a["fiducials"] if f["x"] is not None]
+    assert len(err) >= 6 and max(err) < TRUTH_PX
+    assert b["status"] == "doubtful" and any(x.startswith("review: the film lies") for x in b["reasons"])
+    profile = json.loads((tmp_path / "roll.json").read_text())
+    profile["lie"] = {"rotation_deg": 180, "mirrored": False}          # another profile: another fingerprint
+    (tmp_path / "roll2.json").write_text(json.dumps(profile))
+    again = batch(scans / "a.tif", "--camera", cam, "--profile", tmp_path / "roll2.json", "-o", out)
+    assert "complete" not in again.stderr                               # nothing skipped
+    assert any(x.startswith("review: the film lies") for x in results(out)["a.tif"]["document"]["reasons"])

@@ -66,7 +66,8 @@ def _complete_record(path: str, frame: str, settings: BatchSettings) -> FrameRec
 
 def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdir: str | os.PathLike[str], *,
                model: str = "affine", pixel_size_mm: float | None = None,
-               lie: tuple[int, bool] | None = None) -> BatchPlan:
+               lie: tuple[int, bool] | None = None,
+               profile_path: str | os.PathLike[str] | None = None) -> BatchPlan:
     """The plan of a batch (reads the camera file and the complete frames' JSON; writes nothing).
 
     Raises
@@ -77,7 +78,8 @@ def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdi
     paths = expand_inputs(inputs, exclude=Path(outdir) / CROPS_FOLDER)   # the crops are PNGs; scans may share OUTDIR
     keys = frame_keys(paths)
     camera = read_camera(os.fspath(camera_path))
-    settings = batch_settings(camera, camera_path, outdir, model=model, pixel_size_mm=pixel_size_mm, lie=lie)
+    settings = batch_settings(camera, camera_path, outdir, model=model, pixel_size_mm=pixel_size_mm, lie=lie,
+                              profile_path=profile_path)
     frames = tuple((os.path.abspath(p), k) for p, k in zip(paths, keys, strict=True))
     done = {k: r for p, k in frames if (r := _complete_record(p, k, settings)) is not None}
     return BatchPlan(camera, settings, frames, done)

@@ -21,6 +21,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.micmac import micmac_texts
 from aerofid.frame.orient import orient_frame
+from aerofid.frame.profile import read_profile
 from aerofid.frame.report import frame_html
 from aerofid.io.atomic import Staging
 
@@ -106,7 +107,9 @@ def _orient_and_write(path: str, frame: str, settings: BatchSettings, t0: float)
     outs = frame_outputs(frame, settings.model)
     out = Path(settings.outdir)
     scan = scan_identity(path)
-    res = orient_frame(path, cam, pixel_size_mm=settings.pixel_size_mm, model=settings.model, lie=settings.lie)
+    profile = read_profile(settings.profile_path) if settings.profile_path is not None else None
+    res = orient_frame(path, cam, pixel_size_mm=settings.pixel_size_mm, model=settings.model, lie=settings.lie,
+                       profile=profile)
     files: dict[str, str | bytes] = {outs.html: frame_html(res, path)}
     if res.fiducials:                                     # none when the camera's layout is not on the scan
         files[outs.crops] = crop_sheet_png(path, res)
@@ -118,7 +121,7 @@ def _orient_and_write(path: str, frame: str, settings: BatchSettings, t0: float)
     doc = res.to_dict()
     doc["batch"] = {"frame": frame, "path": path, "fingerprint": settings.fingerprint, "scan": scan,
                     "outputs": sorted(files), "seconds": time.perf_counter() - t0}
-    with Staging([path, settings.camera_path]) as staging:
+    with Staging([p for p in (path, settings.camera_path, settings.profile_path) if p]) as staging:
         for name, data in files.items():
             staging.put(out / name, data)
         staging.put(out / outs.json, json.dumps(doc, indent=2) + "\n")   # renamed last: the frame is complete

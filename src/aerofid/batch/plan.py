@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from aerofid.errors import AerofidInputError
+from aerofid.frame.profile import read_profile
 from aerofid.orientation.camera import Camera
 
 MICMAC_FOLDER = "Ori-InterneScan"
@@ -37,8 +38,8 @@ class BatchSettings:
 
     ``camera_path`` and ``outdir`` are absolute, so that a worker in another folder or on another machine that
     sees the same files finds them. ``fingerprint`` identifies the camera and the options (:func:`batch_settings`).
-    A batch profile (``--profile``) and resampling (``--resample``), issue 13's other parts, join the options
-    here and in the fingerprint.
+    ``profile_path``: the roll's profile (``--profile``, :mod:`aerofid.frame.profile`), its content in the
+    fingerprint. Resampling (``--resample``) would join the options here and in the fingerprint.
     """
 
     camera_path: str
@@ -47,6 +48,7 @@ class BatchSettings:
     pixel_size_mm: float | None
     lie: tuple[int, bool] | None
     fingerprint: str
+    profile_path: str | None = None
 
     def options(self) -> dict[str, Any]:
         """The options as JSON holds them (the summary's header)."""
@@ -57,9 +59,10 @@ class BatchSettings:
 
 def batch_settings(camera: Camera, camera_path: str | os.PathLike[str], outdir: str | os.PathLike[str], *,
                    model: str = "affine", pixel_size_mm: float | None = None,
-                   lie: tuple[int, bool] | None = None) -> BatchSettings:
+                   lie: tuple[int, bool] | None = None,
+                   profile_path: str | os.PathLike[str] | None = None) -> BatchSettings:
     """The settings of a batch, with the fingerprint of ``camera`` (its calibration as read, not the file's
-    bytes) and the options.
+    bytes), of the roll profile (as read) and of the options.
 
     Raises
     ------
@@ -70,10 +73,15 @@ def batch_settings(camera: Camera, camera_path: str | os.PathLike[str], outdir: 
         raise AerofidInputError(f"model {model!r}: choose {', '.join(MODELS)}")
     if pixel_size_mm is not None and not 0 < pixel_size_mm < 1:
         raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
+    profile = read_profile(profile_path) if profile_path is not None else None
+    if profile is not None and profile.camera != camera.name:
+        raise AerofidInputError(f"the roll profile was learnt with camera {profile.camera!r}, not {camera.name!r}: "
+                                "give its camera file or learn the profile again")
     what = {"camera": camera.to_dict(), "model": model, "pixel_size_mm": pixel_size_mm,
-            "lie": None if lie is None else list(lie)}
+            "lie": None if lie is None else list(lie), "profile": None if profile is None else profile.to_dict()}
     digest = hashlib.sha256(json.dumps(what, sort_keys=True).encode("utf-8")).hexdigest()[:FINGERPRINT_CHARS]
-    return BatchSettings(os.path.abspath(camera_path), os.path.abspath(outdir), model, pixel_size_mm, lie, digest)
+    return BatchSettings(os.path.abspath(camera_path), os.path.abspath(outdir), model, pixel_size_mm, lie, digest,
+                         None if profile_path is None else os.path.abspath(profile_path))
 
 
 @dataclass(frozen=True)

@@ -46,13 +46,17 @@ from aerofid.errors import AerofidInputError
               help="the film's lie when the fiducials cannot tell it: 0, 90, 180 or 270 degrees, 'm' if mirrored")
 @click.option("--model", type=click.Choice(MODELS), default="affine", show_default=True,
               help="pixel -> mm transformation")
-# --profile ROLL.json (a roll's fiducial profile) and --resample (each frame into the camera frame) are
-# issue 13's other parts: their options go here and into aerofid.batch.plan.BatchSettings.
-def batch(inputs, camera_path, outdir, workers, scheduler, pixel_size, lie, model) -> int:
+@click.option("--profile", "profile_path", metavar="ROLL",
+              help="the roll's profile (aerofid learn): its pixel size, lie, polarity, method and mark size are "
+                   "used; frames that disagree with it are doubtful ('review: ...')")
+# --resample (each frame into the camera frame) is issue 13's other part: its option goes here and into
+# aerofid.batch.plan.BatchSettings.
+def batch(inputs, camera_path, outdir, workers, scheduler, pixel_size, lie, model, profile_path) -> int:
     """Orient every frame of a roll or an archive: INPUTS are scan files, folders or globs ('roll1/*.tif')."""
     if workers is not None and scheduler is not None:
         raise AerofidInputError("give --workers (local processes) or --scheduler (a Dask cluster), not both")
-    plan = plan_batch(inputs, camera_path, outdir, model=model, pixel_size_mm=pixel_size, lie=parse_lie(lie))
+    plan = plan_batch(inputs, camera_path, outdir, model=model, pixel_size_mm=pixel_size, lie=parse_lie(lie),
+                      profile_path=profile_path)
     with open_runner(workers or 1, scheduler) as runner:
         if plan.done:
             click.echo(f"note: {len(plan.done)} of {len(plan.frames)} frames are complete in {outdir!r}: "

@@ -275,3 +275,23 @@ def test_a_batch_with_a_roll_profile_uses_it_and_flags_the_frames_that_disagree(
     again = batch(scans / "a.tif", "--camera", cam, "--profile", tmp_path / "roll2.json", "-o", out)
     assert "complete" not in again.stderr                               # nothing skipped
     assert any(x.startswith("review: the film lies") for x in results(out)["a.tif"]["document"]["reasons"])
+
+
+def test_a_batch_resamples_the_frames_oriented_ok_and_a_rerun_skips_them(roll, tmp_path):
+    """--resample MM: each frame oriented ok also gives resampled/OIS-Reech_<scan>.tif and its pixel -> mm sidecar,
+    listed among the frame's outputs (a rerun finds the frame complete); a frame that is not ok is not resampled."""
+    scans, cam, _ = roll
+    out = tmp_path / "out"
+    r = batch(scans / "a.tif", scans / "e_text.tif", "--camera", cam, "--resample", "0.2", "-o", out)
+    assert r.returncode == 1, r.stderr                                  # e_text.tif is an error
+    image, side = out / "resampled" / "OIS-Reech_a.tif", out / "resampled" / "OIS-Reech_a.px2mm.json"
+    assert image.is_file() and side.is_file()
+    doc = json.loads((out / "a.tif.json").read_text())
+    assert {"resampled/OIS-Reech_a.tif", "resampled/OIS-Reech_a.px2mm.json"} <= set(doc["batch"]["outputs"])
+    grid = json.loads(side.read_text())
+    assert grid                                                         # the resampled frame describes itself
+    assert sorted(p.name for p in (out / "resampled").iterdir()) == ["OIS-Reech_a.px2mm.json", "OIS-Reech_a.tif"]
+    again = batch(scans / "a.tif", "--camera", cam, "--resample", "0.2", "-o", out)
+    assert again.returncode == 0 and "1 of 1 frames are complete" in again.stderr, again.stderr
+    r = batch(scans / "a.tif", "--camera", cam, "--resample", "2", "-o", tmp_path / "bad")
+    assert r.returncode == 2 and "--resample" in r.stderr and not (tmp_path / "bad").exists()

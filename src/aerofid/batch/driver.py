@@ -28,6 +28,7 @@ from aerofid.batch.summary import write_summary
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.micmac import write_measures_camera
 from aerofid.orientation.camera import Camera
+from aerofid.resample.warp import DEFAULT_KERNEL
 
 SUMMARY_REFRESH_S = 10.0
 """The summary is rewritten at most this often while frames complete (and at the end), so that a batch killed
@@ -67,7 +68,8 @@ def _complete_record(path: str, frame: str, settings: BatchSettings) -> FrameRec
 def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdir: str | os.PathLike[str], *,
                model: str = "affine", pixel_size_mm: float | None = None,
                lie: tuple[int, bool] | None = None,
-               profile_path: str | os.PathLike[str] | None = None) -> BatchPlan:
+               profile_path: str | os.PathLike[str] | None = None, resample_mm: float | None = None,
+               kernel: str = DEFAULT_KERNEL) -> BatchPlan:
     """The plan of a batch (reads the camera file and the complete frames' JSON; writes nothing).
 
     Raises
@@ -79,7 +81,7 @@ def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdi
     keys = frame_keys(paths)
     camera = read_camera(os.fspath(camera_path))
     settings = batch_settings(camera, camera_path, outdir, model=model, pixel_size_mm=pixel_size_mm, lie=lie,
-                              profile_path=profile_path)
+                              profile_path=profile_path, resample_mm=resample_mm, kernel=kernel)
     frames = tuple((os.path.abspath(p), k) for p, k in zip(paths, keys, strict=True))
     done = {k: r for p, k in frames if (r := _complete_record(p, k, settings)) is not None}
     return BatchPlan(camera, settings, frames, done)

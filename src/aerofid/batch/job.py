@@ -20,10 +20,13 @@ from aerofid.batch.plan import BatchSettings, frame_outputs, scan_identity
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.micmac import micmac_texts
+from aerofid.formats.orientation import from_result
 from aerofid.frame.orient import orient_frame
 from aerofid.frame.profile import read_profile
 from aerofid.frame.report import frame_html
+from aerofid.frame.result import OK, FrameOrientation
 from aerofid.io.atomic import Staging
+from aerofid.resample import resample_frame, sidecar_path
 
 ERROR = "error"
 """A frame that could not be processed at all (its scan unreadable, corrupt, or a failure): no outputs."""
@@ -101,6 +104,19 @@ def run_frame_job(path: str, frame: str, settings: BatchSettings) -> FrameRecord
         return FrameRecord(frame, path, ERROR, seconds=time.perf_counter() - t0, error=error_text(e))
 
 
+def _resampled(path: str, res: FrameOrientation, output: Path, settings: BatchSettings) -> list[str]:
+    """With ``--resample``, a frame oriented ok resampled into its camera's film mm (:func:`resample_frame`: the
+    image and its pixel -> mm sidecar, each put in place whole, before the frame's JSON makes it complete); the
+    names written, relative to the output folder."""
+    if settings.resample_mm is None or res.status != OK or res.orientation is None:
+        return []
+    output.parent.mkdir(parents=True, exist_ok=True)
+    resample_frame(path, from_result(res.orientation), output, pixel_size_mm=settings.resample_mm,
+                   kernel=settings.kernel)
+    base = Path(settings.outdir)
+    return [output.relative_to(base).as_posix(), sidecar_path(output).relative_to(base).as_posix()]
+
+
 def _orient_and_write(path: str, frame: str, settings: BatchSettings, t0: float) -> dict[str, Any]:
     """The job's work; returns the JSON document written."""
     cam = read_camera(settings.camera_path)
@@ -118,9 +134,10 @@ def _orient_and_write(path: str, frame: str, settings: BatchSettings, t0: float)
         files[outs.measures_im] = texts[0]
         if outs.affine_plane is not None:
             files[outs.affine_plane] = texts[2]
+    resampled = _resampled(path, res, out / outs.resampled, settings)
     doc = res.to_dict()
     doc["batch"] = {"frame": frame, "path": path, "fingerprint": settings.fingerprint, "scan": scan,
-                    "outputs": sorted(files), "seconds": time.perf_counter() - t0}
+                    "outputs": sorted([*files, *resampled]), "seconds": time.perf_counter() - t0}
     with Staging([p for p in (path, settings.camera_path, settings.profile_path) if p]) as staging:
         for name, data in files.items():
             staging.put(out / name, data)

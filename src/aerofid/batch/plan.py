@@ -19,9 +19,13 @@ from typing import Any
 from aerofid.errors import AerofidInputError
 from aerofid.frame.profile import read_profile
 from aerofid.orientation.camera import Camera
+from aerofid.resample.frame import MICMAC_PREFIX
+from aerofid.resample.warp import DEFAULT_KERNEL, KERNELS
 
 MICMAC_FOLDER = "Ori-InterneScan"
 """The output folder's subfolder of MicMac files (MicMac's name for the scans' interior orientation)."""
+RESAMPLED_FOLDER = "resampled"
+"""The output folder's subfolder of the resampled frames (``--resample``), named as MicMac's ReSampFid names them."""
 CROPS_FOLDER = "crops"
 """The output folder's subfolder of each frame's mark crops (one PNG per frame, for the summary's gallery)."""
 MEASURES_CAMERA = "MeasuresCamera.xml"
@@ -39,7 +43,8 @@ class BatchSettings:
     ``camera_path`` and ``outdir`` are absolute, so that a worker in another folder or on another machine that
     sees the same files finds them. ``fingerprint`` identifies the camera and the options (:func:`batch_settings`).
     ``profile_path``: the roll's profile (``--profile``, :mod:`aerofid.frame.profile`), its content in the
-    fingerprint. Resampling (``--resample``) would join the options here and in the fingerprint.
+    fingerprint. ``resample_mm``: each frame oriented ok is also resampled into its camera's film mm at this pixel
+    size with ``kernel`` (``--resample``, :func:`aerofid.resample.resample_frame`).
     """
 
     camera_path: str
@@ -49,6 +54,8 @@ class BatchSettings:
     lie: tuple[int, bool] | None
     fingerprint: str
     profile_path: str | None = None
+    resample_mm: float | None = None
+    kernel: str = DEFAULT_KERNEL
 
     def options(self) -> dict[str, Any]:
         """The options as JSON holds them (the summary's header)."""
@@ -60,7 +67,8 @@ class BatchSettings:
 def batch_settings(camera: Camera, camera_path: str | os.PathLike[str], outdir: str | os.PathLike[str], *,
                    model: str = "affine", pixel_size_mm: float | None = None,
                    lie: tuple[int, bool] | None = None,
-                   profile_path: str | os.PathLike[str] | None = None) -> BatchSettings:
+                   profile_path: str | os.PathLike[str] | None = None, resample_mm: float | None = None,
+                   kernel: str = DEFAULT_KERNEL) -> BatchSettings:
     """The settings of a batch, with the fingerprint of ``camera`` (its calibration as read, not the file's
     bytes), of the roll profile (as read) and of the options.
 
@@ -78,10 +86,16 @@ def batch_settings(camera: Camera, camera_path: str | os.PathLike[str], outdir: 
         raise AerofidInputError(f"the roll profile was learnt with camera {profile.camera!r}, not {camera.name!r}: "
                                 "give its camera file or learn the profile again")
     what = {"camera": camera.to_dict(), "model": model, "pixel_size_mm": pixel_size_mm,
-            "lie": None if lie is None else list(lie), "profile": None if profile is None else profile.to_dict()}
+            "lie": None if lie is None else list(lie), "profile": None if profile is None else profile.to_dict(),
+            "resample_mm": resample_mm, "kernel": kernel if resample_mm is not None else None}
     digest = hashlib.sha256(json.dumps(what, sort_keys=True).encode("utf-8")).hexdigest()[:FINGERPRINT_CHARS]
+    if resample_mm is not None and not 0 < resample_mm < 1:
+        raise AerofidInputError(f"--resample {resample_mm!r} mm: give the resampled frame's pixel size in mm, e.g. "
+                                "0.021")
+    if kernel not in KERNELS:
+        raise AerofidInputError(f"kernel {kernel!r}: choose {', '.join(KERNELS)}")
     return BatchSettings(os.path.abspath(camera_path), os.path.abspath(outdir), model, pixel_size_mm, lie, digest,
-                         None if profile_path is None else os.path.abspath(profile_path))
+                         None if profile_path is None else os.path.abspath(profile_path), resample_mm, kernel)
 
 
 @dataclass(frozen=True)
@@ -98,6 +112,7 @@ class FrameOutputs:
     crops: str
     measures_im: str
     affine_plane: str | None
+    resampled: str
 
 
 def frame_outputs(key: str, model: str) -> FrameOutputs:
@@ -112,7 +127,8 @@ def frame_outputs(key: str, model: str) -> FrameOutputs:
     """
     return FrameOutputs(key, f"{key}.json", f"{key}.html", f"{CROPS_FOLDER}/{key}.png",
                         f"{MICMAC_FOLDER}/MeasuresIm-{key}.xml",
-                        None if model == "projective" else f"{MICMAC_FOLDER}/{key}-AffinePlane-px2mm.xml")
+                        None if model == "projective" else f"{MICMAC_FOLDER}/{key}-AffinePlane-px2mm.xml",
+                        f"{RESAMPLED_FOLDER}/{MICMAC_PREFIX}{Path(key).stem}.tif")
 
 
 def scan_identity(path: str | os.PathLike[str]) -> dict[str, int]:

@@ -26,6 +26,7 @@ from aerofid.batch.runners import open_runner
 from aerofid.cli.frame_cmd import parse_lie
 from aerofid.cli.output import EXIT_FOUND, EXIT_NOT_FOUND
 from aerofid.errors import AerofidInputError
+from aerofid.resample.warp import DEFAULT_KERNEL, KERNELS
 
 
 @click.command()
@@ -49,14 +50,18 @@ from aerofid.errors import AerofidInputError
 @click.option("--profile", "profile_path", metavar="ROLL",
               help="the roll's profile (aerofid learn): its pixel size, lie, polarity, method and mark size are "
                    "used; frames that disagree with it are doubtful ('review: ...')")
-# --resample (each frame into the camera frame) is issue 13's other part: its option goes here and into
-# aerofid.batch.plan.BatchSettings.
-def batch(inputs, camera_path, outdir, workers, scheduler, pixel_size, lie, model, profile_path) -> int:
+@click.option("--resample", "resample_mm", type=float, metavar="MM",
+              help="also resample each frame oriented ok into its camera's film mm at this pixel size "
+                   "(resampled/OIS-Reech_<scan>.tif, as MicMac ReSampFid; docs/resample.md)")
+@click.option("--kernel", type=click.Choice(KERNELS), default=DEFAULT_KERNEL, show_default=True,
+              help="the resampling's interpolation")
+def batch(inputs, camera_path, outdir, workers, scheduler, pixel_size, lie, model, profile_path, resample_mm,
+          kernel) -> int:
     """Orient every frame of a roll or an archive: INPUTS are scan files, folders or globs ('roll1/*.tif')."""
     if workers is not None and scheduler is not None:
         raise AerofidInputError("give --workers (local processes) or --scheduler (a Dask cluster), not both")
     plan = plan_batch(inputs, camera_path, outdir, model=model, pixel_size_mm=pixel_size, lie=parse_lie(lie),
-                      profile_path=profile_path)
+                      profile_path=profile_path, resample_mm=resample_mm, kernel=kernel)
     with open_runner(workers or 1, scheduler) as runner:
         if plan.done:
             click.echo(f"note: {len(plan.done)} of {len(plan.frames)} frames are complete in {outdir!r}: "

@@ -351,6 +351,17 @@ def jpeg_pair(request, tmp_path, monkeypatch):
     reduced.close()
 
 
+def test_the_jpeg_decode_follows_the_memory_budget(tmp_path, monkeypatch):
+    """AEROFID_MEMORY_BUDGET_GB bounds a JPEG's whole decode too (it had its own fixed 1 GB)."""
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(3, (600, 808)))
+    header = jpeg.read_header(path, "jpeg")
+    assert jpeg.decodes_whole(header)                                   # 1.5 MB within the default 1 GB
+    monkeypatch.setenv("AEROFID_MEMORY_BUDGET_GB", "0.001")            # 1 MB
+    assert not jpeg.decodes_whole(header)
+    with open_raster(path) as r:                                        # read reduced through libjpeg, not whole
+        assert r.read_reduced((0, 0, 808, 600), 8).shape[:2] == (75, 101)
+
+
 def test_modest_jpeg_is_decoded_whole_and_reduced_exactly(jpeg_pair):
     whole, _ = jpeg_pair
     box = (13, 7, 701, 533)

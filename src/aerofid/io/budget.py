@@ -13,7 +13,7 @@ __all__ = ["BUDGET_ENV", "DEFAULT_BUDGET_GB", "check_budget", "memory_budget"]
 BUDGET_ENV = "AEROFID_MEMORY_BUDGET_GB"
 """Environment variable that sets the budget, in GB (10^9 bytes)."""
 DEFAULT_BUDGET_GB = 1.0
-"""The default budget: the 1 GB that a whole JPEG/PNG decode (:data:`aerofid.io.jpeg.DECODE_BUDGET_BYTES`) and a
+"""The default budget: the 1 GB that a whole JPEG/PNG decode (:func:`aerofid.io.jpeg.decode_budget`) and a
 window (:data:`aerofid.io.raster.WINDOW_LIMIT_BYTES`) may take."""
 
 

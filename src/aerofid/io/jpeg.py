@@ -2,7 +2,7 @@
 libjpeg's reduced decode for a JPEG that does not.
 
 OpenCV cannot decode a window of a JPEG or PNG, so :class:`~aerofid.io.raster.Raster` decodes one whole, once,
-when its decoded samples fit :data:`DECODE_BUDGET_BYTES`. The size is read from the header first (the JPEG
+when its decoded samples fit the decode budget (:func:`decode_budget`). The size is read from the header first (the JPEG
 start-of-frame segment, the PNG ``IHDR`` chunk), so nothing is decoded to learn it. A larger JPEG is never
 decoded whole: :class:`HugeJpegReader` answers ``read_reduced`` with libjpeg's decode at 1/2, 1/4 or 1/8 scale
 (``cv2.IMREAD_REDUCED_*``) followed by block means of the rest of the factor, and refuses full-resolution
@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from aerofid.errors import AerofidInputError
+from aerofid.io.budget import memory_budget
 from aerofid.io.reduce import reduce_in_strips
 
 __all__ = [
@@ -33,13 +34,20 @@ __all__ = [
     "HugeJpegReader",
     "ImageHeader",
     "decode_whole",
+    "decode_budget",
     "decodes_whole",
     "header_segments",
     "read_header",
 ]
 
-#: Most bytes of decoded samples for which a JPEG or PNG is decoded whole (and a JPEG's reduced decode).
-DECODE_BUDGET_BYTES = 1_000_000_000
+#: Most bytes of decoded samples for which a JPEG or PNG is decoded whole (and a JPEG's reduced decode); None:
+#: the memory budget (:func:`aerofid.io.budget.memory_budget`, 1 GB unless ``AEROFID_MEMORY_BUDGET_GB`` says).
+DECODE_BUDGET_BYTES: int | None = None
+
+
+def decode_budget() -> int:
+    """The bytes a decode may take: :data:`DECODE_BUDGET_BYTES` when set, else the memory budget."""
+    return DECODE_BUDGET_BYTES if DECODE_BUDGET_BYTES is not None else memory_budget()
 #: How many decoded JPEG/PNG files stay in memory between calls.
 DECODED_CACHE = 2
 
@@ -157,8 +165,8 @@ def read_header(path: Path, kind: str) -> ImageHeader:
 
 
 def decodes_whole(header: ImageHeader) -> bool:
-    """Whether the whole decoded image fits :data:`DECODE_BUDGET_BYTES`."""
-    return header.decoded_bytes <= DECODE_BUDGET_BYTES
+    """Whether the whole decoded image fits the decode budget (:func:`decode_budget`)."""
+    return header.decoded_bytes <= decode_budget()
 
 
 def _decode_with_cv2(path: Path) -> np.ndarray:
@@ -201,7 +209,7 @@ class HugeJpegReader:
     def _too_large(self) -> str:
         h = self.header
         return (f"{self.path} is a {h.width} x {h.height} JPEG, too large to decode whole "
-                f"({h.decoded_bytes / 1e9:.1f} GB, more than the {DECODE_BUDGET_BYTES / 1e9:.1f} GB budget)")
+                f"({h.decoded_bytes / 1e9:.1f} GB, more than the {decode_budget() / 1e9:.1f} GB budget)")
 
     def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
         """Refuse: a full-resolution window would need the whole decode."""
@@ -214,7 +222,7 @@ class HugeJpegReader:
         h = self.header
         for scale in (8, 4, 2):
             reduced = -(-h.width // scale) * -(-h.height // scale) * self.bands * h.itemsize
-            if factor % scale == 0 and reduced <= DECODE_BUDGET_BYTES:
+            if factor % scale == 0 and reduced <= decode_budget():
                 return scale
         raise AerofidInputError(
             f"{self._too_large()}, and reducing by {factor} cannot use libjpeg's 1/2, 1/4 or 1/8 decode within "

@@ -14,9 +14,9 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
 * a TIFF layout that cannot be windowed (segments that do not tile the image as the tags say, NDPI-style
   JPEG) is decoded whole on the first read and kept in memory;
 * a JPEG or PNG is decoded whole when opened (OpenCV cannot read a window of it) and kept in memory, if its
-  decoded size (read from the header first) fits :data:`aerofid.io.jpeg.DECODE_BUDGET_BYTES`; a larger JPEG is
-  never decoded whole (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced decode), a larger
-  PNG is refused.
+  decoded size (read from the header first) fits the decode budget (:func:`aerofid.io.jpeg.decode_budget`); a
+  larger JPEG is never decoded whole (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced
+  decode), a larger PNG is refused.
 
 :meth:`Raster.read_reduced` reads a window reduced by block means in horizontal strips (whole tile rows of a
 tiled TIFF), so its memory stays bounded whatever the box (:mod:`aerofid.io.reduce`). A numpy array is read
@@ -346,7 +346,7 @@ class Raster:
 
     def _open_cv2(self) -> None:
         """Read a JPEG's or PNG's size from its header; decode it whole if that fits the budget
-        (:data:`aerofid.io.jpeg.DECODE_BUDGET_BYTES`), else (a JPEG only) keep it for reduced reads."""
+        (:func:`aerofid.io.jpeg.decode_budget`), else (a JPEG only) keep it for reduced reads."""
         header = jpeg.read_header(self.path, self.format)
         self.tiled = False
         if jpeg.decodes_whole(header):
@@ -359,7 +359,7 @@ class Raster:
             return
         too_large = (
             f"{self.path} is a {header.width} x {header.height} {self.format.upper()} of "
-            f"{header.decoded_bytes / 1e9:.1f} GB decoded, more than the {jpeg.DECODE_BUDGET_BYTES / 1e9:.1f} GB "
+            f"{header.decoded_bytes / 1e9:.1f} GB decoded, more than the {jpeg.decode_budget() / 1e9:.1f} GB "
             "that aerofid decodes whole"
         )
         if self.format != "jpeg" or header.itemsize != 1:

@@ -82,9 +82,8 @@ def batch_settings(camera: Camera, camera_path: str | os.PathLike[str], outdir: 
     if pixel_size_mm is not None and not 0 < pixel_size_mm < 1:
         raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
     profile = read_profile(profile_path) if profile_path is not None else None
-    if profile is not None and profile.camera != camera.name:
-        raise AerofidInputError(f"the roll profile was learnt with camera {profile.camera!r}, not {camera.name!r}: "
-                                "give its camera file or learn the profile again")
+    if profile is not None:
+        profile.check_camera(camera.name)
     what = {"camera": camera.to_dict(), "model": model, "pixel_size_mm": pixel_size_mm,
             "lie": None if lie is None else list(lie), "profile": None if profile is None else profile.to_dict(),
             "resample_mm": resample_mm, "kernel": kernel if resample_mm is not None else None}

@@ -185,9 +185,7 @@ def _checked_options(cam: Camera, pixel_size_mm: float | None, lie: tuple[int, b
         raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
     if profile is None:
         return lie
-    if profile.camera != cam.name:
-        raise AerofidInputError(f"the roll profile was learnt with camera {profile.camera!r}, not {cam.name!r}: "
-                                "give its camera file or learn the profile again")
+    profile.check_camera(cam.name)
     return lie if lie is not None else (profile.rotation_deg, profile.mirrored)
 
 

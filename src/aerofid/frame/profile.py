@@ -95,6 +95,12 @@ class RollProfile:
     def mark_radius_px(self, pixel_size_mm: float) -> float:
         return self.mark_radius_mm / pixel_size_mm
 
+    def check_camera(self, camera_name: str) -> None:
+        """Refuse (one line) a camera other than the one the profile was learnt with."""
+        if self.camera != camera_name:
+            raise AerofidInputError(f"the roll profile was learnt with camera {self.camera!r}, not {camera_name!r}: "
+                                    "give its camera file or learn the profile again")
+
     def to_dict(self) -> dict[str, Any]:
         return {"format": PROFILE_FORMAT, "version": PROFILE_VERSION, "camera": self.camera,
                 "pixel_size_mm": self.pixel_size_mm, "lie": {"rotation_deg": self.rotation_deg,

@@ -142,15 +142,12 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     lie = _checked_options(cam, pixel_size_mm, lie, profile)
     detector, polarities = configure(method, mark, polarity, colour, {})
     with open_image(image) as source:
-        size, size_source = ((profile.pixel_size_mm, "profile") if profile is not None and pixel_size_mm is None
-                             else scan_pixel_size(source, cam, pixel_size_mm))
-        if nominal is not None:                 # a nominal layout's scale is not the scan's: the layout finds it
-            size, size_source = None, "estimated"
+        # a nominal layout's scale is not the scan's: the layout search finds it
+        size, size_source = ((None, "estimated") if nominal is not None
+                             else scan_pixel_size(source, cam, pixel_size_mm, profile))
         features, f = frame_features(source)
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
-        layouts = layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, cam.y_axis,
-                                    size, position_error_px=POSITION_ERROR * f,
-                                    scan_size=(source.width, source.height))
+        layouts = _layouts(source, features, f, fid_mm, cam.y_axis, size)
         name = "" if source.path is None else os.path.basename(str(source.path))
         head = dict(image=name, camera=cam.name, width=source.width, height=source.height, features=len(features),
                     reduction=f)
@@ -160,10 +157,7 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
         for layout in layouts[:1 if size is not None else ALTERNATIVES]:
             located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features,
                                     mark, profile)
-            res = verdict(cam, layout, located, model, head, layout.pixel_size_mm if size is None else size,
-                          size_source, lie)
-            if profile is not None and res.orientation is not None:
-                res = _reviewed(res, disagreements(profile, res))
+            res = _judged(cam, layout, located, model, head, size, size_source, lie, profile)
             if best is None or _standing(res) > _standing(best):
                 best = res
             if res.ok or (nominal is not None and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
@@ -174,6 +168,25 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
     return best
+
+
+def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
+             size: float | None) -> list[LayoutMatch]:
+    """Step 2: the camera's layouts among the ``features`` screened at reduction ``f``, best first."""
+    return layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, y_axis, size,
+                             position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height))
+
+
+def _judged(cam: Camera, layout: LayoutMatch, located: list[tuple[Located | None, str]], model: str,
+            head: dict[str, Any], size: float | None, size_source: str, lie: tuple[int, bool] | None,
+            profile: RollProfile | None) -> FrameOrientation:
+    """Step 4 for one layout's marks: the verdict (at the layout's pixel size when none was declared), and with
+    a roll ``profile`` the frame doubtful for review where it disagrees with it."""
+    res = verdict(cam, layout, located, model, head, layout.pixel_size_mm if size is None else size, size_source,
+                  lie)
+    if profile is not None and res.orientation is not None:
+        res = _reviewed(res, disagreements(profile, res))
+    return res
 
 
 def _checked_options(cam: Camera, pixel_size_mm: float | None, lie: tuple[int, bool] | None,
@@ -218,10 +231,14 @@ def _no_layout(head: dict[str, Any], n: int, size: float | None, size_source: st
                             pixel_size_source=size_source)
 
 
-def scan_pixel_size(source: ImageSource, cam: Camera, given: float | None) -> tuple[float | None, str]:
-    """The pixel size the search assumes (mm) and where it came from, None when nothing says."""
+def scan_pixel_size(source: ImageSource, cam: Camera, given: float | None,
+                    profile: RollProfile | None = None) -> tuple[float | None, str]:
+    """The pixel size the search assumes (mm) and where it came from, None when nothing says: the given one, the
+    roll profile's, the file's tags, the camera file's."""
     if given is not None:
         return float(given), "given"
+    if profile is not None:
+        return profile.pixel_size_mm, "profile"
     tagged = pixel_size_from_tags(source.path) if isinstance(source.path, str | os.PathLike) else None
     if tagged is not None:
         return tagged, "tags"
@@ -242,13 +259,13 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                   features: tuple[Candidate, ...], mark: str = "auto",
                   profile: RollProfile | None = None) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
-    strongest first; the first mark found fixes the polarity tried first for the rest, and once :data:`MIN_REFIT`
-    marks are found a transformation fitted to them (:meth:`LayoutMatch.predict_from`) predicts the others (to a
-    few px, :data:`REFINED_TOLERANCE_MM`) and their windows are sized by the marks' own extent; each is first
-    measured by the method that found most of them alone (:func:`_by_method`), then, if that fails, like the
-    first. From the second mark on, the method that found the first ones measures alone (within the layout's
-    tolerance until three are found; the adjustment's blunder tests check them all). A roll ``profile`` gives the
-    polarity, the method and the marks' size from the first mark on."""
+    strongest first. The first mark is measured by ``auto`` (:func:`measure_fiducial`) and fixes the polarity tried
+    first for the rest. Each later mark is measured first by the method that found most of the marks so far, alone
+    (:func:`_by_method`), on a window sized by their extent, then, if that fails, like the first: within the
+    layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction of a transformation
+    fitted to them (:meth:`LayoutMatch.predict_from`; to a few px, :data:`REFINED_TOLERANCE_MM`). The
+    adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the method and the marks'
+    size from the first mark on."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))

@@ -99,8 +99,7 @@ class LayoutMatch:
         calibrated layout turned by the lie and fitted to them (:func:`fit_points`: a similarity when they lie
         along one edge, so that only the scanner's small affinity is left to extrapolate, not the coarse
         features' error in this layout's own fit)."""
-        A = fit_points(fiducials_mm[which] @ self.turn.T, np.asarray(points, float))
-        return np.c_[fiducials_mm @ self.turn.T, np.ones(len(fiducials_mm))] @ A.T
+        return _apply(_fit_turned(fiducials_mm[which], np.asarray(points, float), self.turn), fiducials_mm)
 
 
 def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "up",
@@ -279,13 +278,13 @@ def _refine(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, ro
     matched = _nearest(features, pred, tol)
     A = _fit_mm_to_px(fiducials_mm, features, matched, turn)
     for _ in range(2):
-        pred = np.c_[fiducials_mm, np.ones(len(fiducials_mm))] @ A.T
+        pred = _apply(A, fiducials_mm)
         close = _nearest(features, pred, fit_tol)
         if sum(m is not None for m in close) < MIN_MATCHED:
             break
         matched = close
         A = _fit_mm_to_px(fiducials_mm, features, matched, turn)
-    pred = np.c_[fiducials_mm, np.ones(len(fiducials_mm))] @ A.T
+    pred = _apply(A, fiducials_mm)
     pixel_mm = 1.0 / math.sqrt(abs(np.linalg.det(A[:, :2])))
     return LayoutMatch(pred, matched, A, rot, mir, pixel_mm, tol, turn)
 
@@ -327,11 +326,21 @@ def fit_points(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
 
 def _fit_mm_to_px(fiducials_mm: np.ndarray, features: np.ndarray, matched: tuple[int | None, ...],
                   turn: np.ndarray) -> np.ndarray:
-    """The matches' mm -> px (2 x 3) by :func:`fit_points` on the fiducials turned by the lie (``turn``, the
-    inverse of its arrangement matrix: a similarity cannot mirror)."""
+    """The matches' mm -> px (2 x 3) (:func:`_fit_turned`)."""
     idx = [(f, m) for f, m in enumerate(matched) if m is not None]
-    A = fit_points(fiducials_mm[[f for f, _ in idx]] @ turn.T, features[[m for _, m in idx]])
+    return _fit_turned(fiducials_mm[[f for f, _ in idx]], features[[m for _, m in idx]], turn)
+
+
+def _fit_turned(mm: np.ndarray, px: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """mm -> px (2 x 3) by :func:`fit_points` on the fiducials ``mm`` turned by the lie (``turn``, the inverse of
+    its arrangement matrix: a similarity cannot mirror), onto the points ``px``."""
+    A = fit_points(mm @ turn.T, px)
     return np.c_[A[:, :2] @ turn, A[:, 2]]
+
+
+def _apply(A: np.ndarray, mm: np.ndarray) -> np.ndarray:
+    """The pixel positions (n x 2) a 2 x 3 mm -> px transformation gives the fiducials ``mm``."""
+    return np.c_[mm, np.ones(len(mm))] @ A.T
 
 
 __all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_candidates", "match_layout",

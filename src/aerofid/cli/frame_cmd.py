@@ -53,15 +53,15 @@ def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: st
             staging.plan(output, "report")
         name = Path(image).name
         micmac = micmac_files(Path(micmac_dir), name, model, staging) if micmac_dir is not None else None
-        cam = nominal or read_camera(camera_path)
+        cam = None if nominal is not None else read_camera(camera_path)     # a format: orient_frame knows it by name
         profile = read_profile(profile_path) if profile_path is not None else None
-        res = orient_frame(image, camera_path if nominal else cam, pixel_size_mm=pixel_size, model=model,
+        res = orient_frame(image, camera_path if cam is None else cam, pixel_size_mm=pixel_size, model=model,
                            lie=the_lie, profile=profile)
         if output is not None:
             suffix = Path(output).suffix.lower()
             staging.put(output, json.dumps(res.to_dict(), indent=2) + "\n" if suffix == ".json"
                         else frame_text(res) if suffix == ".txt" else frame_html(res, image))
-        if micmac is not None and res.orientation is not None:
+        if micmac is not None and cam is not None and res.orientation is not None:
             for path, text in zip(micmac, micmac_texts(cam, res.orientation), strict=True):
                 staging.put(path, text)
         click.echo(json.dumps(res.to_dict()) if as_json else frame_text(res), nl=as_json)

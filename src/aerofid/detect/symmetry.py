@@ -785,22 +785,15 @@ class MirrorDifferences:
 def mirror_differences(i2: np.ndarray, r: int, lo: int, hi: int) -> MirrorDifferences:
     """:class:`MirrorDifferences` of ``i2`` for the kernel radius ``r`` and the columns ``lo..hi`` (inclusive;
     columns ``lo - r .. hi + r`` must lie inside ``i2``). The sums are taken in place (no temporary array per
-    ``u``) and, for a transposed view (the vertical axis), along the rows of the array it views: the same sums in
-    the same order, 6-10x faster."""
-    if not i2.flags.c_contiguous and i2.T.flags.c_contiguous:
-        src = i2.T
-        out = np.zeros((hi + 1 - lo, src.shape[1]), np.float64)
-        step = np.empty_like(out)
-        for u in range(1, r + 1):
-            np.subtract(src[lo + u:hi + 1 + u], src[lo - u:hi + 1 - u], out=step)
-            out += np.abs(step, out=step)
-        return MirrorDifferences(np.ascontiguousarray(out.T), int(lo))
-    out = np.zeros((i2.shape[0], hi + 1 - lo), np.float64)
+    ``u``) along the rows of ``i2`` transposed (the array a transposed view, the vertical axis, views; else a
+    contiguous copy), so that every slice is contiguous: the same sums in the same order, 6-10x faster."""
+    src = i2.T if i2.T.flags.c_contiguous else np.ascontiguousarray(i2.T)
+    out = np.zeros((hi + 1 - lo, src.shape[1]), np.float64)
     step = np.empty_like(out)
     for u in range(1, r + 1):
-        np.subtract(i2[:, lo + u:hi + 1 + u], i2[:, lo - u:hi + 1 - u], out=step)
+        np.subtract(src[lo + u:hi + 1 + u], src[lo - u:hi + 1 - u], out=step)
         out += np.abs(step, out=step)
-    return MirrorDifferences(out, int(lo))
+    return MirrorDifferences(np.ascontiguousarray(out.T), int(lo))
 
 
 def symmetry_accumulation(i2: np.ndarray, row: int, r: int, d: int, xs: np.ndarray,

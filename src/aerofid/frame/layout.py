@@ -214,8 +214,8 @@ def _best_hypothesis(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str
     each refined (:func:`_refine`) and scored again by the fiducials whose feature lies within
     :data:`FIT_TOLERANCE_MM` (plus ``position_error_px``) of the refined prediction, then by the RMS of those
     distances: ``tol`` must allow for a two-feature similarity's error, within which a frame dense with dots and
-    texture offers chance matches for all 8 fiducials (a synthetic striped frame: 8 chance matches against 6
-    true ones), while the true features fit a transformation to a few reduced pixels."""
+    texture offers chance matches for all 8 fiducials (tests/test_frame.py: 512 features with 6 true marks),
+    while the true features fit a transformation to a few reduced pixels."""
     hyp = _hypotheses(features, fiducials_mm, s)
     if len(hyp) == 0:
         return None

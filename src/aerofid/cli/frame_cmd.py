@@ -11,7 +11,7 @@ from pathlib import Path
 
 import click
 
-from aerofid.cli.orient_outputs import check_outputs, micmac_files, micmac_texts
+from aerofid.cli.orient_outputs import check_outputs, metashape_text, micmac_files, micmac_texts
 from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
@@ -40,19 +40,23 @@ def parse_lie(text: str | None) -> tuple[int, bool] | None:
 
 
 def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: str | None, model: str,
-              as_json: bool, output: str | None, micmac_dir: str | None, profile_path: str | None = None) -> int:
-    """Orient the whole frame ``image``; print, write the report and MicMac files; the exit status."""
-    check_outputs(output, micmac_dir)
+              as_json: bool, output: str | None, micmac_dir: str | None, profile_path: str | None = None,
+              metashape: str | None = None) -> int:
+    """Orient the whole frame ``image``; print, write the report, MicMac files and Metashape script; the exit
+    status."""
+    check_outputs(output, micmac_dir, metashape)
     the_lie = parse_lie(lie)
     nominal = nominal_camera(camera_path)
-    if nominal is not None and (micmac_dir is not None or profile_path is not None):
-        raise AerofidInputError(f"--camera {camera_path!r} names a format, not a calibration: --micmac and --profile "
-                                "need the camera file")
+    if nominal is not None and (micmac_dir is not None or profile_path is not None or metashape is not None):
+        raise AerofidInputError(f"--camera {camera_path!r} names a format, not a calibration: --micmac, --metashape "
+                                "and --profile need the camera file")
     with Staging([p for p in (image, None if nominal else camera_path, profile_path) if p]) as staging:
         if output is not None:
             staging.plan(output, "report")
         name = Path(image).name
         micmac = micmac_files(Path(micmac_dir), name, model, staging) if micmac_dir is not None else None
+        if metashape is not None:
+            staging.plan(metashape, "--metashape")
         cam = None if nominal is not None else read_camera(camera_path)     # a format: orient_frame knows it by name
         profile = read_profile(profile_path) if profile_path is not None else None
         res = orient_frame(image, camera_path if cam is None else cam, pixel_size_mm=pixel_size, model=model,
@@ -64,6 +68,8 @@ def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: st
         if micmac is not None and cam is not None and res.orientation is not None:
             for path, text in zip(micmac, micmac_texts(cam, res.orientation), strict=True):
                 staging.put(path, text)
+        if metashape is not None and cam is not None and res.orientation is not None:
+            staging.put(metashape, metashape_text(cam, res.orientation))
         click.echo(json.dumps(res.to_dict()) if as_json else frame_text(res), nl=as_json)
         flush_stdout()
         staging.commit()

@@ -2,8 +2,8 @@
 
 Exit status: 0 success; 1 when it ran but could not decide (ambiguous fiducial correspondence);
 2 on bad input or a failed output (one line ``error: ...`` on stderr, nothing written). Every output (the
-report, the MicMac files) is checked before the files are read and written only once the whole command has
-succeeded (:class:`aerofid.io.atomic.Staging`).
+report, the MicMac files, the Metashape script) is checked before the files are read and written only once the
+whole command has succeeded (:class:`aerofid.io.atomic.Staging`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 import click
 
 from aerofid.cli.frame_cmd import run_frame
-from aerofid.cli.orient_outputs import check_outputs, micmac_files, micmac_texts
+from aerofid.cli.orient_outputs import check_outputs, metashape_text, micmac_files, micmac_texts
 from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
@@ -46,6 +46,9 @@ from aerofid.orientation.result import InteriorOrientation
 @click.option("-o", "--output", metavar="REPORT", help="write a report: .json, .html or .txt")
 @click.option("--micmac", "micmac_dir", metavar="DIR",
               help="write MeasuresIm-<image>.xml, MeasuresCamera.xml and <image>-AffinePlane-px2mm.xml into DIR")
+@click.option("--metashape", "metashape_path", metavar="SCRIPT.py",
+              help="write a script for Agisoft Metashape Pro that places the fiducials measured here on this scan "
+                   "in the open project (film camera, Fiducial markers in mm, pinned projections; docs/exports.md)")
 @click.option("--pixel-size", type=float, metavar="MM",
               help="whole frame: the scan's pixel size in mm (default: the file's resolution tags, the camera file)")
 @click.option("--lie", metavar="ROT[m]",
@@ -55,23 +58,26 @@ from aerofid.orientation.result import InteriorOrientation
               help="whole frame: the roll's profile (aerofid learn): its pixel size, lie, polarity, method and mark "
                    "size are used; a frame that disagrees with it is doubtful")
 def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir,
-           pixel_size, lie, profile_path) -> int:
+           metashape_path, pixel_size, lie, profile_path) -> int:
     """Interior orientation (pixel -> film mm) of a scan: from its measured fiducials (--measurements), or from
     the scan itself (IMAGE alone: the fiducials found from the camera file's layout)."""
     if meas_path is None:
         if image:
             return run_frame(image, camera_path, pixel_size=pixel_size, lie=lie, model=model, as_json=as_json,
-                             output=output, micmac_dir=micmac_dir, profile_path=profile_path)
+                             output=output, micmac_dir=micmac_dir, profile_path=profile_path,
+                             metashape=metashape_path)
         raise AerofidInputError("give the scan (aerofid orient IMAGE --camera CAMERA) or --measurements FILE "
                                 "(fiducial pixel coordinates)")
     if pixel_size is not None or lie is not None or profile_path is not None:
         raise AerofidInputError("--pixel-size, --lie and --profile are for a whole frame (IMAGE without "
                                 "--measurements)")
-    check_outputs(output, micmac_dir)
+    check_outputs(output, micmac_dir, metashape_path)
     inputs = [p for p in (image, camera_path, meas_path) if p]
     with Staging(inputs) as staging:
         if output is not None:
             staging.plan(output, "report")
+        if metashape_path is not None:
+            staging.plan(metashape_path, "--metashape")
         cam = read_camera(camera_path)
         meas, not_found = read_measurements_and_not_found(meas_path)
         image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
@@ -89,11 +95,7 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         if not_found:
             click.echo(f"note: {', '.join(not_found)} not found in {meas_path!r}; oriented with the "
                        f"{len(meas.xy)} found", err=True)
-        if output is not None:
-            staging.put(output, _report(res, Path(output).suffix.lower()))
-        if micmac is not None:
-            for path, text in zip(micmac, micmac_texts(cam, res)):
-                staging.put(path, text)
+        _put_outputs(staging, cam, res, output, micmac, metashape_path)
         click.echo(json.dumps(res.to_dict()) if as_json else to_text(res), nl=as_json)
         flush_stdout()
         staging.commit()
@@ -112,6 +114,18 @@ def _run_orient(cam: Camera, meas: Measurements, not_found: tuple[str, ...], mea
         if not_found:
             raise AerofidInputError(f"{e} (not found in {meas_path!r}: {', '.join(not_found)})") from None
         raise
+
+
+def _put_outputs(staging: Staging, cam: Camera, res: InteriorOrientation, output: str | None,
+                 micmac: list[Path] | None, metashape_path: str | None) -> None:
+    """Stage the report, the MicMac files and the Metashape script asked for (planned before the work)."""
+    if output is not None:
+        staging.put(output, _report(res, Path(output).suffix.lower()))
+    if micmac is not None:
+        for path, text in zip(micmac, micmac_texts(cam, res)):  # no AffinePlane for projective
+            staging.put(path, text)
+    if metashape_path is not None:
+        staging.put(metashape_path, metashape_text(cam, res))
 
 
 def _report(res: InteriorOrientation, suffix: str) -> str:

@@ -22,12 +22,18 @@ Formats (:data:`FORMATS`):
     ``--pixel-pitch``; https://stereopipeline.readthedocs.io). ``fu = fv`` the calibrated focal length, ``(cu,
     cv)`` the principal point's offset from the upper-left of the image in mm: its output pixel position times
     the pitch (ASP's pixel is ``(fu Q1/Q3 + cu, fv Q2/Q3 + cv) / pitch``). The camera centre ``C`` and rotation
-    ``R`` are placeholders (0 and the identity) that ``cam_gen`` replaces. Not verified against ASP itself:
-    whether ASP's pixel (0, 0) is the centre of the top-left pixel (taken so here) or its corner (then ``cu``,
-    ``cv`` would be half a pixel pitch larger).
+    ``R`` are placeholders (0 and the identity) that ``cam_gen`` replaces.
 
-Agisoft Metashape is not written: its fiducial and calibration formats could not be checked against its
-documentation here (docs/resample.md says what a Metashape user can take from ``csv``).
+    ASP's pixel (0, 0) is the centre of the top-left pixel, as ours, so ``cu``, ``cv`` carry no half-pixel
+    term. ASP's documentation says only "relative to the upper-left image corner"; the source settles it:
+    Vision Workbench's ``PinholeModel::point_to_pixel`` (visionworkbench, src/vw/Camera/PinholeModel.cc) returns
+    ``(fu Q1/Q3 + cu, fv Q2/Q3 + cv) / pitch`` with no offset, and ASP compares those pixels with images indexed
+    by integers, converting from ISIS pixels (centre of the top-left pixel (1, 1)) by subtracting 1 and from CSM
+    pixels (its centre (0.5, 0.5)) by subtracting 0.5 (StereoPipeline, src/asp/Camera/CsmModel.cc,
+    ``ASP_TO_CSM_SHIFT``). Checked in the sources; not run against ASP itself.
+
+Agisoft Metashape: :mod:`aerofid.formats.metashape` (a script placing the measured fiducials on the scan, written
+by ``aerofid orient --metashape`` and ``aerofid batch --metashape``; docs/exports.md).
 """
 
 from __future__ import annotations

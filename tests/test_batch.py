@@ -295,3 +295,31 @@ def test_a_batch_resamples_the_frames_oriented_ok_and_a_rerun_skips_them(roll, t
     assert again.returncode == 0 and "1 of 1 frames are complete" in again.stderr, again.stderr
     r = batch(scans / "a.tif", "--camera", cam, "--resample", "2", "-o", tmp_path / "bad")
     assert r.returncode == 2 and "--resample" in r.stderr and not (tmp_path / "bad").exists()
+
+
+def test_a_batch_with_metashape_writes_one_script_of_the_frames_oriented_ok(roll, sequential, tmp_path):
+    """--metashape: OUTDIR/metashape_fiducials.py places every frame oriented ok (its used fiducials at their found
+    pixel positions, within the frame tests' bound of the truth) and lists the frames left out; a rerun that skips
+    the complete frames writes the same script; without the flag there is none."""
+    scans, cam, truth = roll
+    out = tmp_path / "out"
+    r = batch(scans / "a.tif", scans / "b.tif", scans / "e_text.tif", "--camera", cam, "--metashape", "-o", out)
+    assert r.returncode == 1, r.stderr                                  # e_text.tif is an error
+    text = (out / "metashape_fiducials.py").read_text()
+    compile(text, "metashape_fiducials.py", "exec")
+    head = text[:text.index("\ndef place_fiducials")]                  # the constants and the data, not the run
+    data: dict = {}
+    exec(compile(head.replace("import Metashape\n", ""), "head", "exec"), data)
+    frames = {f["label"]: f for f in data["DATA"]["frames"]}
+    assert sorted(frames) == ["a", "b"] and data["PIXEL_OFFSET"] == 0.5
+    for label, f in frames.items():
+        marks = truth[f"{label}.tif"]
+        assert len(f["fiducials_px"]) >= 6
+        for name, (x, y) in f["fiducials_px"].items():
+            assert math.hypot(x - marks[name][0], y - marks[name][1]) < TRUTH_PX
+    assert [d["image"] for d in data["DATA"]["left_out"]] == ["e_text.tif"]
+    assert data["DATA"]["left_out"][0]["reason"].startswith("error: ") and "#   e_text.tif: error: " in text
+    again = batch(scans / "a.tif", scans / "b.tif", scans / "e_text.tif", "--camera", cam, "--metashape", "-o", out)
+    assert "2 of 3 frames are complete" in again.stderr, again.stderr
+    assert (out / "metashape_fiducials.py").read_text() == text
+    assert not (sequential[1] / "metashape_fiducials.py").exists()

@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
+from aerofid.batch.exports import write_metashape
 from aerofid.batch.inputs import expand_inputs, frame_keys
 from aerofid.batch.job import FrameRecord, record_from_document
 from aerofid.batch.plan import (
@@ -95,11 +96,12 @@ def start_batch(plan: BatchPlan) -> Path:
 
 
 def run_batch(plan: BatchPlan, runner: Runner, on_record: Callable[[FrameRecord], None] | None = None,
-              refresh_s: float = SUMMARY_REFRESH_S) -> list[FrameRecord]:
+              refresh_s: float = SUMMARY_REFRESH_S, metashape: bool = False) -> list[FrameRecord]:
     """Run the frames :attr:`BatchPlan.todo` on ``runner`` (:mod:`aerofid.batch.runners`), call ``on_record``
     with each record as it completes, write the summary of every frame (the complete ones' too) at the start,
     every ``refresh_s`` seconds and at the end (also an interrupted end), and return all the records in the
-    frames' order."""
+    frames' order. With ``metashape``, the roll's Metashape script (:func:`aerofid.batch.exports.write_metashape`)
+    is written with the summary at the end."""
     start_batch(plan)
     records = dict(plan.done)
     write_summary(plan.ordered(records), plan.settings)
@@ -117,6 +119,8 @@ def run_batch(plan: BatchPlan, runner: Runner, on_record: Callable[[FrameRecord]
                     if k not in records and (r := _complete_record(p, k, plan.settings)) is not None}
         final = plan.ordered(records)
         write_summary(final, plan.settings)
+        if metashape:
+            write_metashape(final, plan.settings, plan.camera)
     return final
 
 

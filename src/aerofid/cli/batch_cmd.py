@@ -35,7 +35,8 @@ from aerofid.resample.warp import DEFAULT_KERNEL, KERNELS
               help="camera file: JSON/YAML certificate or MicMac MeasuresCamera.xml")
 @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
               help="folder of the outputs (created): per frame <scan>.json, <scan>.html, crops/<scan>.png, "
-                   "Ori-InterneScan/MeasuresIm-<scan>.xml; summary.csv, summary.json, summary.html")
+                   "Ori-InterneScan/MeasuresIm-<scan>.xml; summary.csv, summary.json, summary.html "
+                   "(and metashape_fiducials.py with --metashape)")
 @click.option("--workers", type=click.IntRange(min=1), metavar="N",
               help="local processes (default 1: this process)")
 @click.option("--scheduler", metavar="tcp://HOST:PORT",
@@ -55,8 +56,11 @@ from aerofid.resample.warp import DEFAULT_KERNEL, KERNELS
                    "(resampled/OIS-Reech_<scan>.tif, as MicMac ReSampFid; docs/resample.md)")
 @click.option("--kernel", type=click.Choice(KERNELS), default=DEFAULT_KERNEL, show_default=True,
               help="the resampling's interpolation")
+@click.option("--metashape", is_flag=True,
+              help="also write OUTDIR/metashape_fiducials.py: a script for Agisoft Metashape Pro that places the "
+                   "fiducials of every frame oriented ok on its scan in the open project (docs/exports.md)")
 def batch(inputs, camera_path, outdir, workers, scheduler, pixel_size, lie, model, profile_path, resample_mm,
-          kernel) -> int:
+          kernel, metashape) -> int:
     """Orient every frame of a roll or an archive: INPUTS are scan files, folders or globs ('roll1/*.tif')."""
     if workers is not None and scheduler is not None:
         raise AerofidInputError("give --workers (local processes) or --scheduler (a Dask cluster), not both")
@@ -67,7 +71,7 @@ def batch(inputs, camera_path, outdir, workers, scheduler, pixel_size, lie, mode
             click.echo(f"note: {len(plan.done)} of {len(plan.frames)} frames are complete in {outdir!r}: "
                        f"skipped; {len(plan.todo)} to do", err=True)
         with _progress(plan) as on_record:
-            records = run_batch(plan, runner, on_record)
+            records = run_batch(plan, runner, on_record, metashape=metashape)
     return _report(records, Path(outdir))
 
 

@@ -34,8 +34,9 @@ the script converts them with two constants at its top:
     the script gives Metashape the fiducials with y down, like its image and camera frames (x right, y down).
     **Not confirmed from a primary source**: neither Agisoft's scripts nor a reference page at hand says which
     way the y of a fiducial's reference location runs. Third-party pipelines that place fiducials this way
-    negate a certificate's y. A wrong sign mirrors the film; check the first project (Metashape's fiducial
-    residuals, or a known ground shape) and, if needed, change this one constant.
+    negate a certificate's y (another leaves it). A wrong sign mirrors the film; check the first project on a
+    known ground shape (the fiducial residuals may not show it: an affine fit can absorb a reflection) and, if
+    needed, change this one constant.
 
 Agisoft's API names used here are those its scripts use (src/frame_based_fiducials_detector.py:
 ``Marker.Type.Fiducial``, ``Marker.sensor``, ``Sensor.film_camera``, ``Marker.projections[camera]``,

@@ -1,33 +1,67 @@
-"""Writing a large frame band by band as a tiled, compressed TIFF with internal overviews, in bounded memory.
+"""Writing a large frame band by band as a Cloud-Optimized GeoTIFF (GDAL's COG layout), in bounded memory.
 
-Layout (the Cloud-Optimized GeoTIFF conventions tifffile can write): :data:`TILE` px tiles, Deflate with
-horizontal differencing (TIFF predictor 2; floating-point samples predictor 3), the full-resolution image
-first, then one reduced-resolution page per overview level (``NewSubfileType`` = 1, each half the size of the
-one before, 2 x 2 block means, until it fits one tile), as GDAL writes internal overviews. Unlike GDAL's COG
-driver, tifffile writes each page's IFD just before its data (the first one at the start of the file) rather
-than every IFD at the start.
+Layout, as GDAL's COG driver writes it (GDAL documentation, COG driver, "File format details") and its
+``validate_cloud_optimized_geotiff.py`` checks it:
 
-The full-resolution bands come from an iterator (one row of tiles at a time); each band is also reduced into
-every overview level at once and the levels are kept in temporary raw files beside the output (not in memory),
-then written as their own pages.
+- the header, then GDAL's "ghost" structural metadata (:data:`GHOST`), then every IFD: the full-resolution
+  image's first, then one per overview level in decreasing size (``NewSubfileType`` = 1), each followed by its
+  values (tile offsets and byte counts included), all before any tile data;
+- then the tile data: the smallest overview's tiles first, ..., the full-resolution tiles last, each level's
+  tiles in row-major order, each tile preceded by its byte count (4 bytes, little-endian: GDAL's "block
+  leader") and followed by a copy of its last 4 bytes (the "block trailer"), so that a reader fetching a tile
+  by an HTTP range request knows its size and can check it was read whole;
+- :data:`TILE` px tiles (edge tiles padded with zeros), Deflate with horizontal differencing (TIFF predictor 2;
+  floating-point samples predictor 3), the samples' dtype and bands (8/16-bit or float, grey or RGB), overviews
+  of 2 x 2 block means (:func:`reduce2`), each half the size of the one before until it fits one tile;
+  BigTIFF only when the file would pass 4 GB (or when asked).
+
+GDAL reads such a file as ``LAYOUT=COG`` (``gdalinfo``); tests/test_resample.py checks the validator's rules.
+
+Memory: the full-resolution bands come from an iterator (one row of tiles at a time); each band is tiled,
+compressed and appended to a temporary file beside the output as it comes, and reduced into the next level,
+whose rows wait (at most one band of each level) until they make a band of their own. At the end the
+directory is written (every offset now known) and the levels' compressed data copied after it in the COG
+order, a chunk at a time. The IFDs are serialised by :mod:`aerofid.resample.ifd`.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
+import struct
 import tempfile
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import ExitStack
+from dataclasses import dataclass
+from itertools import accumulate
 from pathlib import Path
-from typing import IO, Any
+from typing import IO
 
+import imagecodecs
 import numpy as np
-import tifffile
+
+from aerofid.resample import ifd
+from aerofid.resample.ifd import ASCII, LONG, LONG8, SHORT, Tag, header, header_size, ifd_bytes, ifd_size, rational
 
 TILE = 512
 """Tile side (px) and the rows of one band: COG's usual 512."""
-COMPRESSION = "zlib"
-"""Deflate (TIFF compression 8): read by GDAL, libtiff, tifffile, QGIS; ZSTD is smaller but not read everywhere."""
+DEFLATE = 8
+"""TIFF compression 8 (Adobe Deflate): read by GDAL, libtiff, tifffile, QGIS; ZSTD is smaller but not read
+everywhere."""
+DEFLATE_LEVEL = 6
+"""zlib's default level, also tifffile's and GDAL's: level 9 is much slower for a few % less."""
+BIGTIFF_LIMIT = 2 ** 32 - 1
+"""The last byte a classic TIFF's 4-byte offsets reach: a larger file is written as BigTIFF."""
+COPY_CHUNK = 1 << 24
+"""Bytes copied at a time from a level's temporary file into the output (16 MB)."""
+GHOST = ("LAYOUT=IFDS_BEFORE_DATA\nBLOCK_ORDER=ROW_MAJOR\nBLOCK_LEADER=SIZE_AS_UINT4\n"
+         "BLOCK_TRAILER=LAST_4_BYTES_REPEATED\nKNOWN_INCOMPATIBLE_EDITION=NO\n ")
+"""GDAL's COG structural metadata (GDAL COG driver documentation, "Header ghost area"): what this writer does
+(no mask, so no ``MASK_INTERLEAVED_WITH_IMAGERY``). The last space is GDAL's: room for an editor to turn ``NO``
+into ``YES`` in place."""
+LEADER = TRAILER = 4
+"""Bytes before (the tile's byte count) and after (its last 4 bytes again) each tile's data (:data:`GHOST`)."""
+SOFTWARE = "aerofid"
 
 
 def overview_sizes(width: int, height: int) -> list[tuple[int, int]]:
@@ -61,69 +95,205 @@ def reduce2(band: np.ndarray) -> np.ndarray:
     return np.rint(m).astype(band.dtype) if band.dtype.kind in "ui" else m.astype(band.dtype)
 
 
-def _tiles(bands: Iterable[np.ndarray]) -> Iterator[np.ndarray]:
-    """Tiles of bands of TILE rows, row-major, edge tiles padded with zeros to TILE x TILE."""
-    for band in bands:
-        for c0 in range(0, band.shape[1], TILE):
-            tile = band[:, c0:c0 + TILE]
-            if tile.shape[:2] != (TILE, TILE):
-                pad = [(0, TILE - tile.shape[0]), (0, TILE - tile.shape[1])] + [(0, 0)] * (tile.ndim - 2)
-                tile = np.pad(tile, pad)
-            yield tile
+def predictor(dtype: np.dtype) -> int:
+    """The TIFF predictor for samples of ``dtype``: 3 (floating point, Adobe TIFF Technical Note 3) for floats,
+    else 2 (horizontal differencing, TIFF 6.0 section 14)."""
+    return 3 if np.dtype(dtype).kind == "f" else 2
 
 
-def _spill(bands: Iterable[np.ndarray], files: list[IO[bytes]]) -> Iterator[np.ndarray]:
-    """Pass the bands through, writing each one's reduction to every overview level's raw file."""
-    for band in bands:
-        level = band
-        for f in files:
-            level = reduce2(level)
-            f.write(np.ascontiguousarray(level).tobytes())
-        yield band
+def encode_tile(tile: np.ndarray) -> bytes:
+    """One tile's stored bytes: the ``(rows, columns[, samples])`` samples padded with zeros to TILE x TILE,
+    little-endian, the :func:`predictor` along each row, Deflate (zlib stream, :data:`DEFLATE_LEVEL`)."""
+    h, w = tile.shape[:2]
+    full = np.zeros((TILE, TILE, tile.shape[2] if tile.ndim == 3 else 1), tile.dtype.newbyteorder("<"))
+    full[:h, :w] = tile.reshape(h, w, -1)
+    if predictor(tile.dtype) == 3:
+        full = imagecodecs.floatpred_encode(full, axis=-2)
+    else:
+        full = imagecodecs.delta_encode(full, axis=-2)
+    return bytes(imagecodecs.deflate_encode(full.tobytes(), level=DEFLATE_LEVEL))
 
 
-def _read_bands(f: IO[bytes], width: int, height: int, rows: int, sample: tuple[int, ...], dtype: np.dtype
-                ) -> Iterator[np.ndarray]:
-    """A level's raw file read back in bands of ``rows`` rows."""
-    f.seek(0)
-    row_bytes = width * int(np.prod(sample, dtype=np.int64)) * dtype.itemsize
-    for r0 in range(0, height, rows):
-        n = min(rows, height - r0)
-        yield np.frombuffer(f.read(n * row_bytes), dtype=dtype).reshape((n, width) + sample)
+class _Level:
+    """One level being written: rows in; every :data:`TILE` rows tiled, encoded and appended to ``file``
+    (row-major, each tile's byte count kept); every pair of rows reduced (:func:`reduce2`) into ``below``, the
+    next smaller level, so that each level is the :func:`reduce2` of the whole level above it."""
+
+    def __init__(self, file: IO[bytes], width: int, below: _Level | None):
+        self.file, self.width, self.below = file, width, below
+        self.counts: list[int] = []
+        self._rows: list[np.ndarray] = []
+        self._odd: np.ndarray | None = None
+
+    def push(self, rows: np.ndarray) -> None:
+        self._rows.append(rows)
+        while sum(r.shape[0] for r in self._rows) >= TILE:
+            band = np.concatenate(self._rows) if len(self._rows) > 1 else self._rows[0]
+            self._write(band[:TILE])
+            self._rows = [band[TILE:]] if band.shape[0] > TILE else []
+        if self.below is not None:
+            if self._odd is not None:
+                rows = np.concatenate([self._odd, rows])
+            even = rows.shape[0] - rows.shape[0] % 2
+            self._odd = rows[even:] if even < rows.shape[0] else None
+            if even:
+                self.below.push(reduce2(rows[:even]))
+
+    def close(self) -> None:
+        """Write the last, shorter band; the last odd row goes alone into the level below."""
+        if self._rows:
+            self._write(np.concatenate(self._rows))
+            self._rows = []
+        if self.below is not None:
+            if self._odd is not None:
+                self.below.push(reduce2(self._odd))
+                self._odd = None
+            self.below.close()
+
+    def _write(self, band: np.ndarray) -> None:
+        for c0 in range(0, self.width, TILE):
+            data = encode_tile(band[:, c0:c0 + TILE])
+            self.file.write(struct.pack("<I", len(data)) + data + data[-TRAILER:])
+            self.counts.append(len(data))
+
+
+@dataclass(frozen=True)
+class Image:
+    """What the IFDs say about the image: size, samples, the ImageDescription and the pixel size (mm)."""
+
+    width: int
+    height: int
+    dtype: np.dtype
+    samples: int
+    description: str = ""
+    pixel_size_mm: float | None = None
+
+
+def level_tags(image: Image, level: int, size: tuple[int, int], offsets: Sequence[int], counts: Sequence[int],
+               bigtiff: bool) -> list[Tag]:
+    """The tags of one level's IFD: level 0 the full-resolution image (with the description and resolution
+    tags, dots per cm), the others reduced-resolution images (``NewSubfileType`` = 1)."""
+    bits = (image.dtype.itemsize * 8,) * image.samples
+    kind = (2 if image.dtype.kind == "i" else 3 if image.dtype.kind == "f" else 1,) * image.samples
+    offset_type = LONG8 if bigtiff else LONG
+    tags = [Tag(ifd.IMAGE_WIDTH, LONG, (size[0],)), Tag(ifd.IMAGE_LENGTH, LONG, (size[1],)),
+            Tag(ifd.BITS_PER_SAMPLE, SHORT, bits), Tag(ifd.COMPRESSION, SHORT, (DEFLATE,)),
+            Tag(ifd.PHOTOMETRIC, SHORT, (2 if image.samples == 3 else 1,)),  # RGB or min-is-black
+            Tag(ifd.SAMPLES_PER_PIXEL, SHORT, (image.samples,)), Tag(ifd.PLANAR_CONFIGURATION, SHORT, (1,)),
+            Tag(ifd.SOFTWARE, ASCII, SOFTWARE), Tag(ifd.PREDICTOR, SHORT, (predictor(image.dtype),)),
+            Tag(ifd.TILE_WIDTH, LONG, (TILE,)), Tag(ifd.TILE_LENGTH, LONG, (TILE,)),
+            Tag(ifd.TILE_OFFSETS, offset_type, tuple(offsets)), Tag(ifd.TILE_BYTE_COUNTS, offset_type, tuple(counts)),
+            Tag(ifd.SAMPLE_FORMAT, SHORT, kind)]  # unsigned, signed integer or IEEE float
+    if level:
+        tags.append(Tag(ifd.NEW_SUBFILE_TYPE, LONG, (1,)))  # a reduced-resolution image
+    else:
+        if image.description:
+            tags.append(Tag(ifd.IMAGE_DESCRIPTION, ASCII, image.description))
+        if image.pixel_size_mm is not None:
+            dots_per_cm = 10.0 / image.pixel_size_mm
+            tags += [rational(ifd.X_RESOLUTION, dots_per_cm), rational(ifd.Y_RESOLUTION, dots_per_cm),
+                     Tag(ifd.RESOLUTION_UNIT, SHORT, (3,))]  # centimetre
+    return tags
+
+
+def ghost() -> bytes:
+    """GDAL's structural metadata block that follows the header (:data:`GHOST` with its size line)."""
+    return f"GDAL_STRUCTURAL_METADATA_SIZE={len(GHOST):06d} bytes\n{GHOST}".encode("ascii")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where everything goes in the file: the first IFD, each level's IFD (and, last, the first byte after
+    them), each level's first tile, and the file's size (the data follow the IFDs, smallest level first)."""
+
+    bigtiff: bool
+    first_ifd: int
+    ifds: tuple[int, ...]
+    data: tuple[int, ...]
+    end: int
+
+
+def layout(image: Image, sizes: Sequence[tuple[int, int]], counts: Sequence[Sequence[int]], bigtiff: bool
+           ) -> Layout:
+    """The :class:`Layout` of the levels of ``sizes`` whose tiles have ``counts`` bytes (level 0 first)."""
+    first = header_size(bigtiff) + len(ghost())
+    first += first % 2
+    blank = [level_tags(image, i, s, [0] * len(c), c, bigtiff) for i, (s, c) in enumerate(zip(sizes, counts))]
+    ifds = tuple(accumulate([first] + [ifd_size(t, bigtiff) for t in blank]))
+    data = tuple(accumulate([ifds[-1]] + [_stored(c) for c in counts[::-1]]))
+    return Layout(bigtiff, first, ifds, data[-2::-1], data[-1])
+
+
+def _stored(counts: Sequence[int]) -> int:
+    """Bytes of a level's tiles with their leaders and trailers."""
+    return sum(counts) + (LEADER + TRAILER) * len(counts)
+
+
+def directory(image: Image, sizes: Sequence[tuple[int, int]], counts: Sequence[Sequence[int]], plan: Layout
+              ) -> bytes:
+    """Everything before the tile data: header, :func:`ghost`, every level's IFD (level 0 first) with its
+    values."""
+    parts = [header(plan.bigtiff, plan.first_ifd), ghost().ljust(plan.first_ifd - header_size(plan.bigtiff), b"\0")]
+    for i, (size, c) in enumerate(zip(sizes, counts)):
+        offsets = list(accumulate([plan.data[i] + LEADER] + [n + LEADER + TRAILER for n in c[:-1]]))
+        parts.append(ifd_bytes(level_tags(image, i, size, offsets, c, plan.bigtiff), plan.ifds[i],
+                               plan.ifds[i + 1] if i + 1 < len(sizes) else 0, plan.bigtiff))
+    return b"".join(parts)
 
 
 def write_tiled(path: str | os.PathLike[str], bands: Iterable[np.ndarray], width: int, height: int,
                 dtype: np.dtype, samples: int, description: str = "", pixel_size_mm: float | None = None,
-                progress: Callable[[], None] | None = None) -> None:
+                progress: Callable[[], None] | None = None, *, bigtiff: bool | None = None) -> None:
     """Write ``bands`` (each TILE rows of ``width`` px, the last one shorter; ``(rows, width)`` or
-    ``(rows, width, 3)`` of ``dtype``) as a tiled Deflate TIFF with overviews (module docstring) at ``path``.
+    ``(rows, width, 3)`` of ``dtype``) as a Cloud-Optimized GeoTIFF with overviews (module docstring) at ``path``.
 
-    ``description`` goes to the ImageDescription tag; ``pixel_size_mm`` to the resolution tags (dots per cm).
+    ``description`` goes to the ImageDescription tag; ``pixel_size_mm`` to the resolution tags (dots per cm);
+    ``progress`` is called after each band; ``bigtiff`` forces (True) or forbids (False) BigTIFF, by default
+    used only when the file passes 4 GB.
     """
-    dtype = np.dtype(dtype)
-    sample = (3,) if samples == 3 else ()
-    levels = overview_sizes(width, height)
-    options: dict[str, Any] = {"tile": (TILE, TILE), "dtype": dtype, "compression": COMPRESSION, "metadata": None,
-               "predictor": 3 if dtype.kind == "f" else 2,
-               "photometric": "rgb" if samples == 3 else "minisblack"}
-    big = width * height * max(samples, 1) * dtype.itemsize > 2 ** 31
+    image = Image(width, height, np.dtype(dtype), 3 if samples == 3 else 1, description, pixel_size_mm)
+    sizes = [(width, height)] + overview_sizes(width, height)
     with ExitStack() as stack:
-        spill: list[IO[bytes]] = [stack.enter_context(tempfile.TemporaryFile(dir=Path(path).parent)) for _ in levels]
-        tif = stack.enter_context(tifffile.TiffWriter(path, bigtiff=big))
-        resolution = None if pixel_size_mm is None else (10.0 / pixel_size_mm, 10.0 / pixel_size_mm)
-        tif.write(_tiles(_counted(_spill(bands, spill), progress)), shape=(height, width) + sample,
-                  description=description or None, resolution=resolution,
-                  resolutionunit="CENTIMETER" if resolution else None, **options)
-        for (w, h), f in zip(levels, spill):
-            tif.write(_tiles(_read_bands(f, w, h, TILE, sample, dtype)), shape=(h, w) + sample, subfiletype=1,
-                      **options)
+        files = [stack.enter_context(tempfile.TemporaryFile(dir=Path(path).parent)) for _ in sizes]
+        levels: list[_Level] = []
+        for f, (w, _) in zip(files[::-1], sizes[::-1]):
+            levels.insert(0, _Level(f, w, levels[0] if levels else None))
+        rows = 0
+        for band in bands:
+            band = _checked(band, image, rows)
+            levels[0].push(band)
+            rows += band.shape[0]
+            if progress is not None:
+                progress()
+        if rows != height:
+            raise ValueError(f"the bands have {rows} rows, not {height}")
+        levels[0].close()
+        _assemble(path, image, sizes, [lv.counts for lv in levels], files, bigtiff)
 
 
-def _counted(bands: Iterable[np.ndarray], progress: Callable[[], None] | None) -> Iterator[np.ndarray]:
-    for band in bands:
-        yield band
-        if progress is not None:
-            progress()
+def _checked(band: np.ndarray, image: Image, rows: int) -> np.ndarray:
+    shape = (band.shape[0], image.width) + ((3,) if image.samples == 3 else ())
+    if band.shape != shape or rows + band.shape[0] > image.height:
+        raise ValueError(f"a band of shape {band.shape} at row {rows}: expected {shape} within {image.height} rows")
+    return band.astype(image.dtype, copy=False)
 
 
-__all__ = ["COMPRESSION", "TILE", "overview_sizes", "reduce2", "write_tiled"]
+def _assemble(path: str | os.PathLike[str], image: Image, sizes: list[tuple[int, int]], counts: list[list[int]],
+              files: Sequence[IO[bytes]], bigtiff: bool | None) -> None:
+    """The directory, then each level's compressed tiles, smallest level first."""
+    plan = layout(image, sizes, counts, bool(bigtiff))
+    if plan.end > BIGTIFF_LIMIT and not plan.bigtiff:
+        if bigtiff is False:
+            raise ValueError(f"{plan.end} bytes do not fit a classic TIFF")
+        plan = layout(image, sizes, counts, True)
+    with open(path, "wb") as out:
+        out.write(directory(image, sizes, counts, plan))
+        for f, c in zip(files[::-1], counts[::-1]):
+            f.seek(0)
+            shutil.copyfileobj(f, out, COPY_CHUNK)
+            assert f.tell() == _stored(c)
+        assert out.tell() == plan.end
+
+
+__all__ = ["BIGTIFF_LIMIT", "DEFLATE", "GHOST", "TILE", "Image", "Layout", "directory", "encode_tile", "layout",
+           "level_tags", "overview_sizes", "predictor", "reduce2", "write_tiled"]

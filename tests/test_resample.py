@@ -24,7 +24,7 @@ from aerofid.orientation.grid import ResampleGrid, bounding_extent
 from aerofid.orientation.interior import orient
 from aerofid.orientation.measurements import Measurements
 from aerofid.orientation.transform import AffineTransform
-from aerofid.resample import KERNELS
+from aerofid.resample import KERNELS, ifd, tiff
 from aerofid.resample.frame import resampled_bands
 from aerofid.synth_frame import frame_spec, wild_rc10_camera, write_frame
 
@@ -230,3 +230,213 @@ def test_blocks_of_any_size_give_the_same_frame(rows, cols, kernel, angle, scale
     assert whole.shape[:2] == (grid.height, grid.width)
     assert np.array_equal(whole, blocks)
     assert whole.any()
+
+
+# --- the output file: GDAL's Cloud-Optimized GeoTIFF layout (aerofid.resample.tiff, aerofid.resample.ifd) ---
+
+def cog_layout_errors(path):
+    """The rules of GDAL's validate_cloud_optimized_geotiff.py (with its full check), read from the file itself:
+    the ghost header right after the TIFF header and the first IFD right after it; the IFDs in page order, by
+    decreasing size; every IFD and every tile offset / byte count array before the first tile; each level's
+    tiles in row-major order, each level's first tile after the last tile of the next smaller level (the
+    smallest level's tiles first); each tile's 4-byte leader its byte count and its trailer its last 4 bytes."""
+    raw = path.read_bytes()
+    errors = []
+    with tifffile.TiffFile(path) as tif:
+        pages = list(tif.pages)
+        start = 16 if tif.is_bigtiff else 8
+        line = raw[start:start + 43].decode("latin-1")
+        size = int(line[30:36]) if line.startswith("GDAL_STRUCTURAL_METADATA_SIZE=") else 0
+        ghost = set(raw[start + 43:start + 43 + size].decode("latin-1").split())
+        first = start + 43 + size + (start + 43 + size) % 2 if size else start
+        if pages[0].offset != first:
+            errors.append(f"the first IFD is at {pages[0].offset}, not {first}")
+        if not {"LAYOUT=IFDS_BEFORE_DATA", "BLOCK_ORDER=ROW_MAJOR", "BLOCK_LEADER=SIZE_AS_UINT4",
+                "BLOCK_TRAILER=LAST_4_BYTES_REPEATED", "KNOWN_INCOMPATIBLE_EDITION=NO"} <= ghost:
+            errors.append(f"ghost metadata {ghost}")
+        tiles = [(list(p.dataoffsets), list(p.databytecounts)) for p in pages]
+        first_tile = min(o for offsets, _ in tiles for o in offsets)
+        arrays = [t.valueoffset + t.count * (8 if tif.is_bigtiff else 4) for p in pages for t in p.tags.values()
+                  if t.code in (324, 325)]
+        if max([p.offset for p in pages] + arrays) >= first_tile:
+            errors.append("an IFD or a tile array after the first tile")
+        if [p.offset for p in pages] != sorted(p.offset for p in pages):
+            errors.append("IFDs not in page order")
+        if any(a.shape[0] < b.shape[0] or a.shape[1] < b.shape[1] for a, b in zip(pages, pages[1:])):
+            errors.append("levels not by decreasing size")
+        for i, (offsets, counts) in enumerate(tiles):
+            if offsets != sorted(offsets):
+                errors.append(f"level {i}: tiles not in row-major order")
+            if i + 1 < len(tiles) and offsets[0] < tiles[i + 1][0][-1] + tiles[i + 1][1][-1]:
+                errors.append(f"level {i}'s tiles start before level {i + 1}'s end")
+            for o, n in zip(offsets, counts):
+                if int.from_bytes(raw[o - 4:o], "little") != n or raw[o + n - 4:o + n] != raw[o + n:o + n + 4]:
+                    errors.append(f"level {i}: the tile at {o} has a wrong leader or trailer")
+    return errors
+
+
+def write_image(path, image, **kwargs):
+    """``image`` written by ``write_tiled`` in bands of TILE rows, as resample_scan feeds it."""
+    h, w = image.shape[:2]
+    tiff.write_tiled(path, (image[r:r + tiff.TILE] for r in range(0, h, tiff.TILE)), w, h, image.dtype,
+                image.shape[2] if image.ndim == 3 else 1, **kwargs)
+
+
+def reduce2_chain(image):
+    levels = [image]
+    for _ in tiff.overview_sizes(image.shape[1], image.shape[0]):
+        levels.append(tiff.reduce2(levels[-1]))
+    return levels
+
+
+IMAGES = {"uint8": ((1300, 1100), np.uint8), "uint16": ((1100, 1030), np.uint16), "rgb": ((700, 1537, 3), np.uint8),
+          "rgb16": ((513, 600, 3), np.uint16), "float32": ((1025, 513), np.float32), "tiny": ((100, 37), np.uint8)}
+"""Sizes that are not multiples of 512 (an odd overview size included); the tiny one has no overviews."""
+
+
+def sample_image(kind):
+    shape, dtype = IMAGES[kind]
+    rng = np.random.default_rng(3)
+    ramp = np.add.outer(np.arange(shape[0]), np.arange(shape[1])).reshape(shape[:2] + (1,) * (len(shape) - 2))
+    image = ramp * 3.7 + rng.normal(0, 20, shape)             # compressible and not: both decode paths
+    return np.clip(image, 0, np.iinfo(dtype).max).astype(dtype) if dtype != np.float32 else image.astype(dtype)
+
+
+@pytest.mark.parametrize("kind", list(IMAGES))
+def test_the_cog_reads_back_bit_exact_with_its_overviews_in_gdals_layout(tmp_path, kind):
+    image = sample_image(kind)
+    path = tmp_path / f"{kind}.tif"
+    write_image(path, image, description='{"a": 1}', pixel_size_mm=0.015)
+    with tifffile.TiffFile(path) as tif:
+        pages = list(tif.pages)
+        levels = reduce2_chain(image)
+        assert len(pages) == len(levels) == (1 if kind == "tiny" else len(pages))
+        for page, level in zip(pages, levels):
+            assert np.array_equal(page.asarray(), level)
+            assert page.is_tiled and page.tilewidth == page.tilelength == tiff.TILE and page.compression == 8
+            assert page.predictor == (3 if kind == "float32" else 2)
+            assert page.photometric == (2 if image.ndim == 3 else 1)
+        assert [p.subfiletype for p in pages] == [0] + [1] * (len(pages) - 1)
+        assert pages[0].description == '{"a": 1}'
+        assert pages[0].tags["XResolution"].value == (2000, 3) and pages[0].tags["ResolutionUnit"].value == 3
+        assert not tif.is_bigtiff
+    assert cog_layout_errors(path) == []
+
+
+def test_bigtiff_on_request_and_past_4_gb(tmp_path):
+    image = sample_image("uint16")
+    write_image(tmp_path / "big.tif", image, bigtiff=True)
+    with tifffile.TiffFile(tmp_path / "big.tif") as tif:
+        assert tif.is_bigtiff
+        assert all(np.array_equal(p.asarray(), lv) for p, lv in zip(tif.pages, reduce2_chain(image)))
+    assert cog_layout_errors(tmp_path / "big.tif") == []
+    # the layout of a 5 GB file, without its data: BigTIFF unless forbidden, its offsets past 4 GB in LONG8
+    info = tiff.Image(40000, 40000, np.dtype(np.uint16), 1)
+    sizes = [(40000, 40000)] + tiff.overview_sizes(40000, 40000)
+    counts = [[1 << 20] * (-(-w // tiff.TILE) * -(-h // tiff.TILE)) for w, h in sizes]
+    assert tiff.layout(info, sizes, counts, False).end > tiff.BIGTIFF_LIMIT
+    plan = tiff.file_layout(info, sizes, counts)
+    assert plan.bigtiff and plan.end > 5e9
+    with pytest.raises(ValueError, match="do not fit a classic TIFF"):
+        tiff.file_layout(info, sizes, counts, bigtiff=False)
+    (tmp_path / "head.tif").write_bytes(tiff.directory(info, sizes, counts, plan))
+    with tifffile.TiffFile(tmp_path / "head.tif") as tif:
+        assert [p.shape for p in tif.pages] == [(h, w) for w, h in sizes]
+        assert tif.pages[0].dataoffsets[-1] == plan.end - 4 - (1 << 20) and tif.pages[0].tags[324].dtype == 16
+
+
+def test_the_resampled_frame_is_a_cog(frame, tmp_path):
+    folder, _, _ = frame
+    out = tmp_path / "out.tif"
+    assert run(folder / "scan.tif", "--orientation", folder / "io.json", "--pixel-size", OUT_MM, "--extent", *EXTENT,
+               "-o", out).returncode == 0
+    assert cog_layout_errors(out) == []
+
+
+def test_the_layout_check_catches_tifffiles_layout(tmp_path):
+    """tifffile writes each page's IFD before its data, the full resolution first: the check refuses it."""
+    image = sample_image("uint8")
+    with tifffile.TiffWriter(tmp_path / "plain.tif") as tif:
+        for level in reduce2_chain(image):
+            tif.write(level, tile=(tiff.TILE, tiff.TILE), compression="zlib", subfiletype=int(level is not image))
+    errors = cog_layout_errors(tmp_path / "plain.tif")
+    assert "an IFD or a tile array after the first tile" in errors
+    assert "level 0's tiles start before level 1's end" in errors
+    assert any("ghost" in e for e in errors) and any("leader or trailer" in e for e in errors)
+
+
+def test_gdals_own_validator_when_gdal_is_installed(tmp_path):
+    """GDAL's validate_cloud_optimized_geotiff.py (full check) and GDAL reading the pixels; skipped without GDAL
+    (CI has none)."""
+    gdal = pytest.importorskip("osgeo.gdal")
+    validator = pytest.importorskip("osgeo_utils.samples.validate_cloud_optimized_geotiff")
+    for kind in ("uint8", "rgb16", "float32", "tiny"):
+        image = sample_image(kind)
+        write_image(tmp_path / f"{kind}.tif", image)
+        *_, errors, details = validator.validate(str(tmp_path / f"{kind}.tif"), full_check=True)  # [warnings, ]...
+        assert errors == [], (kind, errors, details)
+        ds = gdal.Open(str(tmp_path / f"{kind}.tif"))
+        assert ds.GetMetadataItem("LAYOUT", "IMAGE_STRUCTURE") == "COG"
+        band = ds.GetRasterBand(1)
+        levels = [level[..., 0] if image.ndim == 3 else level for level in reduce2_chain(image)]
+        for i, level in enumerate(levels):          # ReadRaster: GDAL's bytes, no need for its numpy binding
+            b = band.GetOverview(i - 1) if i else band
+            assert np.array_equal(np.frombuffer(b.ReadRaster(), image.dtype).reshape(b.YSize, b.XSize), level)
+        assert band.GetOverviewCount() == len(levels) - 1
+        ds = None
+
+
+VALUES = {ifd.SHORT: st.integers(0, 2 ** 16 - 1), ifd.LONG: st.integers(0, 2 ** 32 - 1),
+          ifd.LONG8: st.integers(0, 2 ** 64 - 1), ifd.RATIONAL: st.integers(1, 2 ** 32 - 1),
+          ifd.DOUBLE: st.floats(allow_nan=False)}
+
+
+@st.composite
+def extra_tags(draw, bigtiff):
+    """Private tags (65000...) of every type the writer knows, 1-9 values each (an ASCII text up to 20 chars)."""
+    types = [t for t in (ifd.ASCII, *VALUES) if bigtiff or t != ifd.LONG8]
+    tags = []
+    for i, t in enumerate(draw(st.lists(st.sampled_from(types), max_size=6))):
+        if t == ifd.ASCII:
+            values = draw(st.text(st.characters(min_codepoint=32, max_codepoint=126), max_size=20))
+        else:
+            n = draw(st.integers(1, 9)) * (2 if t == ifd.RATIONAL else 1)
+            values = tuple(draw(st.lists(VALUES[t], min_size=n, max_size=n)))
+        tags.append(ifd.Tag(65000 + i, t, values))
+    return tags
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(data=st.data(), bigtiff=st.booleans(), gap=st.integers(0, 3))
+def test_the_ifd_writer_reads_back_with_tifffile(tmp_path_factory, data, bigtiff, gap):
+    """A 3 x 2 image and extra tags of every type, written by aerofid.resample.ifd (at an odd-sized gap after the
+    header, rounded to even) and read back by tifffile: pixels, every value, every value at an even offset."""
+    extra = data.draw(extra_tags(bigtiff))
+    first = ifd.header_size(bigtiff) + gap + gap % 2
+    pixels = np.arange(6, dtype=np.uint8).reshape(2, 3)
+    image = [ifd.Tag(256, ifd.SHORT, (3,)), ifd.Tag(257, ifd.LONG, (2,)), ifd.Tag(258, ifd.SHORT, (8,)),
+             ifd.Tag(259, ifd.SHORT, (1,)), ifd.Tag(262, ifd.SHORT, (1,)), ifd.Tag(278, ifd.LONG, (2,)),
+             ifd.Tag(279, ifd.LONG, (6,))]
+    strip = first + ifd.ifd_size(image + [ifd.Tag(273, ifd.LONG, (0,))] + extra, bigtiff)
+    tags = [ifd.Tag(273, ifd.LONG, (strip,))] + extra + image[::-1]      # in any order: the writer sorts them
+    path = tmp_path_factory.mktemp("ifd") / "t.tif"
+    path.write_bytes(ifd.header(bigtiff, first) + b"\0" * (first - ifd.header_size(bigtiff))
+                     + ifd.ifd_bytes(tags, first, 0, bigtiff) + pixels.tobytes())
+    with tifffile.TiffFile(path) as tif:
+        page = tif.pages[0]
+        assert tif.is_bigtiff == bigtiff and page.offset == first
+        assert np.array_equal(page.asarray(), pixels)
+        assert [t.code for t in page.tags.values()] == sorted(t.code for t in tags)
+        for t in extra:
+            got = page.tags[t.code]
+            assert got.dtype == t.type and got.count == t.count
+            assert got.valueoffset % 2 == 0
+            value = got.value if isinstance(got.value, tuple | str) else (got.value,)
+            assert value == (t.values.rstrip() if isinstance(t.values, str) else t.values)
+
+
+def test_the_ifd_writer_refuses_what_tiff_forbids():
+    with pytest.raises(ValueError, match="even"):
+        ifd.ifd_bytes([ifd.Tag(256, ifd.SHORT, (1,))], 9, 0, False)
+    with pytest.raises(ValueError, match="once"):
+        ifd.ifd_bytes([ifd.Tag(256, ifd.SHORT, (1,)), ifd.Tag(256, ifd.LONG, (1,))], 8, 0, False)

@@ -40,7 +40,7 @@ from typing import IO
 import imagecodecs
 import numpy as np
 
-from aerofid.resample import ifd
+import aerofid.resample.ifd as ifd
 from aerofid.resample.ifd import ASCII, LONG, LONG8, SHORT, Tag, header, header_size, ifd_bytes, ifd_size, rational
 
 TILE = 512
@@ -278,14 +278,22 @@ def _checked(band: np.ndarray, image: Image, rows: int) -> np.ndarray:
     return band.astype(image.dtype, copy=False)
 
 
-def _assemble(path: str | os.PathLike[str], image: Image, sizes: list[tuple[int, int]], counts: list[list[int]],
-              files: Sequence[IO[bytes]], bigtiff: bool | None) -> None:
-    """The directory, then each level's compressed tiles, smallest level first."""
+def file_layout(image: Image, sizes: Sequence[tuple[int, int]], counts: Sequence[Sequence[int]],
+                bigtiff: bool | None = None) -> Layout:
+    """:func:`layout` as classic TIFF when the file stays within 4 GB (:data:`BIGTIFF_LIMIT`), else BigTIFF;
+    ``bigtiff`` True forces BigTIFF, False forbids it (a ValueError when the file would not fit)."""
     plan = layout(image, sizes, counts, bool(bigtiff))
     if plan.end > BIGTIFF_LIMIT and not plan.bigtiff:
         if bigtiff is False:
             raise ValueError(f"{plan.end} bytes do not fit a classic TIFF")
         plan = layout(image, sizes, counts, True)
+    return plan
+
+
+def _assemble(path: str | os.PathLike[str], image: Image, sizes: list[tuple[int, int]], counts: list[list[int]],
+              files: Sequence[IO[bytes]], bigtiff: bool | None) -> None:
+    """The directory, then each level's stored tiles, smallest level first."""
+    plan = file_layout(image, sizes, counts, bigtiff)
     with open(path, "wb") as out:
         out.write(directory(image, sizes, counts, plan))
         for f, c in zip(files[::-1], counts[::-1]):
@@ -295,5 +303,6 @@ def _assemble(path: str | os.PathLike[str], image: Image, sizes: list[tuple[int,
         assert out.tell() == plan.end
 
 
-__all__ = ["BIGTIFF_LIMIT", "DEFLATE", "GHOST", "TILE", "Image", "Layout", "directory", "encode_tile", "layout",
-           "level_tags", "overview_sizes", "predictor", "reduce2", "write_tiled"]
+__all__ = ["BIGTIFF_LIMIT", "DEFLATE", "GHOST", "LEADER", "TILE", "TRAILER", "Image", "Layout", "directory",
+           "encode_tile", "file_layout", "layout", "level_tags", "overview_sizes", "predictor", "reduce2",
+           "write_tiled"]

@@ -25,7 +25,7 @@ import math
 import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -38,6 +38,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.io.array import open_image
 from aerofid.io.colour import COLOUR_POLICIES, to_grey
 from aerofid.io.raster import clip_box
+from aerofid.io.source import ImageSource
 from aerofid.methods import Detector, check_choice, check_polarity, make_detector
 
 SCREEN_PIXELS = 2_000_000
@@ -50,6 +51,9 @@ RECENTRED_WINDOW = (2.5, 8)
 """Half-size of the re-centred window: 2.5 x the mark's extent + 8 px."""
 RECENTRE_ROUNDS = 3
 """At most this many re-centred measurements per mark."""
+SETTLED = 0.15
+"""The re-centring settles when the window's half-size from the answer's extent is within this fraction of the
+half-size it was measured on."""
 LADDER_STEP = 0.75
 """Ratio of successive window sizes tried on one candidate."""
 WINDOW_TERM_SIZES = (LADDER_STEP, 1 / LADDER_STEP)
@@ -74,19 +78,6 @@ extents apart)."""
 WEAK_CANDIDATE = 0.4
 """Once a mark is found, candidates weaker than this fraction of its screening strength are not measured
 (a second mark of the same kind screens about as strong)."""
-
-
-class ImageSource(Protocol):
-    """What the search reads: an open :class:`~aerofid.io.raster.Raster` or an array presented as one."""
-
-    width: int
-    height: int
-    dtype: np.dtype
-    path: Any
-
-    def read_window(self, box: Sequence[int]) -> np.ndarray: ...
-
-    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -181,16 +172,17 @@ class Measurer:
         assert best is not None
         return best
 
-    def candidate(self, c: Candidate, blank: tuple[float, float, float] | None = None) -> Located:
+    def candidate(self, c: Candidate, blank: tuple[float, float, float] | None = None,
+                  settle: bool = True) -> Located:
         """Steps 2 and 3 of the search for one candidate: windows from the candidate's largest radius down to
-        its smallest (:func:`window_ladder`) until one is found, then re-centred windows sized by the mark's
-        own extent until the size settles."""
+        its smallest (:func:`window_ladder`) until one is found, then (``settle``, and no ``blank``) re-centred
+        windows sized by the mark's own extent until the size settles."""
         first: Located | None = None
         for half in window_ladder(c.radius, c.inner):
             got = self.at(c.x, c.y, half, c, blank)
             first = first or got
             if got.found:
-                return got if blank is not None else self.recentre(got, c)
+                return self.recentre(got, c) if settle and blank is None else got
         assert first is not None
         return first
 
@@ -206,7 +198,7 @@ class Measurer:
                 return again
             got, seen = again, half
             half = recentred_half(again.extent, window)
-            if abs(half - seen) <= 0.15 * seen:
+            if abs(half - seen) <= SETTLED * seen:
                 break
         return self.window_term(got, half)
 

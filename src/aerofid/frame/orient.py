@@ -30,6 +30,7 @@ from aerofid.conventions import Box, Polarity, opposite
 from aerofid.detect.screen import Candidate, screen
 from aerofid.errors import AerofidInputError
 from aerofid.find import (
+    SETTLED,
     ImageSource,
     Located,
     Measurer,
@@ -49,6 +50,7 @@ from aerofid.frame.result import DOUBTFUL, FAILED, OK, FrameOrientation
 from aerofid.frame.verdict import verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
+from aerofid.io.reduce import ReducedView
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import ARRANGEMENTS
@@ -83,6 +85,9 @@ ALONE_WINDOW = (1.5, 8.0)
 """The window (half-size: times the marks' radius, plus px) a mark is measured on by the frame's method alone:
 tighter than a box's re-centred window (:data:`aerofid.find.RECENTRED_WINDOW`, 2.5 times), whose ground around
 the mark is there for ``auto`` to see a second mark; the cost of symmetry falls with the area."""
+COARSE_RADIUS = 16.0
+"""The first mark's ``auto`` runs on the scan reduced (by a power of two) so that the marks' radius stays at least
+this many px (:func:`_coarse_first`): ``auto`` tries every method, and its cost grows with the window's area."""
 ALTERNATIVES = 3
 """Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
 the first whose frame is ok is taken."""
@@ -295,7 +300,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             tolerance = alone_tolerance = layout.tolerance_px
             name = name or (_frame_method(out, done) if done else None)
         quick = (_by_method(measurer, name, mark, start, at, alone_tolerance)
-                 if name is not None and len(measurer.polarities) == 1 else None)
+                 if name is not None and len(measurer.polarities) == 1
+                 else _coarse_first(measurer, mark, start, at, tolerance) if not done else None)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
@@ -318,17 +324,44 @@ def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str
 def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: tuple[float, float],
                tolerance: float) -> Located | None:
     """A mark measured by the method ``name`` alone (the marks of one frame, or of one roll, are alike), on the
-    window the marks' extent (``start.radius``) sizes at the prediction ``at``, re-centred and with its window
-    term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within ``tolerance`` px of the
-    prediction, else None (then ``auto`` measures it). The geometry of the marks found (or the layout) is what
-    replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross."""
+    window the marks' extent (``start.radius``) sizes at ``start`` (the prediction, or a coarse answer),
+    re-centred and with its window term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within
+    ``tolerance`` px of the prediction ``at``, else None (then ``auto`` measures it). The geometry of the marks
+    found (or the layout) is what replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its
+    time on a ring and cross. A first answer on the pixel its window is centred on, whose extent sizes the window
+    within :data:`aerofid.find.SETTLED`, is already the re-centred answer (the round is not repeated)."""
     detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
     alone = replace(measurer, detector=detector)
-    got = alone.at(at[0], at[1], recentred_half(start.radius, ALONE_WINDOW), start)
+    half = recentred_half(start.radius, ALONE_WINDOW)
+    got = alone.at(start.x, start.y, half, start)
     if not got.found or math.hypot(got.x - at[0], got.y - at[1]) > tolerance:
         return None
-    got = alone.recentre(got, start, ALONE_WINDOW)
+    settled = (round(got.x), round(got.y)) == (round(start.x), round(start.y)) and (
+        abs(recentred_half(got.extent, ALONE_WINDOW) - half) <= SETTLED * half)
+    # a window centred on the answer's pixel and sized by its extent within SETTLED is the re-centred one
+    got = alone.window_term(got, half) if settled else alone.recentre(got, start, ALONE_WINDOW)
     return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
+
+
+def _coarse_first(measurer: Measurer, mark: str, start: Candidate, at: tuple[float, float],
+                  tolerance: float) -> Located | None:
+    """The first mark: ``auto`` (every method, both polarities) on the scan reduced by the power of two that
+    keeps the marks' radius (``start.radius``) at least :data:`COARSE_RADIUS` px, then the method and polarity it
+    chose measure the mark alone at full resolution (:func:`_by_method`) from its coarse centre. None when the
+    marks are too small to reduce, or either stage finds nothing (then ``auto`` measures it at full resolution).
+    """
+    f = 2 ** max(0, math.floor(math.log2(start.radius / COARSE_RADIUS))) if start.radius > 0 else 1
+    if f == 1:
+        return None
+    view = ReducedView(measurer.source, f)
+    x, y = view.from_full(start.x, start.y)
+    coarse = replace(measurer, source=view).candidate(
+        replace(start, x=x, y=y, radius=start.radius / f, inner=start.inner / f), settle=False)
+    if not coarse.found or coarse.detection.method not in METHODS:
+        return None
+    cx, cy = view.to_full(coarse.x, coarse.y)
+    return _by_method(replace(measurer, polarities=(coarse.polarity,)), coarse.detection.method, mark,
+                      Candidate(cx, cy, coarse.extent * f, 0.0), at, tolerance)
 
 
 def _first_window(c: Candidate) -> Candidate:

@@ -14,17 +14,22 @@ pixel by the area it shares with the block.
 
 from __future__ import annotations
 
+import math
 import operator
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import sparse
 
 from aerofid.errors import AerofidInputError
+from aerofid.io.source import ImageSource
 
 __all__ = [
     "CHUNK_SAMPLES",
     "STRIP_BYTES",
+    "ReducedView",
     "block_weights",
     "check_factor",
     "check_reduced_size",
@@ -211,3 +216,48 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
             _fold(out, strip, r0 - src0, wy, wy_columns, wx)
         del strip  # a memory-mapped strip is unmapped before the next is read
     return out.reshape(rows, cols, bands)
+
+
+@dataclass(frozen=True)
+class ReducedView:
+    """An image seen reduced by ``factor`` (block means, :meth:`~aerofid.io.raster.Raster.read_reduced`), as grey
+    levels on [0, 1] (integer samples divided by their type's maximum): a source that a window search reads like
+    the image itself, at a coarser scale. Reduced pixel ``i`` is the mean of full pixels ``f i .. f i + f - 1``,
+    so its centre is full pixel ``f i + (f - 1) / 2`` (:meth:`to_full`)."""
+
+    source: ImageSource
+    factor: int
+    width: int = field(init=False)
+    height: int = field(init=False)
+    dtype: np.dtype = field(init=False)
+    path: Any = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "width", math.ceil(self.source.width / self.factor))
+        object.__setattr__(self, "height", math.ceil(self.source.height / self.factor))
+        object.__setattr__(self, "dtype", np.dtype(np.float32))
+        object.__setattr__(self, "path", self.source.path)
+
+    def read_window(self, box: Sequence[int]) -> np.ndarray:
+        """The reduced window ``box`` (reduced pixels, x1 and y1 exclusive), float32 on [0, 1]."""
+        return self.read_reduced(box, 1)
+
+    def read_reduced(self, box: Sequence[int], factor: int) -> np.ndarray:
+        """The reduced window ``box`` reduced again by ``factor``, float32 on [0, 1]."""
+        f = self.factor
+        x0, y0, x1, y1 = (int(v) for v in box)
+        full = (x0 * f, y0 * f, min(x1 * f, self.source.width), min(y1 * f, self.source.height))
+        out = self.source.read_reduced(full, f * factor)
+        kind = self.source.dtype.kind
+        scale = 1.0 / float(np.iinfo(self.source.dtype).max) if kind in "ui" else 1.0
+        return (out * np.float32(scale)).astype(np.float32, copy=False)
+
+    def to_full(self, x: float, y: float) -> tuple[float, float]:
+        """Full-image pixel coordinates of the reduced point (x, y)."""
+        f = self.factor
+        return f * x + (f - 1) / 2, f * y + (f - 1) / 2
+
+    def from_full(self, x: float, y: float) -> tuple[float, float]:
+        """Reduced pixel coordinates of the full-image point (x, y)."""
+        f = self.factor
+        return (x - (f - 1) / 2) / f, (y - (f - 1) / 2) / f

@@ -114,6 +114,8 @@ def test_asp_intrinsics_put_the_principal_point_where_the_grid_does(oriented):
 
 def test_unknown_formats_are_named():
     with pytest.raises(AerofidInputError, match="csv, json, opencv, asp"):
+        check_format("pix4d", resampled=True)
+    with pytest.raises(AerofidInputError, match="--metashape SCRIPT.py"):     # the original scan's, not here
         check_format("metashape", resampled=True)
     with pytest.raises(AerofidInputError, match="resampled frame"):
         check_format("asp", resampled=False)

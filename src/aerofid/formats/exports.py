@@ -124,6 +124,9 @@ def asp_tsai(grid: ResampleGrid, focal_length_mm: float | None, principal_point_
 
 def check_format(fmt: str, resampled: bool) -> None:
     """An input error for an unknown format, or for one that describes a resampled frame without one."""
+    if fmt == "metashape":
+        raise AerofidInputError("Metashape places the fiducials on the original scan, not on a resampled frame: use "
+                                "'aerofid orient SCAN --camera CAMERA --metashape SCRIPT.py' (docs/exports.md)")
     if fmt not in FORMATS:
         raise AerofidInputError(f"unknown export format {fmt!r}: choose one of {', '.join(FORMATS)}")
     if fmt == "asp" and not resampled:

@@ -299,7 +299,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
             tolerance = alone_tolerance = layout.tolerance_px
             name = name or (_frame_method(out, done) if done else None)
-        quick = (_by_method(measurer, name, mark, start, at, alone_tolerance)
+        quick = (_by_method(measurer, name, mark, _coarse(measurer, name, mark, start), at, alone_tolerance)
                  if name is not None and len(measurer.polarities) == 1
                  else _coarse_first(measurer, mark, start, at, tolerance) if not done else None)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
@@ -345,23 +345,50 @@ def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: t
 
 def _coarse_first(measurer: Measurer, mark: str, start: Candidate, at: tuple[float, float],
                   tolerance: float) -> Located | None:
-    """The first mark: ``auto`` (every method, both polarities) on the scan reduced by the power of two that
-    keeps the marks' radius (``start.radius``) at least :data:`COARSE_RADIUS` px, then the method and polarity it
-    chose measure the mark alone at full resolution (:func:`_by_method`) from its coarse centre. None when the
-    marks are too small to reduce, or either stage finds nothing (then ``auto`` measures it at full resolution).
-    """
-    f = 2 ** max(0, math.floor(math.log2(start.radius / COARSE_RADIUS))) if start.radius > 0 else 1
+    """The first mark: ``auto`` (every method, both polarities) on the scan reduced by :func:`_coarse_factor`,
+    then the method and polarity it chose measure the mark alone at full resolution (:func:`_by_method`) from its
+    coarse centre. None when the marks are too small to reduce, or either stage finds nothing (then ``auto``
+    measures it at full resolution)."""
+    f = _coarse_factor(start.radius)
     if f == 1:
         return None
     view = ReducedView(measurer.source, f)
-    x, y = view.from_full(start.x, start.y)
-    coarse = replace(measurer, source=view).candidate(
-        replace(start, x=x, y=y, radius=start.radius / f, inner=start.inner / f), settle=False)
+    coarse = replace(measurer, source=view).candidate(_reduced(start, view), settle=False)
     if not coarse.found or coarse.detection.method not in METHODS:
         return None
-    cx, cy = view.to_full(coarse.x, coarse.y)
     return _by_method(replace(measurer, polarities=(coarse.polarity,)), coarse.detection.method, mark,
-                      Candidate(cx, cy, coarse.extent * f, 0.0), at, tolerance)
+                      _full(coarse, view), at, tolerance)
+
+
+def _coarse(measurer: Measurer, name: str, mark: str, start: Candidate) -> Candidate:
+    """Where a later mark is measured at full resolution: ``start`` (its prediction, sized like the marks) moved
+    to the centre and extent the method ``name`` finds there on the scan reduced by :func:`_coarse_factor`, so
+    that the full-resolution window is the re-centred one at once (:func:`_by_method`); ``start`` when the marks
+    are too small to reduce or the coarse measurement finds nothing."""
+    f = _coarse_factor(start.radius)
+    if f == 1:
+        return start
+    view = ReducedView(measurer.source, f)
+    detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
+    small = _reduced(start, view)
+    coarse = replace(measurer, source=view, detector=detector).at(small.x, small.y,
+                                                                  recentred_half(small.radius, ALONE_WINDOW), small)
+    return _full(coarse, view) if coarse.found else start
+
+
+def _coarse_factor(radius: float) -> int:
+    """The power of two that reduces marks of ``radius`` px to at least :data:`COARSE_RADIUS` px (1: none)."""
+    return 2 ** max(0, math.floor(math.log2(radius / COARSE_RADIUS))) if radius > 0 else 1
+
+
+def _reduced(c: Candidate, view: ReducedView) -> Candidate:
+    x, y = view.from_full(c.x, c.y)
+    return replace(c, x=x, y=y, radius=c.radius / view.factor, inner=c.inner / view.factor)
+
+
+def _full(coarse: Located, view: ReducedView) -> Candidate:
+    x, y = view.to_full(coarse.x, coarse.y)
+    return Candidate(x, y, coarse.extent * view.factor, 0.0)
 
 
 def _first_window(c: Candidate) -> Candidate:

@@ -56,6 +56,7 @@ from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
+from aerofid.detect.spline import grid_values
 from aerofid.robust import MAD_TO_SIGMA
 
 if TYPE_CHECKING:
@@ -985,21 +986,12 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
         return None
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
     half = ((yy > 0) | ((yy == 0) & (xx > 0))) & (xx * xx + yy * yy <= r * r)
-    u, v = xx[half], yy[half]
     coeffs = ndimage.spline_filter(np.asarray(img, np.float64), order=3)
-
-    def at(px: np.ndarray, py: np.ndarray) -> np.ndarray:
-        return ndimage.map_coordinates(coeffs, [py, px], order=3, mode="nearest", prefilter=False)
-
     step = np.inf
     for _ in range(REFINE_ITERATIONS):
         if not (r <= xc <= w - 1 - r and r <= yc <= h - 1 - r):
             return None
-        e = at(xc + u, yc + v) - at(xc - u, yc - v)
-        gx = ((at(xc + u + 0.5, yc + v) - at(xc + u - 0.5, yc + v))
-              - (at(xc - u + 0.5, yc - v) - at(xc - u - 0.5, yc - v)))
-        gy = ((at(xc + u, yc + v + 0.5) - at(xc + u, yc + v - 0.5))
-              - (at(xc - u, yc - v + 0.5) - at(xc - u, yc - v - 0.5)))
+        e, gx, gy = _mirror_terms(coeffs, xc, yc, r, half)
         # Huber weights: texture that is not point-symmetric (aerial ground around the mark) must not pull
         scale = max(MAD_TO_SIGMA * float(np.median(np.abs(e))), 1e-9)
         wgt = np.minimum(1.0, HUBER_K * scale / np.maximum(np.abs(e), 1e-12))
@@ -1013,6 +1005,26 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
         if step < 1e-4:
             break
     return (xc, yc) if step < 1e-2 else None
+
+
+def _mirror_terms(coeffs: np.ndarray, xc: float, yc: float, r: int, half: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For the offsets ``u`` of ``half`` (a mask of the (2r+1)-square): ``I(c + u) - I(c - u)`` and its
+    derivatives in x and y (central differences of the spline at +-0.5 px), the spline of ``coeffs`` evaluated
+    on whole shifted grids (:func:`aerofid.detect.spline.grid_values`); point by point where its support reaches
+    the window's edge. ``I(c - u)`` is the grid of ``I(c + u)`` turned by 180 degrees."""
+    n = 2 * r + 1
+    grids = [grid_values(coeffs, xc - r + dx, yc - r + dy, (n, n))
+             for dx, dy in ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5))]
+    if any(g is None for g in grids):
+        yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
+        grids = [ndimage.map_coordinates(coeffs, [yy + yc + dy, xx + xc + dx], order=3, mode="nearest",
+                                         prefilter=False)
+                 for dx, dy in ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5))]
+    g0, gxp, gxm, gyp, gym = grids
+    assert g0 is not None and gxp is not None and gxm is not None and gyp is not None and gym is not None
+    dx, dy = gxp - gxm, gyp - gym
+    return ((g0 - g0[::-1, ::-1])[half], (dx - dx[::-1, ::-1])[half], (dy - dy[::-1, ::-1])[half])
 
 
 def centre_sigma(img: np.ndarray, xc: float, yc: float, r: int, noise: float, inefficiency: float,

@@ -1,0 +1,34 @@
+"""detect.spline.grid_values: a shifted grid of a cubic spline equals scipy's point-by-point interpolation."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from aerofid.detect.spline import grid_values
+from aerofid.detect.symmetry import point_symmetry_centre
+
+
+@settings(max_examples=60, deadline=None)
+@given(x0=st.floats(-3.0, 40.0), y0=st.floats(-3.0, 30.0), nx=st.integers(1, 25), ny=st.integers(1, 25),
+       seed=st.integers(0, 2**16))
+def test_grid_values_equal_map_coordinates(x0, y0, nx, ny, seed):
+    coeffs = ndimage.spline_filter(np.random.default_rng(seed).normal(size=(50, 60)), order=3)
+    got = grid_values(coeffs, x0, y0, (ny, nx))
+    inside = x0 >= 1 and y0 >= 1 and np.floor(x0) + nx + 2 <= 60 and np.floor(y0) + ny + 2 <= 50
+    assert (got is not None) == bool(inside)
+    if got is not None:
+        yy, xx = np.mgrid[0:ny, 0:nx].astype(float)
+        want = ndimage.map_coordinates(coeffs, [yy + y0, xx + x0], order=3, mode="nearest", prefilter=False)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+def test_point_symmetry_centre_finds_the_centre_of_a_symmetric_pattern_near_the_edge_too():
+    """The refinement on whole grids and, where the spline's support reaches the edge, point by point: both reach
+    the centre of a pattern symmetric about a known sub-pixel point."""
+    yy, xx = np.mgrid[0:64, 0:64].astype(float)
+    for cx, cy, r in ((31.3, 30.6, 12), (12.4, 12.7, 12)):
+        img = np.exp(-((xx - cx) ** 2 + 0.5 * (yy - cy) ** 2) / 30.0) + 0.3 * np.exp(-((xx - cx) ** 2) / 4.0
+                                                                                   - ((yy - cy) ** 2) / 60.0)
+        got = point_symmetry_centre(img, cx + 0.3, cy - 0.2, r)
+        assert got is not None and abs(got[0] - cx) < 1e-3 and abs(got[1] - cy) < 1e-3

@@ -148,7 +148,8 @@ class SymmetryParams(MethodParams):
     benchmarks/bench_marks.py, which 0.1 keeps; docs/marks.md.)"""
     enlarge: int = 4
     """``R_e`` of eq. (15), the enlargement rate of the bilinear interpolation (not given in the seed; 4 gives
-    steps of 1/4 px, refined further by the weighted mean of eq. 14)."""
+    steps of 1/4 px, refined further by the weighted mean of eq. 14); less for large kernels
+    (:data:`ENLARGED_RADIUS`)."""
     smooth_sigma: float = 0.5
     """Standard deviation, in original pixels, of the Gaussian smoothing of the enlarged image (seed 3.4; value
     not given in the seed)."""
@@ -863,7 +864,7 @@ def subpixel_centre(img: np.ndarray, x: int, y: int, r: int, d: int,
     analysis there with scaled kernels (:func:`_enlarged_iteration`) and take the weighted mean of eq. (14);
     return (x, y) by eq. (15) and the stage's intermediate results, or None when the enlarged kernel does not
     fit (the mark is too close to the window edge)."""
-    re = int(p.enlarge)
+    re = enlargement(p.enlarge, r)
     hs = r + p.log_outer                                  # fits: candidates keep log_outer + r from the edges
     sub = img[y - hs:y + hs + 1, x - hs:x + hs + 1]
     n = 2 * hs + 1
@@ -886,6 +887,26 @@ def subpixel_centre(img: np.ndarray, x: int, y: int, r: int, d: int,
     yt = (y - hs) + (fy + 0.5) / re - 0.5
     return xt, yt, SubpixelStage(enlarged_log=i2, iterations=tuple(hist), profiles=profiles, kernel_radius=re_r,
                                  enlarge=re)
+
+
+ENLARGED_RADIUS = 180
+"""The enlarged kernel radius (px) beyond which the sub-pixel stage enlarges less than ``enlarge``, down to 2
+(:func:`enlargement`): its cost grows with the cube of the enlarged radius, and a large mark's eq. (14) needs no
+steps finer than half a pixel before the point-symmetry refinement. Where that refinement settles depends on its
+start at the 0.01 px level, so large marks' centres move by that much (docs/benchmarks_frames.md: the 11000^2
+frames, kernel radii 90-147 px, before and after)."""
+
+
+def enlargement(enlarge: int, r: int) -> int:
+    """``R_e`` of eq. (15) for a kernel of radius ``r``: ``enlarge``, less when ``r R_e`` would pass
+    :data:`ENLARGED_RADIUS` (not below 2, nor above ``enlarge``).
+
+    Examples
+    --------
+    >>> enlargement(4, 30), enlargement(4, 60), enlargement(4, 90), enlargement(1, 90)
+    (4, 3, 2, 1)
+    """
+    return int(min(enlarge, max(2, ENLARGED_RADIUS // max(r, 1))))
 
 
 def _enlarged_iteration(i2: np.ndarray, c: int, m: int, r: int, d: int, p: SymmetryParams
@@ -1072,6 +1093,6 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
 
 __all__ = ["DEFAULT", "METHOD", "AxisProfile", "FiducialArea", "MirrorDifferences", "Profiles", "SelfDiagnosis",
            "SubpixelStage", "SymmetryParams", "SymmetryResult", "axis_peak", "centre_covariance", "centre_sigma",
-           "detect", "fiducial_area", "high_pass", "kernel_radius", "mirror_differences", "ncc",
+           "detect", "enlargement", "fiducial_area", "high_pass", "kernel_radius", "mirror_differences", "ncc",
            "point_symmetry_centre", "search_range", "self_diagnosis", "simplified_log", "subpixel_centre",
            "symmetry_accumulation", "symmetry_profile"]

@@ -5,7 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from aerofid.detect.spline import grid_values
+from aerofid.detect.spline import grid_values, square_grid
 from aerofid.detect.symmetry import point_symmetry_centre
 
 
@@ -32,3 +32,14 @@ def test_point_symmetry_centre_finds_the_centre_of_a_symmetric_pattern_near_the_
                                                                                    - ((yy - cy) ** 2) / 60.0)
         got = point_symmetry_centre(img, cx + 0.3, cy - 0.2, r)
         assert got is not None and abs(got[0] - cx) < 1e-3 and abs(got[1] - cy) < 1e-3
+
+
+@settings(max_examples=40, deadline=None)
+@given(xc=st.floats(0.0, 59.0), yc=st.floats(0.0, 49.0), r=st.integers(1, 30), order=st.sampled_from([1, 3]),
+       seed=st.integers(0, 2**16))
+def test_square_grid_equals_map_coordinates_with_nearest_edges(xc, yc, r, order, seed):
+    """Whole grids, edge pixels repeated as scipy's mode="nearest" does, inside the image and across its edge."""
+    img = np.random.default_rng(seed).normal(size=(50, 60)).astype(np.float32)
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(float)
+    want = ndimage.map_coordinates(img.astype(float), [yy + yc, xx + xc], order=order, mode="nearest")
+    np.testing.assert_allclose(square_grid(img, xc, yc, r, order), want, rtol=0, atol=1e-6)

@@ -56,7 +56,7 @@ from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
-from aerofid.detect.spline import grid_values
+from aerofid.detect.spline import cubic_coefficients, grid_values, square_grid
 from aerofid.robust import MAD_TO_SIGMA
 
 if TYPE_CHECKING:
@@ -970,19 +970,19 @@ def _weighted_peak(prof: AxisProfile, peak: int) -> float:
     return float((xs[lo:hi + 1] * wgt).sum() / wgt.sum())
 
 
-def _resample(img: np.ndarray, xc: float, yc: float, r: int) -> np.ndarray:
-    """The ``(2r + 1)``-square sub-image centred on the sub-pixel point (xc, yc), by cubic interpolation."""
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
-    return ndimage.map_coordinates(img, [yy + yc, xx + xc], order=3, mode="nearest").astype(np.float32)
+def _resample(img: np.ndarray, xc: float, yc: float, r: int, coeffs: np.ndarray | None = None) -> np.ndarray:
+    """The ``(2r + 1)``-square sub-image centred on the sub-pixel point (xc, yc), by cubic interpolation
+    (``coeffs``: :func:`aerofid.detect.spline.cubic_coefficients` of ``img``, if known)."""
+    return square_grid(img, xc, yc, r, 3, coeffs).astype(np.float32)
 
 
 # --- noise and precision -----------------------------------------------------------------------------------
 
-def _mirror_step(img: np.ndarray, xc: float, yc: float, r: int, order: int) -> np.ndarray:
+def _mirror_step(img: np.ndarray, xc: float, yc: float, r: int, order: int,
+                 coeffs: np.ndarray | None = None) -> np.ndarray:
     """One Gauss-Newton step (x, y) towards the mirror-symmetric centre of the (2r+1)-square around (xc, yc),
     resampled with spline ``order``: minimises sum (J - mirror(J))^2 over a shift of the centre."""
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
-    j = ndimage.map_coordinates(img.astype(np.float64), [yy + yc, xx + xc], order=order, mode="nearest")
+    j = square_grid(img, xc, yc, r, order, coeffs)
     gy, gx = np.gradient(j)
     out = []
     for dd, dg in ((j - j[:, ::-1], gx - gx[:, ::-1]), (j - j[::-1], gy - gy[::-1])):
@@ -1078,14 +1078,15 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
     (the sampling and floor terms are independent per axis). A mark that is long along a diagonal (a '+'
     with one long arm at 45 degrees) has gradients across that arm, and its centre's x and y errors correlate.
     """
-    sub = _resample(img, xc, yc, r + 1).astype(np.float64)
+    coeffs = cubic_coefficients(img)
+    sub = _resample(img, xc, yc, r + 1, coeffs).astype(np.float64)
     gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])
     gy = 0.5 * (sub[2:, 1:-1] - sub[:-2, 1:-1])
     nn = gx.size * noise ** 2 * 0.5
     ex = max(float((gx * gx).sum()) - nn, 1e-12)
     ey = max(float((gy * gy).sum()) - nn, 1e-12)
     rho = float(np.clip(-float((gx * gy).sum()) / np.sqrt(ex * ey), -1.0, 1.0))
-    alias = np.abs(_mirror_step(img, xc, yc, r, 1) - _mirror_step(img, xc, yc, r, 3))
+    alias = np.abs(_mirror_step(img, xc, yc, r, 1) - _mirror_step(img, xc, yc, r, 3, coeffs))
     vx, vy = (inefficiency * noise) ** 2 / ex, (inefficiency * noise) ** 2 / ey
     cxy = rho * float(np.sqrt(vx * vy))
     return np.array([[vx + alias[0] ** 2 + floor ** 2, cxy], [cxy, vy + alias[1] ** 2 + floor ** 2]])

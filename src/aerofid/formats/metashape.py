@@ -48,6 +48,7 @@ fiducial's location are taken from third-party scripts, not from Agisoft's refer
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import PurePath, PureWindowsPath
@@ -69,6 +70,9 @@ METASHAPE_Y_AXIS = "down"
 confirmed)."""
 SCRIPT_FILE = "metashape_fiducials.py"
 """The roll-level script's name in a batch's output folder."""
+
+_NUMBERS = re.compile(r"\[\n\s*([-+.0-9eE]+(?:,\n\s*[-+.0-9eE]+)*)\n\s*\]")
+"""An indented JSON list of numbers (:func:`_json_text`)."""
 
 
 @dataclass(frozen=True)
@@ -144,13 +148,21 @@ def metashape_script(frames: Sequence[StoredOrientation], camera: Camera, left_o
     True
     """
     data = metashape_data(frames, camera, left_out)
-    blob = json.dumps(data, indent=1, ensure_ascii=True, allow_nan=False).replace("'", "\\u0027")
+    blob = _json_text(data)
     notes = "".join(f"#   {_comment(d['image'])}: {_comment(d['reason'])}\n" for d in data["left_out"]) or "#   none\n"
     return (_HEADER.format(n=len(data["frames"]), camera=_comment(camera.name), left_out=notes)
             + f"PIXEL_OFFSET = {PIXEL_OFFSET!r}\n"
             + f"FILM_Y = {film_y_sign(camera)}  # camera file y {camera.y_axis}, given to Metashape y "
               f"{METASHAPE_Y_AXIS} (inferred, not confirmed)\n"
             + f"DATA = json.loads(r'''\n{blob}\n''')\n" + _BODY)
+
+
+def _json_text(data: dict[str, Any]) -> str:
+    """Indented JSON with each list of numbers on one line (a line break is never inside a JSON string, so only
+    the structure's lists match), every ``'`` escaped so that the text can sit in a ``r'''...'''`` literal."""
+    text = json.dumps(data, indent=1, ensure_ascii=True, allow_nan=False)
+    text = _NUMBERS.sub(lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
+    return text.replace("'", "\\u0027")
 
 
 def _comment(text: str) -> str:

@@ -54,6 +54,10 @@ CHUNK = 20_000
 """Hypotheses scored at once."""
 SHORTLIST = 64
 """Hypotheses per chunk and lie, and in all, that are refined and scored again (:func:`_best_hypothesis`)."""
+DECISIVE = 4
+"""Hypotheses of a chunk with every fiducial on a feature (within the loose tolerance) refined at once, the closest
+first: one that keeps every fiducial within :data:`FIT_TOLERANCE_MM` after its refit ends the search (no chance
+match does that on the benchmark's frames; the true layout is usually among the first chunks)."""
 FIT_TOLERANCE_MM = 0.3
 """How far (film mm) a fiducial may lie from the prediction of the transformation fitted to the matches, beyond
 the features' own position error: the scanner's and the film's residual distortion, a few hundredths of a mm."""
@@ -156,8 +160,9 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
         return []
     scales = [pixel_size_mm] if pixel_size_mm is not None else scale_grid(pixel_size_range(fiducials_mm, scan_size))
     found: dict[tuple[int | None, ...], tuple[tuple[int, float], LayoutMatch]] = {}
+    pairs = _Pairs.of(features)
     for s in scales:
-        got = _best_hypothesis(features, fiducials_mm, y_axis, s, tolerance_mm / s + position_error_px,
+        got = _best_hypothesis(features, pairs, fiducials_mm, y_axis, s, tolerance_mm / s + position_error_px,
                                position_error_px)
         if got is None or got[1].n_matched < MIN_MATCHED:
             continue
@@ -194,36 +199,67 @@ def _pair_distances(p: np.ndarray) -> np.ndarray:
     return np.hypot(*(p[k] - p[i]).T)
 
 
-def _hypotheses(features: np.ndarray, fiducials_mm: np.ndarray, s: float) -> np.ndarray:
-    """(i, k, j, l) with |features i-k| * s within :data:`SCALE_TOLERANCE` of |fiducials j-l|, features by
-    strength (the first :data:`MAX_HYPOTHESES`)."""
-    i, k = np.triu_indices(len(features), 1)
-    d_px = np.hypot(*(features[k] - features[i]).T) * s
+@dataclass(frozen=True)
+class _Pairs:
+    """Every pair of features (i < k), pairs of strong features first, with their distances (px), and the order
+    that sorts the distances: what :func:`_hypotheses` needs at every pixel size."""
+
+    i: np.ndarray
+    k: np.ndarray
+    d_px: np.ndarray
+    by_distance: np.ndarray
+
+    @classmethod
+    def of(cls, features: np.ndarray) -> _Pairs:
+        i, k = np.triu_indices(len(features), 1)
+        order = np.lexsort((k, i + k))                             # pairs of strong features first
+        i, k = i[order], k[order]
+        d_px = np.hypot(*(features[k] - features[i]).T)
+        return cls(i, k, d_px, np.argsort(d_px, kind="stable"))
+
+
+def _hypotheses(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> np.ndarray:
+    """(i, k, j, l) with |features i-k| * s within :data:`SCALE_TOLERANCE` of |fiducials j-l|, pairs of strong
+    features first, then by (j, l) (the first :data:`MAX_HYPOTHESES`). Each fiducial pair's band of distances is
+    looked up in the sorted feature distances."""
     j, l = np.nonzero(~np.eye(len(fiducials_mm), dtype=bool))
     d_mm = np.hypot(*(fiducials_mm[l] - fiducials_mm[j]).T)
-    order = np.lexsort((k, i + k))                                 # pairs of strong features first
-    i, k, d_px = i[order], k[order], d_px[order]
-    a, b = np.nonzero(np.abs(d_px[:, None] - d_mm[None, :]) <= SCALE_TOLERANCE * d_mm[None, :])
-    return np.stack([i[a], k[a], j[b], l[b]], axis=1)[:MAX_HYPOTHESES]
+    d_px = pairs.d_px * s
+    sorted_px = d_px[pairs.by_distance]
+    lo = np.searchsorted(sorted_px, d_mm * (1 - SCALE_TOLERANCE) * (1 - 1e-12), side="left")
+    hi = np.searchsorted(sorted_px, d_mm * (1 + SCALE_TOLERANCE) * (1 + 1e-12), side="right")
+    counts = hi - lo
+    b = np.repeat(np.arange(len(d_mm)), counts)
+    a = pairs.by_distance[np.arange(counts.sum()) + np.repeat(lo - np.cumsum(counts) + counts, counts)]
+    keep = np.abs(d_px[a] - d_mm[b]) <= SCALE_TOLERANCE * d_mm[b]   # the band's ends exactly as the test reads
+    a, b = a[keep], b[keep]
+    first = np.lexsort((b, a))[:MAX_HYPOTHESES]
+    a, b = a[first], b[first]
+    return np.stack([pairs.i[a], pairs.k[a], j[b], l[b]], axis=1)
 
 
-def _best_hypothesis(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str, s: float, tol: float,
-                     position_error_px: float) -> tuple[tuple[int, float], LayoutMatch] | None:
+def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarray, y_axis: str, s: float,
+                     tol: float, position_error_px: float) -> tuple[tuple[int, float], LayoutMatch] | None:
     """The best hypothesis at pixel size ``s`` (module docstring, step 3). The :data:`SHORTLIST` hypotheses with
     the most fiducials on a feature within ``tol`` (then the least mean distance), one per set of matches, are
     each refined (:func:`_refine`) and scored again by the fiducials whose feature lies within
     :data:`FIT_TOLERANCE_MM` (plus ``position_error_px``) of the refined prediction, then by the RMS of those
     distances: ``tol`` must allow for a two-feature similarity's error, within which a frame dense with dots and
     texture offers chance matches for all 8 fiducials (tests/test_frame.py: 512 features with 6 true marks),
-    while the true features fit a transformation to a few reduced pixels."""
-    hyp = _hypotheses(features, fiducials_mm, s)
+    while the true features fit a transformation to a few reduced pixels. The hypotheses are scored a chunk at
+    a time, pairs of strong features first; a refined hypothesis that puts every fiducial within that tight
+    tolerance of a feature ends the search (:data:`DECISIVE`)."""
+    hyp = _hypotheses(pairs, fiducials_mm, s)
     if len(hyp) == 0:
         return None
     tree = cKDTree(features)
-    shortlist: dict[tuple[int, ...], tuple[int, float, np.ndarray, int, bool]] = {}
-    for rot, mir in ARRANGEMENTS:
-        cp = fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s   # layout in scan axes, px
-        for c0 in range(0, len(hyp), CHUNK):
+    fit_tol = FIT_TOLERANCE_MM / s + position_error_px
+    turned = [fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s  # layout in scan axes, px
+              for rot, mir in ARRANGEMENTS]
+    shortlist: dict[tuple[int, ...], tuple[int, float, int, np.ndarray]] = {}
+    for c0 in range(0, len(hyp), CHUNK):
+        complete: list[tuple[float, int, np.ndarray]] = []
+        for a, cp in enumerate(turned):
             pred = _predict(features, cp, hyp[c0:c0 + CHUNK])
             if pred is None:
                 continue
@@ -233,23 +269,33 @@ def _best_hypothesis(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str
             count = hit.sum(axis=1)
             mean_d = np.where(hit, d, 0.0).sum(axis=1) / np.maximum(count, 1)
             for h in np.lexsort((mean_d, -count))[:SHORTLIST]:
-                key = tuple(np.where(hit[h], idx[h], -1).tolist()) + (rot, int(mir))
-                got = (int(count[h]), float(mean_d[h]), pred[h], rot, mir)
-                if key not in shortlist or got[:2] < shortlist[key][:2]:
+                key = tuple(np.where(hit[h], idx[h], -1).tolist()) + (a,)
+                got = (-int(count[h]), float(mean_d[h]), a, pred[h])
+                if key not in shortlist or got[:3] < shortlist[key][:3]:
                     shortlist[key] = got
-    ranked = sorted(shortlist.values(), key=lambda g: (-g[0], g[1]))[:SHORTLIST]
-    if not ranked:
-        return None
-    fit_tol = FIT_TOLERANCE_MM / s + position_error_px
+                if count[h] == len(fiducials_mm):
+                    complete.append((float(mean_d[h]), a, pred[h]))
+        for _, a, pred_h in sorted(complete, key=lambda c: c[:2])[:DECISIVE]:
+            scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
+            if scored[0][0] == len(fiducials_mm):
+                return scored
     best: tuple[tuple[int, float], LayoutMatch] | None = None
-    for _, _, pred, rot, mir in ranked:
-        m = _refine(features, fiducials_mm, pred, rot, mir, y_axis, tol, fit_tol)
-        d = np.array([math.hypot(*(features[k] - m.predicted[f])) for f, k in enumerate(m.matched) if k is not None])
-        close = d[d <= fit_tol]
-        key = (len(close), -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0)  # ties: first lie
-        if best is None or key > best[0]:
-            best = key, m
+    for _, _, a, pred_h in sorted(shortlist.values(), key=lambda g: g[:3])[:SHORTLIST]:
+        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
+        if best is None or scored[0] > best[0]:      # ties: the first lie
+            best = scored
     return best
+
+
+def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a: int, y_axis: str, tol: float,
+            fit_tol: float) -> tuple[tuple[int, float], LayoutMatch]:
+    """A hypothesis of lie ``ARRANGEMENTS[a]`` refined (:func:`_refine`) and its score: the fiducials within
+    ``fit_tol`` of a feature, then minus the RMS of those distances."""
+    rot, mir = ARRANGEMENTS[a]
+    m = _refine(features, fiducials_mm, pred, rot, mir, y_axis, tol, fit_tol)
+    d = np.array([math.hypot(*(features[k] - m.predicted[f])) for f, k in enumerate(m.matched) if k is not None])
+    close = d[d <= fit_tol]
+    return (len(close), -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0), m
 
 
 def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarray | None:

@@ -264,9 +264,10 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                   features: tuple[Candidate, ...], mark: str = "auto",
                   profile: RollProfile | None = None) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
-    strongest first. The first mark is measured by ``auto`` (:func:`measure_fiducial`) and fixes the polarity tried
-    first for the rest. Each later mark is measured first by the method that found most of the marks so far, alone
-    (:func:`_by_method`), on a window sized by their extent, then, if that fails, like the first: within the
+    strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at
+    full resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is
+    measured first by the method that found most of the marks so far, alone (:func:`_by_method`, from its coarse
+    answer, :func:`_coarse`), on a window sized by their extent, then, if that fails, like the first: within the
     layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction of a transformation
     fitted to them (:meth:`LayoutMatch.predict_from`; to a few px, :data:`REFINED_TOLERANCE_MM`). The
     adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the method and the marks'
@@ -300,8 +301,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             tolerance = alone_tolerance = layout.tolerance_px
             name = name or (_frame_method(out, done) if done else None)
         quick = (_by_method(measurer, name, mark, _coarse(measurer, name, mark, start), at, alone_tolerance)
-                 if name is not None and len(measurer.polarities) == 1
-                 else _coarse_first(measurer, mark, start, at, tolerance) if not done else None)
+                 if name is not None and len(measurer.polarities) == 1 else None)
+        if quick is None:
+            quick = _coarse_first(measurer, mark, start, at, tolerance)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
@@ -345,10 +347,10 @@ def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: t
 
 def _coarse_first(measurer: Measurer, mark: str, start: Candidate, at: tuple[float, float],
                   tolerance: float) -> Located | None:
-    """The first mark: ``auto`` (every method, both polarities) on the scan reduced by :func:`_coarse_factor`,
-    then the method and polarity it chose measure the mark alone at full resolution (:func:`_by_method`) from its
-    coarse centre. None when the marks are too small to reduce, or either stage finds nothing (then ``auto``
-    measures it at full resolution)."""
+    """The first mark, and a later one the frame's method alone did not find: ``auto`` (every method, the
+    measurer's polarities) on the scan reduced by :func:`_coarse_factor`, then the method and polarity it chose
+    measure the mark alone at full resolution (:func:`_by_method`) from its coarse centre. None when the marks are
+    too small to reduce, or either stage finds nothing (then ``auto`` measures it at full resolution)."""
     f = _coarse_factor(start.radius)
     if f == 1:
         return None

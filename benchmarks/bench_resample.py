@@ -3,6 +3,7 @@ kernel.
 
     python benchmarks/bench_resample.py [--sizes 11000 20000] [--kernels bilinear bicubic lanczos]
                                         [--degradation clean] [--repeats 3] [--cache DIR] [--out FILE.md]
+                                        [--baseline-writer REV]
 
 Frames: synthetic (:mod:`aerofid.synth_frame`, the Wild RC10-like test camera, 8 marks, the film turned 90
 degrees and shifted up to 3 mm and turned up to 0.5 degrees in the scanner), ``SIZE`` px square (a 250 mm film
@@ -20,6 +21,11 @@ landing error is the located centre minus that position, in output pixels; for c
 also located in the scan itself (the same box around its true centre) and its error against the truth given
 in scan pixels ("scan" columns). Times are medians of
 ``--repeats`` runs; the load average (1 minute) is read before and after each size.
+
+``--baseline-writer REV`` also runs each case with the TIFF writer of git revision ``REV``
+(``src/aerofid/resample/tiff.py`` as it was there, loaded in place of today's ``write_tiled``; everything else
+today's), alternating with today's runs, so that the two writers are compared under the same load ("writer"
+column). Whether the output is in GDAL's COG layout is checked by tests/test_resample.py, not here.
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import types
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +51,7 @@ from aerofid import synth_frame
 from aerofid.formats.orientation import FiducialRecord, StoredOrientation
 from aerofid.orientation.transform import AffineTransform
 from aerofid.resample import KERNELS, resample_frame
+from aerofid.resample import frame as resample_module
 
 FILM_MM = 250.0
 """Film (240 mm) plus margins: the scan's side in mm, as benchmarks/bench_frames.py."""
@@ -84,8 +92,20 @@ def generate(path: str, size: str, degradation: str) -> dict:
     return {"truth": truth.to_dict(), "time_s": time.perf_counter() - t, "maxrss_mb": maxrss_mb()}
 
 
-def resample(path: str, truth_path: str, kernel: str, out: str) -> dict:
-    """Worker: resample one frame with its exact orientation, then locate every fiducial in the output."""
+def use_writer(rev: str) -> None:
+    """Resample with the TIFF writer of git revision ``rev`` (its ``resample/tiff.py`` loaded as a module)."""
+    src = subprocess.run(["git", "show", f"{rev}:src/aerofid/resample/tiff.py"], capture_output=True, text=True,
+                         check=True, cwd=Path(__file__).parent).stdout
+    module = types.ModuleType(f"tiff_{rev}")
+    exec(compile(src, f"{rev}:tiff.py", "exec"), module.__dict__)
+    resample_module.write_tiled = module.write_tiled  # type: ignore[attr-defined]
+
+
+def resample(path: str, truth_path: str, kernel: str, out: str, writer: str = "") -> dict:
+    """Worker: resample one frame with its exact orientation (with the TIFF writer of git revision ``writer``,
+    default today's), then locate every fiducial in the output."""
+    if writer:
+        use_writer(writer)
     truth = synth_frame.FrameTruth.from_dict(json.loads(Path(truth_path).read_text(encoding="utf-8"))["truth"])
     cam = synth_frame.wild_rc10_camera()
     fids = tuple(FiducialRecord(f.name, *truth.marks[f.name], f.x_mm, f.y_mm, 0.0, 0.0, "used")
@@ -118,7 +138,7 @@ def worker(cmd: list[str]) -> dict:
     return json.loads(lines[-1])
 
 
-def row(size: int, degradation: str, kernel: str, runs: list[dict]) -> str:
+def row(size: int, degradation: str, kernel: str, writer: str, runs: list[dict]) -> str:
     found = [e for r in runs for e in r["errors"].values() if isinstance(e, list)]
     errs = [np.hypot(*e) for e in found]
     missing = sorted({n for r in runs for n, e in r["errors"].items() if not isinstance(e, list)})
@@ -126,7 +146,8 @@ def row(size: int, degradation: str, kernel: str, runs: list[dict]) -> str:
     scan_errs = [np.hypot(*e) for r in runs for e in r["in_scan"].values() if isinstance(e, list)]
     mean = np.mean(found, axis=0)
     w, h = runs[0]["size"]
-    return (f"| {size}² {degradation} | {w} x {h} | {kernel} | {statistics.median(r['time_s'] for r in runs):.1f} | "
+    return (f"| {size}² {degradation} | {w} x {h} | {kernel} | {writer} | "
+            f"{statistics.median(r['time_s'] for r in runs):.1f} | "
             f"{max(r['maxrss_mb'] for r in runs):.0f} | {runs[0]['bytes'] / 1e6:.0f} | "
             f"{max(errs):.3f} | {float(np.sqrt(np.mean(np.square(errs)))):.3f} | "
             f"({mean[0]:+.3f}, {mean[1]:+.3f}) | {', '.join(missing) or '-'} | {max(scan_errs):.3f} | "
@@ -141,24 +162,31 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--cache", default=str(Path.home() / ".cache" / "aerofid-bench" / "resample"))
     ap.add_argument("--out", default=None, help="write the table (markdown) here too")
+    ap.add_argument("--baseline-writer", default="", metavar="REV",
+                    help="also run with the TIFF writer of this git revision, alternating with today's")
     args = ap.parse_args()
     lines = [f"`python benchmarks/bench_resample.py --sizes {' '.join(map(str, args.sizes))} --kernels "
-             f"{' '.join(args.kernels)} --degradation {args.degradation} --repeats {args.repeats}` on "
+             f"{' '.join(args.kernels)} --degradation {args.degradation} --repeats {args.repeats}"
+             f"{' --baseline-writer ' + args.baseline_writer if args.baseline_writer else ''}` on "
              f"{platform.node()} ({os.cpu_count()} cores, Python {platform.python_version()})", "",
-             "| frame | output px | kernel | time s (median) | peak MB | output MB | max landing px | RMS px | "
-             "mean (x, y) px | not found | scan: max error px | scan: not found |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| frame | output px | kernel | writer | time s (median) | peak MB | output MB | max landing px | "
+             "RMS px | mean (x, y) px | not found | scan: max error px | scan: not found |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    writers = ["", args.baseline_writer] if args.baseline_writer else [""]
     loads = []
     with tempfile.TemporaryDirectory(dir=args.cache if Path(args.cache).is_dir() else None) as tmp:
         for size in args.sizes:
             path, _ = frame(size, args.degradation, Path(args.cache))
             loads.append(f"{size}²: load {os.getloadavg()[0]:.1f} before")
             for kernel in args.kernels:
-                runs = [worker([sys.executable, __file__, "--worker", "resample", str(path),
-                                str(path.with_suffix(".json")), kernel, str(Path(tmp) / "out.tif")])
-                        for _ in range(args.repeats)]
-                lines.append(row(size, args.degradation, kernel, runs))
-                print(lines[-1], flush=True)
+                runs: dict[str, list[dict]] = {w: [] for w in writers}
+                for _ in range(args.repeats):
+                    for w in writers:
+                        runs[w].append(worker([sys.executable, __file__, "--worker", "resample", str(path),
+                                               str(path.with_suffix(".json")), kernel, str(Path(tmp) / "out.tif"), w]))
+                for w in writers:
+                    lines.append(row(size, args.degradation, kernel, w or "today's", runs[w]))
+                    print(lines[-1], flush=True)
             loads[-1] += f", {os.getloadavg()[0]:.1f} after"
     lines += ["", "Load average (1 min): " + "; ".join(loads) + "."]
     text = "\n".join(lines) + "\n"

@@ -17,18 +17,17 @@ Layout, as GDAL's COG driver writes it (GDAL documentation, COG driver, "File fo
 
 GDAL reads such a file as ``LAYOUT=COG`` (``gdalinfo``); tests/test_resample.py checks the validator's rules.
 
-Memory: the full-resolution bands come from an iterator (one row of tiles at a time); each band is tiled,
-compressed and appended to a temporary file beside the output as it comes, and reduced into the next level,
-whose rows wait (at most one band of each level) until they make a band of their own. At the end the
-directory is written (every offset now known) and the levels' compressed data copied after it in the COG
-order, a chunk at a time. The IFDs are serialised by :mod:`aerofid.resample.ifd`.
+Memory: the full-resolution bands come from an iterator (one row of tiles at a time); the overview pyramid
+(:mod:`aerofid.resample.pyramid`) compresses each level's tiles as they are made into a temporary file per level
+beside the output, at most one band of each level waiting in memory. At the end the directory is written
+(every offset now known; IFDs serialised by :mod:`aerofid.resample.ifd`) and the levels' stored tiles copied
+after it in the COG order, a chunk at a time.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
-import struct
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import ExitStack
@@ -37,19 +36,15 @@ from itertools import accumulate
 from pathlib import Path
 from typing import IO
 
-import imagecodecs
 import numpy as np
 
 import aerofid.resample.ifd as ifd
 from aerofid.resample.ifd import ASCII, LONG, LONG8, SHORT, Tag, header, header_size, ifd_bytes, ifd_size, rational
+from aerofid.resample.pyramid import LEADER, TILE, TRAILER, overview_sizes, predictor, pyramid, reduce2, stored_size
 
-TILE = 512
-"""Tile side (px) and the rows of one band: COG's usual 512."""
 DEFLATE = 8
 """TIFF compression 8 (Adobe Deflate): read by GDAL, libtiff, tifffile, QGIS; ZSTD is smaller but not read
 everywhere."""
-DEFLATE_LEVEL = 6
-"""zlib's default level, also tifffile's and GDAL's: level 9 is much slower for a few % less."""
 BIGTIFF_LIMIT = 2 ** 32 - 1
 """The last byte a classic TIFF's 4-byte offsets reach: a larger file is written as BigTIFF."""
 COPY_CHUNK = 1 << 24
@@ -59,102 +54,7 @@ GHOST = ("LAYOUT=IFDS_BEFORE_DATA\nBLOCK_ORDER=ROW_MAJOR\nBLOCK_LEADER=SIZE_AS_U
 """GDAL's COG structural metadata (GDAL COG driver documentation, "Header ghost area"): what this writer does
 (no mask, so no ``MASK_INTERLEAVED_WITH_IMAGERY``). The last space is GDAL's: room for an editor to turn ``NO``
 into ``YES`` in place."""
-LEADER = TRAILER = 4
-"""Bytes before (the tile's byte count) and after (its last 4 bytes again) each tile's data (:data:`GHOST`)."""
 SOFTWARE = "aerofid"
-
-
-def overview_sizes(width: int, height: int) -> list[tuple[int, int]]:
-    """(width, height) of each overview level: halved (rounded up) until the level fits one tile.
-
-    Examples
-    --------
-    >>> overview_sizes(2000, 1200)
-    [(1000, 600), (500, 300)]
-    """
-    sizes = []
-    while max(width, height) > TILE:
-        width, height = -(-width // 2), -(-height // 2)
-        sizes.append((width, height))
-    return sizes
-
-
-def reduce2(band: np.ndarray) -> np.ndarray:
-    """2 x 2 block means of a band (an odd last row or column averages the pixels it has), rounded back to
-    the band's dtype.
-
-    Examples
-    --------
-    >>> reduce2(np.array([[0, 2, 7], [4, 6, 9]], np.uint8)).tolist()
-    [[3, 8]]
-    """
-    h, w = band.shape[:2]
-    pad = [(0, h % 2), (0, w % 2)] + [(0, 0)] * (band.ndim - 2)
-    a = np.pad(band, pad, mode="edge").astype(np.float32)
-    m = 0.25 * (a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2])
-    return np.rint(m).astype(band.dtype) if band.dtype.kind in "ui" else m.astype(band.dtype)
-
-
-def predictor(dtype: np.dtype) -> int:
-    """The TIFF predictor for samples of ``dtype``: 3 (floating point, Adobe TIFF Technical Note 3) for floats,
-    else 2 (horizontal differencing, TIFF 6.0 section 14)."""
-    return 3 if np.dtype(dtype).kind == "f" else 2
-
-
-def encode_tile(tile: np.ndarray) -> bytes:
-    """One tile's stored bytes: the ``(rows, columns[, samples])`` samples padded with zeros to TILE x TILE,
-    little-endian, the :func:`predictor` along each row, Deflate (zlib stream, :data:`DEFLATE_LEVEL`)."""
-    h, w = tile.shape[:2]
-    full = np.zeros((TILE, TILE, tile.shape[2] if tile.ndim == 3 else 1), tile.dtype.newbyteorder("<"))
-    full[:h, :w] = tile.reshape(h, w, -1)
-    if predictor(tile.dtype) == 3:
-        full = imagecodecs.floatpred_encode(full, axis=-2)
-    else:
-        full = imagecodecs.delta_encode(full, axis=-2)
-    return bytes(imagecodecs.deflate_encode(full.tobytes(), level=DEFLATE_LEVEL))
-
-
-class _Level:
-    """One level being written: rows in; every :data:`TILE` rows tiled, encoded and appended to ``file``
-    (row-major, each tile's byte count kept); every pair of rows reduced (:func:`reduce2`) into ``below``, the
-    next smaller level, so that each level is the :func:`reduce2` of the whole level above it."""
-
-    def __init__(self, file: IO[bytes], width: int, below: _Level | None):
-        self.file, self.width, self.below = file, width, below
-        self.counts: list[int] = []
-        self._rows: list[np.ndarray] = []
-        self._odd: np.ndarray | None = None
-
-    def push(self, rows: np.ndarray) -> None:
-        self._rows.append(rows)
-        while sum(r.shape[0] for r in self._rows) >= TILE:
-            band = np.concatenate(self._rows) if len(self._rows) > 1 else self._rows[0]
-            self._write(band[:TILE])
-            self._rows = [band[TILE:]] if band.shape[0] > TILE else []
-        if self.below is not None:
-            if self._odd is not None:
-                rows = np.concatenate([self._odd, rows])
-            even = rows.shape[0] - rows.shape[0] % 2
-            self._odd = rows[even:] if even < rows.shape[0] else None
-            if even:
-                self.below.push(reduce2(rows[:even]))
-
-    def close(self) -> None:
-        """Write the last, shorter band; the last odd row goes alone into the level below."""
-        if self._rows:
-            self._write(np.concatenate(self._rows))
-            self._rows = []
-        if self.below is not None:
-            if self._odd is not None:
-                self.below.push(reduce2(self._odd))
-                self._odd = None
-            self.below.close()
-
-    def _write(self, band: np.ndarray) -> None:
-        for c0 in range(0, self.width, TILE):
-            data = encode_tile(band[:, c0:c0 + TILE])
-            self.file.write(struct.pack("<I", len(data)) + data + data[-TRAILER:])
-            self.counts.append(len(data))
 
 
 @dataclass(frozen=True)
@@ -220,13 +120,8 @@ def layout(image: Image, sizes: Sequence[tuple[int, int]], counts: Sequence[Sequ
     first += first % 2
     blank = [level_tags(image, i, s, [0] * len(c), c, bigtiff) for i, (s, c) in enumerate(zip(sizes, counts))]
     ifds = tuple(accumulate([first] + [ifd_size(t, bigtiff) for t in blank]))
-    data = tuple(accumulate([ifds[-1]] + [_stored(c) for c in counts[::-1]]))
+    data = tuple(accumulate([ifds[-1]] + [stored_size(c) for c in counts[::-1]]))
     return Layout(bigtiff, first, ifds, data[-2::-1], data[-1])
-
-
-def _stored(counts: Sequence[int]) -> int:
-    """Bytes of a level's tiles with their leaders and trailers."""
-    return sum(counts) + (LEADER + TRAILER) * len(counts)
 
 
 def directory(image: Image, sizes: Sequence[tuple[int, int]], counts: Sequence[Sequence[int]], plan: Layout
@@ -255,9 +150,7 @@ def write_tiled(path: str | os.PathLike[str], bands: Iterable[np.ndarray], width
     sizes = [(width, height)] + overview_sizes(width, height)
     with ExitStack() as stack:
         files = [stack.enter_context(tempfile.TemporaryFile(dir=Path(path).parent)) for _ in sizes]
-        levels: list[_Level] = []
-        for f, (w, _) in zip(files[::-1], sizes[::-1]):
-            levels.insert(0, _Level(f, w, levels[0] if levels else None))
+        levels = pyramid(files, sizes)
         rows = 0
         for band in bands:
             band = _checked(band, image, rows)
@@ -299,10 +192,9 @@ def _assemble(path: str | os.PathLike[str], image: Image, sizes: list[tuple[int,
         for f, c in zip(files[::-1], counts[::-1]):
             f.seek(0)
             shutil.copyfileobj(f, out, COPY_CHUNK)
-            assert f.tell() == _stored(c)
+            assert f.tell() == stored_size(c)
         assert out.tell() == plan.end
 
 
-__all__ = ["BIGTIFF_LIMIT", "DEFLATE", "GHOST", "LEADER", "TILE", "TRAILER", "Image", "Layout", "directory",
-           "encode_tile", "file_layout", "layout", "level_tags", "overview_sizes", "predictor", "reduce2",
-           "write_tiled"]
+__all__ = ["BIGTIFF_LIMIT", "DEFLATE", "GHOST", "TILE", "Image", "Layout", "directory", "file_layout", "layout",
+           "level_tags", "overview_sizes", "reduce2", "write_tiled"]

@@ -268,13 +268,15 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
             hit = np.isfinite(d)
             count = hit.sum(axis=1)
             mean_d = np.where(hit, d, 0.0).sum(axis=1) / np.maximum(count, 1)
-            for h in np.lexsort((mean_d, -count))[:SHORTLIST]:
-                key = tuple(np.where(hit[h], idx[h], -1).tolist()) + (a,)
-                got = (-int(count[h]), float(mean_d[h]), a, pred[h])
-                if key not in shortlist or got[:3] < shortlist[key][:3]:
-                    shortlist[key] = got
-                if count[h] == len(fiducials_mm):
-                    complete.append((float(mean_d[h]), a, pred[h]))
+            top = np.lexsort((mean_d, -count))[:SHORTLIST]
+            matches = np.where(hit[top], idx[top], -1).tolist()
+            for h, match, c, md in zip(top.tolist(), matches, (-count[top]).tolist(), mean_d[top].tolist(),
+                                       strict=True):
+                key = (*match, a)
+                if key not in shortlist or (c, md, a) < shortlist[key][:3]:
+                    shortlist[key] = (c, md, a, pred[h])
+                if c == -len(fiducials_mm):
+                    complete.append((md, a, pred[h]))
         for _, a, pred_h in sorted(complete, key=lambda c: c[:2])[:DECISIVE]:
             scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
             if scored[0][0] == len(fiducials_mm):

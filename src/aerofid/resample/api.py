@@ -85,9 +85,10 @@ def resample_frame(image: str | os.PathLike[str], orientation: StoredOrientation
                    y_axis: str | None = None, sidecar: bool = True,
                    extra_outputs: Mapping[str | os.PathLike[str], Callable[[Resampled], str]] | None = None,
                    ) -> Resampled:
-    """Resample ``image`` into its camera's fiducial frame and write ``output`` (tiled TIFF with overviews),
-    its sidecar ``OUT.px2mm.json`` (:func:`aerofid.resample.frame.sidecar_path`) and ``extra_outputs`` (path ->
-    text made from the result), all checked before any work and written only once everything has succeeded.
+    """Resample ``image`` into its camera's fiducial frame and write ``output`` (a Cloud-Optimized GeoTIFF,
+    :mod:`aerofid.resample.tiff`), its sidecar ``OUT.px2mm.json`` (:func:`aerofid.resample.frame.sidecar_path`)
+    and ``extra_outputs`` (path -> text made from the result), all checked before any work and written only once
+    everything has succeeded.
 
     Parameters
     ----------

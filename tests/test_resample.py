@@ -384,9 +384,9 @@ def test_gdals_own_validator_when_gdal_is_installed(tmp_path):
     (CI has none)."""
     gdal = pytest.importorskip("osgeo.gdal")
     validator = pytest.importorskip("osgeo_utils.samples.validate_cloud_optimized_geotiff")
-    for kind in ("uint8", "rgb16", "float32", "tiny"):
+    for kind, bigtiff in [("uint8", False), ("rgb16", False), ("rgb16", True), ("float32", False), ("tiny", False)]:
         image = sample_image(kind)
-        write_image(tmp_path / f"{kind}.tif", image)
+        write_image(tmp_path / f"{kind}.tif", image, bigtiff=bigtiff)
         *_, errors, details = validator.validate(str(tmp_path / f"{kind}.tif"), full_check=True)  # [warnings, ]...
         assert errors == [], (kind, errors, details)
         ds = gdal.Open(str(tmp_path / f"{kind}.tif"))

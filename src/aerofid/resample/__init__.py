@@ -1,5 +1,5 @@
 """Resampling a scanned frame into its camera's fiducial (film mm) frame, like MicMac ReSampFid, block by block
-into a tiled TIFF with overviews (docs/resample.md)."""
+into a Cloud-Optimized GeoTIFF (GDAL's COG layout, with overviews; docs/resample.md)."""
 
 from aerofid.resample.api import make_grid, resample_frame
 from aerofid.resample.frame import Resampled, output_name, resample_scan, sidecar_path

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -199,3 +200,17 @@ def test_a_frame_without_calibration_is_measured_on_the_formats_nominal_layout(t
     (tmp_path / "mm").mkdir()
     r = _cli("frame.tif", "--camera", "23cm", "--micmac", "mm", cwd=tmp_path)
     assert r.returncode == 2 and "names a format" in r.stderr
+
+
+def test_the_frames_method_of_a_tie_does_not_depend_on_the_process():
+    """Two marks found, one by each method: the frame's method is the first fiducial's, the same in every process
+    (a set's order follows the string hashing, which Python seeds per process: a batch's frames then differed
+    between its worker processes)."""
+    code = ("from aerofid.frame.orient import _frame_method\n"
+            "from types import SimpleNamespace as N\n"
+            "out = [(N(detection=N(method=m)), '') for m in ('hough', 'symmetry', 'circles', 'symmetry', 'hough')]\n"
+            "print(_frame_method(out, [0, 1]), _frame_method(out, [1, 0]), _frame_method(out, [2, 3, 4, 1]))")
+    answers = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                              env={**os.environ, "PYTHONHASHSEED": str(seed)}).stdout.strip()
+               for seed in range(6)}
+    assert answers == {"hough symmetry symmetry"}

@@ -317,9 +317,10 @@ def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> fl
 
 
 def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str | None:
-    """The seed method that found most of the marks ``done`` (None if ``auto``'s own answers: none)."""
+    """The seed method that found most of the marks ``done``, of a tie the one of the first fiducial (not a set's
+    order, which follows the process's string hashing); None if ``auto``'s own answers: none."""
     methods = [out[j][0].detection.method for j in done]  # type: ignore[union-attr]
-    name = max(set(methods), key=methods.count)
+    name = max(methods, key=methods.count)
     return name if name in METHODS else None
 
 

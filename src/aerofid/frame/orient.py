@@ -30,6 +30,7 @@ from aerofid.conventions import Box, Polarity, opposite
 from aerofid.detect.screen import Candidate, screen
 from aerofid.errors import AerofidInputError
 from aerofid.find import (
+    RECENTRED_WINDOW,
     SETTLED,
     ImageSource,
     Located,
@@ -327,22 +328,33 @@ def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str
 def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: tuple[float, float],
                tolerance: float) -> Located | None:
     """A mark measured by the method ``name`` alone (the marks of one frame, or of one roll, are alike), on the
-    window the marks' extent (``start.radius``) sizes at ``start`` (the prediction, or a coarse answer),
-    re-centred and with its window term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within
-    ``tolerance`` px of the prediction ``at``, else None (then ``auto`` measures it). The geometry of the marks
-    found (or the layout) is what replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its
-    time on a ring and cross. A first answer on the pixel its window is centred on, whose extent sizes the window
-    within :data:`aerofid.find.SETTLED`, is already the re-centred answer (the round is not repeated)."""
+    window the marks' extent (``start.radius``) sizes at ``start`` (the prediction, or a coarse answer):
+    :data:`ALONE_WINDOW`, else a box's re-centred window (:data:`aerofid.find.RECENTRED_WINDOW`: the real RC20
+    frame's marks, on a busy border, are refused on the tight one); re-centred and with its window term
+    (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within ``tolerance`` px of the prediction
+    ``at``, else None (then ``auto`` measures it). The geometry of the marks found (or the layout) is what replaces
+    ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross."""
     detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
     alone = replace(measurer, detector=detector)
-    half = recentred_half(start.radius, ALONE_WINDOW)
+    for window in (ALONE_WINDOW, RECENTRED_WINDOW):
+        got = _alone(alone, start, at, tolerance, window)
+        if got is not None:
+            return got
+    return None
+
+
+def _alone(alone: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,
+           window: tuple[float, float]) -> Located | None:
+    """:func:`_by_method` on one window law. A first answer on the pixel its window is centred on, whose extent
+    sizes the window within :data:`aerofid.find.SETTLED`, is already the re-centred answer (the round is not
+    repeated)."""
+    half = recentred_half(start.radius, window)
     got = alone.at(start.x, start.y, half, start)
     if not got.found or math.hypot(got.x - at[0], got.y - at[1]) > tolerance:
         return None
     settled = (round(got.x), round(got.y)) == (round(start.x), round(start.y)) and (
-        abs(recentred_half(got.extent, ALONE_WINDOW) - half) <= SETTLED * half)
-    # a window centred on the answer's pixel and sized by its extent within SETTLED is the re-centred one
-    got = alone.window_term(got, half) if settled else alone.recentre(got, start, ALONE_WINDOW)
+        abs(recentred_half(got.extent, window) - half) <= SETTLED * half)
+    got = alone.window_term(got, half) if settled else alone.recentre(got, start, window)
     return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
 
 

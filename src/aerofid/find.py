@@ -38,6 +38,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.io.array import open_image
 from aerofid.io.colour import COLOUR_POLICIES, to_grey
 from aerofid.io.raster import clip_box
+from aerofid.io.reduce import read_reduced_levels
 from aerofid.io.source import ImageSource
 from aerofid.methods import Detector, check_choice, check_polarity, make_detector
 
@@ -282,16 +283,6 @@ def screen_region(source: ImageSource, region: Box, colour: str, polarity: Polar
     return tuple(inside[:max_candidates]), f
 
 
-def read_reduced_levels(source: ImageSource, box: Box, f: int) -> tuple[np.ndarray, float]:
-    """``box`` of ``source`` reduced by ``f`` as float32 grey levels on [0, 1] (integer samples divided by their
-    type's maximum), and one quantisation step of the samples on that scale (1e-4 for float samples)."""
-    reduced = source.read_reduced(box, f)
-    if source.dtype.kind not in "ui":
-        return reduced.astype(np.float32), 1e-4
-    step = 1.0 / float(np.iinfo(source.dtype).max)
-    return (reduced * np.float32(step)).astype(np.float32), step
-
-
 def screening_greys(reduced: np.ndarray, colour: str, polarity: Polarity) -> list[np.ndarray]:
     """The grey images screened: with ``colour="auto"`` an RGB region is screened in each channel (the policy
     that picks one mix per measuring window cannot judge a region of many things: a red mark beside cyan
@@ -418,4 +409,4 @@ def in_box(x: float, y: float, box: Box) -> bool:
 
 
 __all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "configure", "find_marks", "in_box",
-           "read_reduced_levels", "recentred_half", "search"]
+           "recentred_half", "search"]

@@ -194,11 +194,6 @@ def scale_grid(size_range: tuple[float, float]) -> list[float]:
     return [lo * SCALE_STEP ** i for i in range(n + 1)]
 
 
-def _pair_distances(p: np.ndarray) -> np.ndarray:
-    i, k = np.triu_indices(len(p), 1)
-    return np.hypot(*(p[k] - p[i]).T)
-
-
 @dataclass(frozen=True)
 class _Pairs:
     """Every pair of features (i < k), pairs of strong features first, with their distances (px), and the order

@@ -37,7 +37,6 @@ from aerofid.find import (
     Measurer,
     configure,
     in_box,
-    read_reduced_levels,
     recentred_half,
     reduction_for,
     screen_region,
@@ -51,7 +50,7 @@ from aerofid.frame.result import DOUBTFUL, FAILED, OK, FrameOrientation
 from aerofid.frame.verdict import verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
-from aerofid.io.reduce import ReducedView
+from aerofid.io.reduce import ReducedView, read_reduced_levels
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import ARRANGEMENTS

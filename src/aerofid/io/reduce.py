@@ -33,6 +33,7 @@ __all__ = [
     "block_weights",
     "check_factor",
     "check_reduced_size",
+    "read_reduced_levels",
     "reduce_in_strips",
     "reduced_shape",
 ]
@@ -247,10 +248,7 @@ class ReducedView:
         f = self.factor
         x0, y0, x1, y1 = (int(v) for v in box)
         full = (x0 * f, y0 * f, min(x1 * f, self.source.width), min(y1 * f, self.source.height))
-        out = self.source.read_reduced(full, f * factor)
-        kind = self.source.dtype.kind
-        scale = 1.0 / float(np.iinfo(self.source.dtype).max) if kind in "ui" else 1.0
-        return (out * np.float32(scale)).astype(np.float32, copy=False)
+        return read_reduced_levels(self.source, full, f * factor)[0]
 
     def to_full(self, x: float, y: float) -> tuple[float, float]:
         """Full-image pixel coordinates of the reduced point (x, y)."""
@@ -261,3 +259,13 @@ class ReducedView:
         """Reduced pixel coordinates of the full-image point (x, y)."""
         f = self.factor
         return (x - (f - 1) / 2) / f, (y - (f - 1) / 2) / f
+
+
+def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int) -> tuple[np.ndarray, float]:
+    """``box`` of ``source`` reduced by ``f`` as float32 grey levels on [0, 1] (integer samples divided by their
+    type's maximum), and one quantisation step of the samples on that scale (1e-4 for float samples)."""
+    reduced = source.read_reduced(box, f)
+    if source.dtype.kind not in "ui":
+        return reduced.astype(np.float32), 1e-4
+    step = 1.0 / float(np.iinfo(source.dtype).max)
+    return (reduced * np.float32(step)).astype(np.float32), step

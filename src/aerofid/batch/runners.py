@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing
+import os
 import subprocess
 import sys
 import time
@@ -42,6 +43,9 @@ CLUSTER_STOP_S = 10
 """How long a local cluster's process may take to end once asked before it is killed."""
 CLUSTER_EXTRA = "pip install 'aerofid[cluster]'"
 """The command that installs what ``--scheduler`` needs."""
+WORKER_ENVIRONMENT = {"DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False"}
+"""What :func:`local_cluster`'s workers run with: Dask's statistical profiler (a thread that samples the worker's
+stack every 10 ms, for the dashboard) off: on frame jobs it costs a few percent of a worker's CPU."""
 
 
 def run_sequential(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
@@ -125,9 +129,9 @@ def dask_runner(address: str) -> Iterator[Runner]:
 @contextlib.contextmanager
 def local_cluster(folder: str | Path, workers: int = 2) -> Iterator[str]:
     """A Dask cluster on this machine for tests, benchmarks and trying ``--scheduler``: a ``dask scheduler`` and
-    ``workers`` single-threaded ``dask worker`` processes on 127.0.0.1 (their log and the scheduler file in
-    ``folder``); its address once the scheduler has written it (workers join when they are up: submitted
-    frames wait for them); every process ended on leaving."""
+    ``workers`` single-threaded ``dask worker`` processes on 127.0.0.1 (with :data:`WORKER_ENVIRONMENT`; their
+    log and the scheduler file in ``folder``); its address once the scheduler has written it (workers join when
+    they are up: submitted frames wait for them); every process ended on leaving."""
     dask = [sys.executable, "-m", "dask"]
     sched = Path(folder) / "scheduler.json"
     with open(Path(folder) / "dask.log", "w") as log:
@@ -139,7 +143,8 @@ def local_cluster(folder: str | Path, workers: int = 2) -> Iterator[str]:
                 time.sleep(0.1)
             address = json.loads(sched.read_text())["address"]
             procs += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                                        "--host", "127.0.0.1"], stdout=log, stderr=log) for _ in range(workers)]
+                                        "--host", "127.0.0.1"], stdout=log, stderr=log,
+                                       env={**os.environ, **WORKER_ENVIRONMENT}) for _ in range(workers)]
             yield address
         finally:  # the workers first (they tell the scheduler they leave), then the scheduler
             for group in (procs[1:], procs[:1]):
@@ -165,4 +170,4 @@ def open_runner(workers: int = 1, scheduler: str | None = None) -> Iterator[Runn
 
 
 __all__ = ["CLUSTER_EXTRA", "Runner", "Task", "dask_runner", "local_cluster", "open_runner", "process_runner",
-           "run_sequential"]
+           "run_sequential", "WORKER_ENVIRONMENT"]

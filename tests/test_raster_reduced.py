@@ -500,3 +500,32 @@ def test_open_image_refuses_other_things(image, words):
     with pytest.raises(AerofidInputError) as excinfo:
         open_image(image)
     assert_one_line_error(excinfo, *words)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_strips_of_any_height_fold_into_the_block_mean(data):
+    """Strips cut anywhere (a block begun in one strip and ended in the next, several blocks, a short last block):
+    the block sums of :func:`reduce._fold_blocks` give the block mean, in integers for integer samples."""
+    dtype = data.draw(st.sampled_from([np.uint8, np.uint16, np.int16, np.float32]))
+    bands = data.draw(st.sampled_from([1, 3]))
+    h, w = data.draw(st.integers(1, 60)), data.draw(st.integers(1, 60))
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**16)))
+    info = np.iinfo(dtype) if np.dtype(dtype).kind in "ui" else None
+    image = (rng.integers(info.min, info.max, (h, w, bands), endpoint=True).astype(dtype) if info is not None
+             else rng.normal(0, 1000, (h, w, bands)).astype(dtype))
+    x0, y0 = data.draw(st.integers(0, w - 1)), data.draw(st.integers(0, h - 1))
+    x1, y1 = data.draw(st.integers(x0 + 1, w)), data.draw(st.integers(y0 + 1, h))
+    factor = data.draw(st.integers(2, 20))
+    row_step = data.draw(st.integers(1, 9))
+    strip_rows = data.draw(st.integers(1, 12))
+    strip_bytes = strip_rows * row_step * (x1 - x0) * bands * image.itemsize
+    original = reduce.STRIP_BYTES
+    reduce.STRIP_BYTES = strip_bytes
+    try:
+        out = reduce.reduce_in_strips(lambda r0, r1: image[r0:r1, x0:x1], (x0, y0, x1, y1), factor, bands,
+                                      itemsize=image.itemsize, row_step=row_step)
+    finally:
+        reduce.STRIP_BYTES = original
+    scale = float(np.abs(image).max()) + 1.0  # partial means of a block in several strips add up in float32
+    np.testing.assert_allclose(out, block_mean(image[y0:y1, x0:x1], factor), rtol=2e-7, atol=1e-6 * scale)

@@ -6,10 +6,11 @@ have). The window is read in horizontal strips of at most :data:`STRIP_BYTES` of
 tiled TIFF) and each strip is folded into the output in chunks of :data:`CHUNK_SAMPLES`, so peak memory is the
 output plus one strip plus one chunk, whatever the window.
 
-The reduction is linear: ``out = Wy @ window @ Wx.T`` with sparse weight matrices (:func:`block_weights`). The
-same matrices reduce a source that is itself stored reduced by ``scale`` (libjpeg's reduced JPEG decode): each
-source pixel then stands for ``scale`` x ``scale`` pixels of the image, and a block's mean weighs each source
-pixel by the area it shares with the block.
+A source at the image's own scale is summed block by block (rows grouped by a reshape, columns by
+``np.add.reduceat``, in integers for integer samples; :func:`_fold_blocks`). The reduction is linear: ``out = Wy @
+window @ Wx.T`` with sparse weight matrices (:func:`block_weights`), which reduce a source that is itself stored
+reduced by ``scale`` (libjpeg's reduced JPEG decode): each source pixel then stands for ``scale`` x ``scale``
+pixels of the image, and a block's mean weighs each source pixel by the area it shares with the block.
 """
 
 from __future__ import annotations
@@ -172,6 +173,52 @@ def _fold(out: np.ndarray, strip: np.ndarray, first: int, wy_rows: sparse.csr_ar
         out[k0:k1] += (wx @ rows.T).T
 
 
+def _sum_type(dtype: np.dtype, factor: int) -> type:
+    """The type block sums of ``factor`` x ``factor`` samples of ``dtype`` are exact in."""
+    if dtype.kind in "ui" and dtype.itemsize <= 2 and factor * factor * 2 ** (8 * dtype.itemsize) < 2**32:
+        return np.uint32 if dtype.kind == "u" else np.int32
+    return np.int64 if dtype.kind in "ui" else np.float64
+
+
+def _fold_blocks(out: np.ndarray, strip: np.ndarray, first: int, factor: int, height: int) -> None:
+    """Add the block means of ``strip`` (``(rows, cols, bands)`` rows of the window from ``first`` on, at the
+    image's scale) to ``out`` (``(blocks, cols, bands)``; a block cut by the strip's edge gets its share), for a
+    window ``height`` rows high: block sums by reshapes (exact: integers for integer samples), at most
+    :data:`CHUNK_SAMPLES` samples at a time."""
+    n, w, bands = strip.shape
+    acc = _sum_type(strip.dtype, factor)
+    head = min(n, -first % factor)                      # rows that end a block begun in the strip before
+    full = (n - head) // factor * factor                # whole blocks; then the rows of one block left
+    step = max(1, CHUNK_SAMPLES // (factor * w * bands)) * factor
+    groups = [(0, head), *((r, min(r + step, head + full)) for r in range(head, head + full, step)),
+              (head + full, n)]
+    for r0, r1 in groups:
+        if r1 <= r0:
+            continue
+        part = strip[r0:r1]
+        if r1 - r0 == factor or (r0 - head) % factor == 0 and r0 >= head and r1 <= head + full:
+            rows = part.reshape((r1 - r0) // factor, factor, w, bands).sum(axis=1, dtype=acc)
+        else:                                            # the rows of one block
+            rows = part.sum(axis=0, dtype=acc)[None]
+        _add_block_means(out, rows, (first + r0) // factor, factor, height)
+
+
+def _add_block_means(out: np.ndarray, rows: np.ndarray, block: int, factor: int, height: int) -> None:
+    """Add ``rows`` (sums over the rows of blocks ``block``, ``block + 1``, ...: ``(k, cols, bands)``), summed over
+    the columns of each block and divided by its size, to ``out``'s rows ``block ..``."""
+    k, w, bands = rows.shape
+    whole = w // factor * factor
+    sums = np.empty((k, -(-w // factor), bands), np.float64)
+    sums[:, : whole // factor] = rows[:, :whole].reshape(k, whole // factor, factor, bands).sum(axis=2)
+    if whole < w:
+        sums[:, -1] = rows[:, whole:].sum(axis=1)
+    widths = np.full(sums.shape[1], float(factor))
+    widths[-1] = w - (sums.shape[1] - 1) * factor
+    blocks = block + np.arange(k)
+    tall = np.minimum(blocks * factor + factor, height) - blocks * factor
+    out[block : block + k] += (sums / (tall[:, None, None] * widths[None, :, None])).astype(out.dtype)
+
+
 def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, bands: int, *, itemsize: int,
                      scale: int = 1, row_step: int = 1) -> np.ndarray:
     """Block means of window ``box`` reduced by ``factor``, read strip by strip.
@@ -213,6 +260,8 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
         strip = read_rows(r0, r1)
         if factor == 1:
             out.reshape(rows, cols, bands)[r0 - src0 : r1 - src0] = strip
+        elif scale == 1:
+            _fold_blocks(out.reshape(rows, cols, bands), strip, r0 - src0, factor, y1 - y0)
         else:
             _fold(out, strip, r0 - src0, wy, wy_columns, wx)
         del strip  # a memory-mapped strip is unmapped before the next is read

@@ -425,3 +425,50 @@ def test_interior_orientation_exposes_the_transform_and_its_matrices():
     np.testing.assert_allclose(res.to_pixel(res.to_mm(SEED_PX)), SEED_PX, atol=1e-9)
     d = res.to_dict()
     assert d["pixel_to_mm"] == res.pixel_to_mm[:2].tolist() and d["mm_to_pixel"] == res.mm_to_pixel[:2].tolist()
+
+
+def _best_assignment_by_definition(px, Cp, lim):
+    """The definition of ``_best_assignment`` written out: every pair of points against every ordered pair of
+    fiducials, the Hungarian assignment of each; of the least cost (to 1e-9), the first."""
+    import itertools
+
+    import scipy.optimize
+    solved = []
+    for i1, i2 in itertools.combinations(range(len(px)), 2):
+        dm = px[i2] - px[i1]
+        for j1, j2 in itertools.permutations(range(len(Cp)), 2):
+            dc = Cp[j2] - Cp[j1]
+            if np.hypot(*dc) == 0 or np.hypot(*dm) == 0:
+                continue
+            ang = math.atan2(dm[1], dm[0]) - math.atan2(dc[1], dc[0])
+            ang = (ang + math.pi) % (2 * math.pi) - math.pi
+            if abs(ang) > lim:
+                continue
+            k = np.hypot(*dm) / np.hypot(*dc)
+            R = k * np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
+            proj = Cp @ R.T + (px[i1] - R @ Cp[j1])
+            D = np.sum((px[:, None, :] - proj[None, :, :]) ** 2, axis=2)
+            rows, cols = scipy.optimize.linear_sum_assignment(D)
+            solved.append((float(D[rows, cols].sum()), tuple(int(c) for c in cols[np.argsort(rows)])))
+    least = min(c for c, _ in solved)
+    return next(a for c, a in solved if c <= least + 1e-9 * max(least, 1.0))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.integers(3, 8), st.integers(0, 4), st.floats(0.0, 3.0), st.booleans())
+def test_best_assignment_is_the_definitions(seed, n, missing, noise_px, symmetric):
+    """The bounded search (projections at once, Hungarian solves in the order of a lower bound) assigns measured
+    points as the definition does: a layout turned, scaled and shifted, points missing, shuffled, noisy;
+    a symmetric layout (corners and midsides), whose hypotheses tie."""
+    from aerofid.orientation.correspondence import _best_assignment
+
+    rng = np.random.default_rng(seed)
+    square = np.array([[-1, 1], [1, 1], [1, -1], [-1, -1], [0, 1], [1, 0], [0, -1], [-1, 0]], float)
+    Cp = 106.0 * square[:n] if symmetric else rng.uniform(-110, 110, (n, 2))   # corners and midsides: ties
+    m = max(2, n - missing)
+    t = rng.uniform(-0.6, 0.6)
+    R = 40 * np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
+    which = rng.permutation(n)[:m]
+    px = Cp[which] @ R.T + rng.uniform(0, 9000, 2) + rng.normal(0, noise_px, (m, 2))
+    assert _best_assignment(px, Cp, math.radians(45) + 1e-9) == _best_assignment_by_definition(
+        px, Cp, math.radians(45) + 1e-9)

@@ -226,13 +226,15 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
     centre dot) or within half the smaller radius (two scales of one blob; not a mark beside the centre of a
     pair of marks, which is itself symmetric): it is merged into the stronger one, which keeps the
     largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale."""
+    ordered = sorted(found, key=lambda c: -c.strength)
     kept: list[Candidate] = []
-    xy = np.empty((0, 2))
-    radius = np.empty(0)
-    for c in sorted(found, key=lambda c: -c.strength):
-        d = np.hypot(xy[:, 0] - c.x, xy[:, 1] - c.y)
-        same = np.flatnonzero(d <= np.maximum(MERGE_SHARE * np.maximum(radius, c.radius),
-                                              0.5 * np.minimum(radius, c.radius)))
+    xy = np.empty((min(len(ordered), max_candidates), 2))   # the kept ones' centres and radii, filled in order
+    radius = np.empty(len(xy))
+    for c in ordered:
+        n = len(kept)
+        d = np.hypot(xy[:n, 0] - c.x, xy[:n, 1] - c.y)
+        same = np.flatnonzero(d <= np.maximum(MERGE_SHARE * np.maximum(radius[:n], c.radius),
+                                              0.5 * np.minimum(radius[:n], c.radius)))
         if same.size:
             i = int(same[0])
             k = kept[i]
@@ -241,10 +243,10 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
                               inner=min(k.inner, c.inner))
             xy[i] = (finer.x, finer.y)
             radius[i] = kept[i].radius
-        elif len(kept) < max_candidates:
+        elif n < max_candidates:
             kept.append(c)
-            xy = np.vstack([xy, [c.x, c.y]])
-            radius = np.append(radius, c.radius)
+            xy[n] = (c.x, c.y)
+            radius[n] = c.radius
     return tuple(kept)
 
 

@@ -780,7 +780,7 @@ class MirrorDifferences:
     iterations of stages 2 and 4 compute it once per axis instead of at every step (:func:`mirror_differences`)."""
 
     values: np.ndarray
-    """(rows of I2, n) float64."""
+    """(rows of I2, n) float32."""
     x0: int
 
 
@@ -788,9 +788,10 @@ def mirror_differences(i2: np.ndarray, r: int, lo: int, hi: int) -> MirrorDiffer
     """:class:`MirrorDifferences` of ``i2`` for the kernel radius ``r`` and the columns ``lo..hi`` (inclusive;
     columns ``lo - r .. hi + r`` must lie inside ``i2``). The sums are taken in place (no temporary array per
     ``u``) along the rows of ``i2`` transposed (the array a transposed view, the vertical axis, views; else a
-    contiguous copy), so that every slice is contiguous: the same sums in the same order, 6-10x faster."""
-    src = i2.T if i2.T.flags.c_contiguous else np.ascontiguousarray(i2.T)
-    out = np.zeros((hi + 1 - lo, src.shape[1]), np.float64)
+    contiguous copy), so that every slice is contiguous, in float32 like ``I2`` (:func:`simplified_log`): sums of
+    at most a few hundred terms, to about 1e-6 of their size, 2-3x faster than in float64."""
+    src = np.asarray(i2.T if i2.T.flags.c_contiguous else np.ascontiguousarray(i2.T), np.float32)
+    out = np.zeros((hi + 1 - lo, src.shape[1]), np.float32)
     step = np.empty_like(out)
     for u in range(1, r + 1):
         np.subtract(src[lo + u:hi + 1 + u], src[lo - u:hi + 1 - u], out=step)

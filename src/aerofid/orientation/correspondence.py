@@ -155,41 +155,56 @@ def _arrangement_fit(px: np.ndarray, mm: np.ndarray, rot: int, mir: bool, y_axis
     return ArrangementFit(rot, mir, assign, ss, math.sqrt(ss / len(px)), fit.redundancy)
 
 
+TIE = 1e-9
+"""Relative difference below which two assignments' costs are equal (rounding)."""
+
+
 def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, ...] | None:
     """The assignment of the measured points to the fiducials ``Cp`` with the least squared distance over
-    the similarities defined by a pair of each (rotation within ``lim`` radians)."""
+    the similarities defined by a pair of each (rotation within ``lim`` radians); of equal costs (within
+    :data:`TIE`), the first hypothesis's (pairs of points in order, then ordered pairs of fiducials).
+
+    Every hypothesis's projection is computed at once (:func:`_pair_similarities`); the optimal assignment of one
+    (Hungarian method) costs at least the sum of each point's least squared distance, so hypotheses are solved in
+    the order of that bound and the rest skipped once the bound exceeds the least cost found."""
     m, n = len(px), len(Cp)
-    best_cost, best_assign = np.inf, None
-    for i1, i2 in itertools.combinations(range(m), 2):
-        dm = px[i2] - px[i1]
-        for j1, j2 in itertools.permutations(range(n), 2):
-            proj = _pair_similarity(px[i1], dm, Cp, j1, j2, lim)
-            if proj is None:
-                continue
-            D = np.sum((px[:, None, :] - proj[None, :, :]) ** 2, axis=2)
-            rows, cols = scipy.optimize.linear_sum_assignment(D)
-            cost = float(D[rows, cols].sum())
-            if cost < best_cost:
-                best_cost, best_assign = cost, tuple(int(c) for c in cols[np.argsort(rows)])
-    return best_assign
+    points = np.array(list(itertools.combinations(range(m), 2)), int).reshape(-1, 2)
+    fids = np.array(list(itertools.permutations(range(n), 2)), int).reshape(-1, 2)
+    i1, i2 = np.repeat(points, len(fids), axis=0).T
+    j1, j2 = np.tile(fids, (len(points), 1)).T
+    proj, ok = _pair_similarities(px[i1], px[i2] - px[i1], Cp, j1, j2, lim)
+    order = np.flatnonzero(ok)
+    if order.size == 0:
+        return None
+    D = np.sum((px[None, :, None, :] - proj[order][:, None, :, :]) ** 2, axis=3)   # h x m x n
+    bound = D.min(axis=2).sum(axis=1)
+    solved: list[tuple[float, int, tuple[int, ...]]] = []
+    least = np.inf
+    for h in np.argsort(bound, kind="stable"):
+        if bound[h] > least + TIE * max(least, 1.0):
+            break
+        rows, cols = scipy.optimize.linear_sum_assignment(D[h])
+        cost = float(D[h][rows, cols].sum())
+        least = min(least, cost)
+        solved.append((cost, int(order[h]), tuple(int(c) for c in cols[np.argsort(rows)])))
+    return min((k, a) for c, k, a in solved if c <= least + TIE * max(least, 1.0))[1]
 
 
-def _pair_similarity(p1: np.ndarray, dm: np.ndarray, Cp: np.ndarray, j1: int, j2: int,
-                     lim: float) -> np.ndarray | None:
-    """The fiducials ``Cp`` projected into the scan by the similarity that maps fiducials j1, j2 onto the
-    measured pair (first point ``p1``, difference ``dm``); None when it rotates by more than ``lim``."""
+def _pair_similarities(p1: np.ndarray, dm: np.ndarray, Cp: np.ndarray, j1: np.ndarray, j2: np.ndarray,
+                       lim: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each hypothesis k, the fiducials ``Cp`` projected into the scan by the similarity that maps fiducials
+    ``j1[k]``, ``j2[k]`` onto the measured pair (first point ``p1[k]``, difference ``dm[k]``): (h x n x 2), and
+    whether it exists and rotates by at most ``lim`` radians."""
     dc = Cp[j2] - Cp[j1]
-    nc = np.hypot(*dc)
-    if nc == 0 or np.hypot(*dm) == 0:
-        return None
-    ang = math.atan2(dm[1], dm[0]) - math.atan2(dc[1], dc[0])
+    nc, nm = np.hypot(dc[:, 0], dc[:, 1]), np.hypot(dm[:, 0], dm[:, 1])
+    ang = np.arctan2(dm[:, 1], dm[:, 0]) - np.arctan2(dc[:, 1], dc[:, 0])
     ang = (ang + math.pi) % (2 * math.pi) - math.pi
-    if abs(ang) > lim:
-        return None
-    k = np.hypot(*dm) / nc
-    R = k * np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
-    t = p1 - R @ Cp[j1]
-    return Cp @ R.T + t
+    ok = (nc > 0) & (nm > 0) & (np.abs(ang) <= lim)
+    k = np.divide(nm, nc, out=np.zeros_like(nm), where=nc > 0)
+    c, s = k * np.cos(ang), k * np.sin(ang)
+    R = np.stack([np.stack([c, -s], axis=1), np.stack([s, c], axis=1)], axis=1)          # h x 2 x 2
+    t = p1 - np.einsum("hij,hj->hi", R, Cp[j1])
+    return np.einsum("nj,hij->hni", Cp, R) + t[:, None, :], ok
 
 
 def _distinct(fits: list[ArrangementFit]) -> list[ArrangementFit]:

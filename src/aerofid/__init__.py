@@ -8,8 +8,8 @@ Public API:
     orient_frame(image, camera, ...) -> FrameOrientation (a whole frame, no boxes)
 
 ``import aerofid`` loads none of these: each name is imported from its module on first use (PEP 562
-``__getattr__``), so that a one-mark ``locate`` does not pay for the orientation's statistics (scipy.stats)
-and ``aerofid --help`` starts at once.
+``__getattr__``), so that a one-mark ``locate`` does not pay for the orientation's statistics (scipy.optimize,
+scipy.special) and ``aerofid --help`` starts at once.
 """
 
 from __future__ import annotations

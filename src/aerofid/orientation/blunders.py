@@ -7,10 +7,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy  # scipy.stats loads on first use (scipy's lazy submodules): start-up
 
 from aerofid.errors import AerofidInputError
-from aerofid.orientation.adjustment import adjust
+from aerofid.orientation.adjustment import adjust, f_critical
 from aerofid.orientation.transform import transform_class
 
 #: Significance level of each leave-one-out outlier test. Baarda's classic alpha_0 = 0.001 misses 10 of 64
@@ -54,7 +53,7 @@ def outlier_tests(px: np.ndarray, mm: np.ndarray, model: str, reflected: bool | 
     dof = 2 * (n - 1) - cls.n_params
     if dof < 1 or n - 1 < cls.min_points:
         return []
-    critical = float(scipy.stats.f.ppf(1 - alpha, 2, dof))
+    critical = f_critical(alpha, 2, dof)
     tests = (_leave_one_out(px, mm, i, model, reflected, sigma_floor_px, critical, dof) for i in range(n))
     return [t for t in tests if t is not None]
 

@@ -9,10 +9,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy  # scipy.optimize and scipy.stats load on first use (scipy's lazy submodules): start-up
+import scipy  # scipy.optimize loads on first use (scipy's lazy submodules): start-up
 
 from aerofid.errors import AerofidInputError
-from aerofid.orientation.adjustment import adjust
+from aerofid.orientation.adjustment import adjust, f_critical
 from aerofid.orientation.transform import transform_class
 
 #: Significance level of the test that tells two fiducial arrangements apart.
@@ -227,7 +227,7 @@ def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) ->
     if r < 1:
         reason = "no redundancy to compare the arrangements: measure more fiducials or give names"
         return Correspondence("ambiguous", best, tuple(uniq), reason, names, tuple(uniq))
-    crit = float(scipy.stats.f.ppf(1 - alpha, r, r))
+    crit = f_critical(alpha, r, r)
     ratio = second.sum_sq_mm2 / max(best.sum_sq_mm2, 1e-30)
     if ratio > crit:
         return Correspondence("unique", best, tuple(uniq), "", names)

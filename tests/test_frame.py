@@ -79,6 +79,51 @@ def test_an_unknown_pixel_size_is_found_by_trying_the_scales_the_scan_allows():
     assert _farthest(found[0].predicted, marks) < 10
 
 
+def test_an_unknown_pixel_size_search_can_end_at_the_first_complete_layout():
+    """``first_complete``: sizes nearest the usual span first, and the first layout with every fiducial on a
+    feature ends the search - the same layout the whole search ranks first; a 4-corner camera never ends it early
+    (the image's corners can mimic it)."""
+    rng = np.random.default_rng(7)
+    s = 0.0227
+    marks = CAMERA.xy_mm * [1, -1] / s + 5500
+    features = rng.permutation(np.vstack([rng.uniform(0, 11000, (200, 2)), marks + rng.normal(0, 3, marks.shape)]))
+    whole = layout_candidates(features, CAMERA.xy_mm, position_error_px=48, scan_size=(11000, 11000))
+    first = layout_candidates(features, CAMERA.xy_mm, position_error_px=48, scan_size=(11000, 11000),
+                              first_complete=True)
+    assert len(first) == 1 and first[0].complete
+    assert first[0].pixel_size_mm == pytest.approx(s, rel=0.002)
+    assert _farthest(first[0].predicted, marks) < 10 and _farthest(whole[0].predicted, marks) < 10
+    corners = layout_candidates(features, CAMERA.xy_mm[:4], position_error_px=48, scan_size=(11000, 11000),
+                                first_complete=True)
+    assert len(corners) > 1
+
+
+def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_others(monkeypatch):
+    """The early end of the search over unknown sizes is only an order: when that layout's frame is not ok the
+    whole search is made and its other layouts are measured (not the same one twice)."""
+    from dataclasses import replace
+
+    from aerofid.frame import orient
+
+    rng = np.random.default_rng(7)
+    marks = CAMERA.xy_mm * [1, -1] / 0.0227 + 5500
+    features = np.vstack([rng.uniform(0, 11000, (200, 2)), marks])
+    first = layout_candidates(features, CAMERA.xy_mm, position_error_px=48, scan_size=(11000, 11000),
+                              first_complete=True)[0]
+    other = replace(first, matched=(None,) * len(first.matched))
+    calls = []
+
+    def whole(*args, first_complete=False):
+        calls.append(first_complete)
+        return [first, other]
+
+    monkeypatch.setattr(orient, "_layouts", whole)
+    attempts = orient._attempts(None, (), 16, CAMERA.xy_mm, "up", None, [first])
+    assert next(attempts) is first and calls == []             # nothing searched until the frame asks
+    assert list(attempts) == [other] and calls == [False]
+    assert list(orient._attempts(None, (), 16, CAMERA.xy_mm, "up", 0.0227, [first, other])) == [first]
+
+
 def test_chance_matches_in_dense_clutter_lose_to_the_layout_that_fits():
     """Among the 512 features a frame gives (dense with dots and texture) some hypothesis puts a feature within the
     loose tolerance of all 8 fiducials by chance; the true layout, with only 6 of its marks among the features,

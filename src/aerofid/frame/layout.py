@@ -23,7 +23,7 @@ and the layouts found are ranked alike (:func:`layout_candidates`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -58,6 +58,12 @@ DECISIVE = 4
 """Hypotheses of a chunk with every fiducial on a feature (within the loose tolerance) refined at once, the closest
 first: one that keeps every fiducial within :data:`FIT_TOLERANCE_MM` after its refit ends the search (no chance
 match does that on the benchmark's frames; the true layout is usually among the first chunks)."""
+PRIOR_SPAN = 0.85
+"""Share of a scan's longer side that its fiducials usually span (a 23 cm frame's marks 212-226 mm apart, scanned
+with a margin): the pixel size tried first when the scan says none (:func:`prior_order`)."""
+SETTLING_FIDUCIALS = 5
+"""Fewest fiducials for a layout with every one of them on a feature (:attr:`LayoutMatch.complete`) to end the
+search over unknown pixel sizes: four corners can be mimicked by the image's own corners at another scale."""
 FIT_TOLERANCE_MM = 0.3
 """How far (film mm) a fiducial may lie from the prediction of the transformation fitted to the matches, beyond
 the features' own position error: the scanner's and the film's residual distortion, a few hundredths of a mm."""
@@ -93,6 +99,9 @@ class LayoutMatch:
     tolerance_px: float
     turn: np.ndarray
     """The inverse of the lie's arrangement matrix: the fiducials turned into the scan's axes (mm)."""
+    complete: bool = False
+    """Every fiducial has a feature within :data:`FIT_TOLERANCE_MM` (plus the features' position error) of the
+    refined prediction."""
 
     @property
     def n_matched(self) -> int:
@@ -148,17 +157,26 @@ def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "
 
 def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "up",
                       pixel_size_mm: float | None = None, position_error_px: float = 0.0,
-                      tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None) -> list[LayoutMatch]:
+                      tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None,
+                      first_complete: bool = False) -> list[LayoutMatch]:
     """The layouts found (:func:`match_layout`'s parameters), best first, each with at least :data:`MIN_MATCHED`
     matches and a different set of them: one per pixel size tried. An unknown pixel size is tried on a
     geometric grid of step :data:`SCALE_STEP` over :func:`pixel_size_range` (each layout's fit then gives its
     own); the second and later are what the frame's measurement tries when the first one's marks are not found
-    (a frame's image corners and edges can mimic a square layout at another scale)."""
+    (a frame's image corners and edges can mimic a square layout at another scale).
+
+    With ``first_complete``, unknown sizes are tried nearest the usual one first (:func:`prior_order`) and the
+    search ends at the first :attr:`~LayoutMatch.complete` layout of at least :data:`SETTLING_FIDUCIALS`
+    fiducials, which is then the one returned (the frame's measurement asks for the whole search when its marks
+    do not make the frame ok)."""
     features = np.asarray(features, float).reshape(-1, 2)
     fiducials_mm = np.asarray(fiducials_mm, float).reshape(-1, 2)
     if len(features) < 2 or len(fiducials_mm) < 2:
         return []
+    settle = first_complete and pixel_size_mm is None and len(fiducials_mm) >= SETTLING_FIDUCIALS
     scales = [pixel_size_mm] if pixel_size_mm is not None else scale_grid(pixel_size_range(fiducials_mm, scan_size))
+    if settle:
+        scales = prior_order(scales, fiducials_mm, scan_size)
     found: dict[tuple[int | None, ...], tuple[tuple[int, float], LayoutMatch]] = {}
     pairs = _Pairs.of(features)
     for s in scales:
@@ -166,10 +184,26 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
                                position_error_px)
         if got is None or got[1].n_matched < MIN_MATCHED:
             continue
+        if settle and got[1].complete:
+            return [got[1]]
         key = got[1].matched + (got[1].rotation_deg, got[1].mirrored)
         if key not in found or got[0] > found[key][0]:
             found[key] = got
     return [m for _, m in sorted(found.values(), key=lambda g: g[0], reverse=True)]
+
+
+def prior_order(scales: list[float], fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None) -> list[float]:
+    """``scales`` nearest first (by ratio) to the pixel size at which the fiducials span :data:`PRIOR_SPAN` of the
+    scan's longer side; as given without a scan size.
+
+    >>> fiducials = np.array([[-85.0, 0.0], [85.0, 0.0]])           # 170 mm apart: 0.0215 mm on 9300 px
+    >>> [round(s, 3) for s in prior_order([0.02, 0.021, 0.022, 0.023], fiducials, (9300, 9000))]
+    [0.022, 0.021, 0.023, 0.02]
+    """
+    if scan_size is None:
+        return list(scales)
+    prior = float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size))
+    return sorted(scales, key=lambda s: abs(math.log(s / prior)))
 
 
 def pixel_size_range(fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None) -> tuple[float, float]:
@@ -292,7 +326,8 @@ def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a:
     m = _refine(features, fiducials_mm, pred, rot, mir, y_axis, tol, fit_tol)
     d = np.array([math.hypot(*(features[k] - m.predicted[f])) for f, k in enumerate(m.matched) if k is not None])
     close = d[d <= fit_tol]
-    return (len(close), -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0), m
+    return ((len(close), -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0),
+            replace(m, complete=len(close) == len(fiducials_mm)))
 
 
 def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarray | None:
@@ -387,4 +422,4 @@ def _apply(A: np.ndarray, mm: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_candidates", "match_layout",
-           "pixel_size_range", "scale_grid"]
+           "pixel_size_range", "prior_order", "scale_grid"]

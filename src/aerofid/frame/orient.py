@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterator
 from dataclasses import replace
 from typing import Any
 
@@ -152,14 +153,14 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
                              else scan_pixel_size(source, cam, pixel_size_mm, profile))
         features, f = frame_features(source)
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
-        layouts = _layouts(source, features, f, fid_mm, cam.y_axis, size)
+        layouts = _layouts(source, features, f, fid_mm, cam.y_axis, size, first_complete=True)
         name = "" if source.path is None else os.path.basename(str(source.path))
         head = dict(image=name, camera=cam.name, width=source.width, height=source.height, features=len(features),
                     reduction=f)
         if not layouts:
             return _no_layout(head, len(fid_mm), size, size_source)
         best: FrameOrientation | None = None
-        for layout in layouts[:1 if size is not None else ALTERNATIVES]:
+        for layout in _attempts(source, features, f, fid_mm, cam.y_axis, size, layouts):
             located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features,
                                     mark, profile)
             res = _judged(cam, layout, located, model, head, size, size_source, lie, profile)
@@ -176,10 +177,29 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
 
 
 def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
-             size: float | None) -> list[LayoutMatch]:
-    """Step 2: the camera's layouts among the ``features`` screened at reduction ``f``, best first."""
+             size: float | None, first_complete: bool = False) -> list[LayoutMatch]:
+    """Step 2: the camera's layouts among the ``features`` screened at reduction ``f``, best first (with
+    ``first_complete``: :func:`aerofid.frame.layout.layout_candidates`)."""
     return layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, y_axis, size,
-                             position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height))
+                             position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height),
+                             first_complete=first_complete)
+
+
+def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
+              size: float | None, layouts: list[LayoutMatch]) -> Iterator[LayoutMatch]:
+    """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known; else the
+    first :data:`ALTERNATIVES` of ``layouts``, and when that search ended early at a complete layout, the others
+    of the whole search (made only if it is asked for)."""
+    if size is not None:
+        yield layouts[0]
+        return
+    yield from layouts[:ALTERNATIVES]
+    first = layouts[0]
+    if len(layouts) == 1 and first.complete:
+        same = (first.matched, first.rotation_deg, first.mirrored)
+        others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None)
+                  if (m.matched, m.rotation_deg, m.mirrored) != same]
+        yield from others[:ALTERNATIVES - 1]
 
 
 def _judged(cam: Camera, layout: LayoutMatch, located: list[tuple[Located | None, str]], model: str,

@@ -41,7 +41,7 @@ __all__ = [
 
 #: Most bytes of samples read at once by ``read_reduced`` (one strip; a tile row may be more).
 STRIP_BYTES = 64 * 2**20
-#: Most samples of a strip converted to float64 at once while it is folded into the output.
+#: Most samples of a strip folded into the output at once (block sums, or float64 for the weights of a reduced source).
 CHUNK_SAMPLES = 2**21
 
 RowReader = Callable[[int, int], np.ndarray]

@@ -100,7 +100,8 @@ def test_an_unknown_pixel_size_search_can_end_at_the_first_complete_layout():
 
 def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_others(monkeypatch):
     """The early end of the search over unknown sizes is only an order: when that layout's frame is not ok the
-    whole search is made and its other layouts are measured (not the same one twice)."""
+    whole search is made and its other layouts are measured (not the same one twice); not for a camera whose
+    search cannot end early (4 corners), whose one layout was the whole search's."""
     from dataclasses import replace
 
     from aerofid.frame import orient
@@ -122,6 +123,8 @@ def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_oth
     assert next(attempts) is first and calls == []             # nothing searched until the frame asks
     assert list(attempts) == [other] and calls == [False]
     assert list(orient._attempts(None, (), 16, CAMERA.xy_mm, "up", 0.0227, [first, other])) == [first]
+    calls.clear()                                               # 4 corners: their search never ended early
+    assert list(orient._attempts(None, (), 16, CAMERA.xy_mm[:4], "up", None, [first])) == [first] and calls == []
 
 
 def test_chance_matches_in_dense_clutter_lose_to_the_layout_that_fits():

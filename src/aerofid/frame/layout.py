@@ -173,7 +173,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     fiducials_mm = np.asarray(fiducials_mm, float).reshape(-1, 2)
     if len(features) < 2 or len(fiducials_mm) < 2:
         return []
-    settle = first_complete and pixel_size_mm is None and len(fiducials_mm) >= SETTLING_FIDUCIALS
+    settle = first_complete and can_end_early(fiducials_mm, pixel_size_mm)
     scales = [pixel_size_mm] if pixel_size_mm is not None else scale_grid(pixel_size_range(fiducials_mm, scan_size))
     if settle:
         scales = prior_order(scales, fiducials_mm, scan_size)
@@ -190,6 +190,12 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
         if key not in found or got[0] > found[key][0]:
             found[key] = got
     return [m for _, m in sorted(found.values(), key=lambda g: g[0], reverse=True)]
+
+
+def can_end_early(fiducials_mm: np.ndarray, pixel_size_mm: float | None) -> bool:
+    """Whether ``first_complete`` can end :func:`layout_candidates`'s search: the pixel size unknown, and at
+    least :data:`SETTLING_FIDUCIALS` fiducials."""
+    return pixel_size_mm is None and len(fiducials_mm) >= SETTLING_FIDUCIALS
 
 
 def prior_order(scales: list[float], fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None) -> list[float]:
@@ -422,4 +428,4 @@ def _apply(A: np.ndarray, mm: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_candidates", "match_layout",
-           "pixel_size_range", "prior_order", "scale_grid"]
+           "pixel_size_range", "can_end_early", "prior_order", "scale_grid"]

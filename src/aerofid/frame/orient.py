@@ -44,7 +44,7 @@ from aerofid.find import (
     search,
 )
 from aerofid.formats.camera_file import read_camera
-from aerofid.frame.layout import LayoutMatch, layout_candidates
+from aerofid.frame.layout import LayoutMatch, can_end_early, layout_candidates
 from aerofid.frame.nominal import UNCALIBRATED, nominal_camera
 from aerofid.frame.profile import METHODS, RollProfile, disagreements
 from aerofid.frame.result import DOUBTFUL, FAILED, OK, FrameOrientation
@@ -188,14 +188,15 @@ def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_m
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
               size: float | None, layouts: list[LayoutMatch]) -> Iterator[LayoutMatch]:
     """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known; else the
-    first :data:`ALTERNATIVES` of ``layouts``, and when that search ended early at a complete layout, the others
-    of the whole search (made only if it is asked for)."""
+    first :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
+    (:func:`aerofid.frame.layout.can_end_early`) at a complete layout, the others of the whole search (made only
+    if it is asked for)."""
     if size is not None:
         yield layouts[0]
         return
     yield from layouts[:ALTERNATIVES]
     first = layouts[0]
-    if len(layouts) == 1 and first.complete:
+    if len(layouts) == 1 and first.complete and can_end_early(fid_mm, size):
         same = (first.matched, first.rotation_deg, first.mirrored)
         others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None)
                   if (m.matched, m.rotation_deg, m.mirrored) != same]

@@ -6,8 +6,8 @@ have). The window is read in horizontal strips of at most :data:`STRIP_BYTES` of
 tiled TIFF) and each strip is folded into the output in chunks of :data:`CHUNK_SAMPLES`, so peak memory is the
 output plus one strip plus one chunk, whatever the window.
 
-A source at the image's own scale is summed block by block (rows grouped by a reshape, columns by
-``np.add.reduceat``, in integers for integer samples; :func:`_fold_blocks`). The reduction is linear: ``out = Wy @
+A source at the image's own scale is summed block by block (rows and columns grouped by reshapes, in
+integers for integer samples; :func:`_fold_blocks`). The reduction is linear: ``out = Wy @
 window @ Wx.T`` with sparse weight matrices (:func:`block_weights`), which reduce a source that is itself stored
 reduced by ``scale`` (libjpeg's reduced JPEG decode): each source pixel then stands for ``scale`` x ``scale``
 pixels of the image, and a block's mean weighs each source pixel by the area it shares with the block.
@@ -189,17 +189,13 @@ def _fold_blocks(out: np.ndarray, strip: np.ndarray, first: int, factor: int, he
     acc = _sum_type(strip.dtype, factor)
     head = min(n, -first % factor)                      # rows that end a block begun in the strip before
     full = (n - head) // factor * factor                # whole blocks; then the rows of one block left
+    for r0, r1 in ((0, head), (head + full, n)):         # a part of one block
+        if r1 > r0:
+            _add_block_means(out, strip[r0:r1].sum(axis=0, dtype=acc)[None], (first + r0) // factor, factor, height)
     step = max(1, CHUNK_SAMPLES // (factor * w * bands)) * factor
-    groups = [(0, head), *((r, min(r + step, head + full)) for r in range(head, head + full, step)),
-              (head + full, n)]
-    for r0, r1 in groups:
-        if r1 <= r0:
-            continue
-        part = strip[r0:r1]
-        if r1 - r0 == factor or (r0 - head) % factor == 0 and r0 >= head and r1 <= head + full:
-            rows = part.reshape((r1 - r0) // factor, factor, w, bands).sum(axis=1, dtype=acc)
-        else:                                            # the rows of one block
-            rows = part.sum(axis=0, dtype=acc)[None]
+    for r0 in range(head, head + full, step):            # whole blocks, a chunk at a time
+        r1 = min(r0 + step, head + full)
+        rows = strip[r0:r1].reshape((r1 - r0) // factor, factor, w, bands).sum(axis=1, dtype=acc)
         _add_block_means(out, rows, (first + r0) // factor, factor, height)
 
 
@@ -253,17 +249,19 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
     src0, src1 = y0 // scale, -(-y1 // scale)
     row_bytes = max(src_cols * bands * itemsize, 1)
     step = row_step * max(1, STRIP_BYTES // (row_step * row_bytes))
-    wy = block_weights(y0, y1, factor, scale)
-    wy_columns = sparse.csc_array(wy)
-    wx = sparse.csr_array(sparse.kron(block_weights(x0, x1, factor, scale), sparse.identity(bands)))
+    weights = None
+    if scale > 1:                                        # a reduced source: the area-weighted sparse matrices
+        wy = block_weights(y0, y1, factor, scale)
+        wx = sparse.csr_array(sparse.kron(block_weights(x0, x1, factor, scale), sparse.identity(bands)))
+        weights = (wy, sparse.csc_array(wy), wx)
     for r0, r1 in _strips(src0, src1, step):
         strip = read_rows(r0, r1)
         if factor == 1:
             out.reshape(rows, cols, bands)[r0 - src0 : r1 - src0] = strip
-        elif scale == 1:
+        elif weights is None:
             _fold_blocks(out.reshape(rows, cols, bands), strip, r0 - src0, factor, y1 - y0)
         else:
-            _fold(out, strip, r0 - src0, wy, wy_columns, wx)
+            _fold(out, strip, r0 - src0, *weights)
         del strip  # a memory-mapped strip is unmapped before the next is read
     return out.reshape(rows, cols, bands)
 

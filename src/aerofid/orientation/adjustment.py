@@ -236,8 +236,8 @@ def _in_original_pixels(cls: type[ProjectiveTransform], reflected: bool, p: np.n
 
 def f_critical(alpha: float, dfn: int, dfd: int) -> float:
     """The critical value of the F test at significance ``alpha``: the ``1 - alpha`` quantile of F(dfn, dfd), by
-    ``scipy.special.fdtri`` (what ``scipy.stats.f.ppf`` computes, without loading ``scipy.stats``: half a
-    second of a one-frame call's start-up).
+    ``scipy.special.fdtri`` (what ``scipy.stats.f.ppf`` computes, without loading ``scipy.stats``, the slowest of
+    scipy's imports, which a one-frame call would pay at its first adjustment).
 
     >>> round(f_critical(0.05, 2, 10), 4)
     4.1028

@@ -8,6 +8,7 @@ on stderr, no traceback, nothing written), 3 on an internal error (a bug: one li
 
 from __future__ import annotations
 
+import importlib
 import sys
 
 import click
@@ -22,10 +23,32 @@ from aerofid.cli.output import (
     stdout_error,
 )
 
+COMMANDS = {
+    "locate": "aerofid.cli.locate_cmd:locate",
+    "demo": "aerofid.cli.demo_cmd:demo",
+    "orient": "aerofid.cli.orient_cmd:orient",
+    "learn": "aerofid.cli.frame_cmd:learn",
+    "batch": "aerofid.cli.batch_cmd:batch",
+    "resample": "aerofid.cli.resample_cmd:resample",
+}
+"""Each command and where it lives (``module:name``), imported only when it is run or listed by ``--help``: a call
+of one command pays for nothing else's imports (``aerofid locate`` does not load the batch driver)."""
+
 
 class _Group(click.Group):
     """Click group whose every ending is one line on stderr at most and a documented exit status
-    (:mod:`aerofid.cli.output`)."""
+    (:mod:`aerofid.cli.output`), its commands imported on first use (:data:`COMMANDS`)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        where = COMMANDS.get(cmd_name)
+        if where is None:
+            return None
+        module, name = where.split(":")
+        command: click.Command = getattr(importlib.import_module(module), name)
+        return command
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         with quiet_libraries():
@@ -66,17 +89,3 @@ class _Group(click.Group):
 @click.version_option(package_name="aerofid")
 def main() -> None:
     """aerofid: fiducial marks and ground panels in scanned aerial photographs, to a fraction of a pixel."""
-
-
-def _register() -> None:
-    from aerofid.cli import batch_cmd, demo_cmd, frame_cmd, locate_cmd, orient_cmd, resample_cmd
-
-    main.add_command(locate_cmd.locate)
-    main.add_command(demo_cmd.demo)
-    main.add_command(orient_cmd.orient)
-    main.add_command(frame_cmd.learn)
-    main.add_command(batch_cmd.batch)
-    main.add_command(resample_cmd.resample)
-
-
-_register()

@@ -1,0 +1,143 @@
+"""How many model evaluations the cross fit of ``hough``'s verification needs, accepted against refused.
+
+    python benchmarks/bench_fits.py [--n 8] [--max-evaluations 100] [--seed 7]
+
+Every candidate ``hough`` verifies (:func:`aerofid.detect.hough.detector.verify_candidate`) is recorded with the
+evaluations of each least-squares pass of its cross fit and whether the verification accepted it, over the scenes
+where ``hough`` runs: ``n`` scenes per condition and style of bench_marks.py (``hough`` alone and ``auto``), ``n``
+of each rejection case there, ``n`` 200 px boxes per style of bench_peers.py (``auto``) and ``aerofid.locate`` on
+the 8 real RC20 boxes of bench_rc20.py (skipped when ``../shared/realdata`` is absent). ``--max-evaluations``
+sets :data:`aerofid.detect.hough.cross_fit.MAX_EVALUATIONS` for the run, so that the passes a lower limit would
+cut short can be seen. The cross fit's own CPU time per verification is summed as well.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from collections.abc import Callable
+from typing import Any
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import scipy.optimize  # noqa: E402
+
+import aerofid  # noqa: E402
+from aerofid import synth, testing  # noqa: E402
+from aerofid.detect.auto import AutoParams  # noqa: E402
+from aerofid.detect.auto import detect as auto_detect  # noqa: E402
+from aerofid.detect.hough import cross_fit  # noqa: E402
+from aerofid.detect.hough import detector as hough_detector  # noqa: E402
+from aerofid.io.raster import open_raster  # noqa: E402
+from aerofid.methods import make_detector  # noqa: E402
+from bench_marks import CONDITIONS, STYLES  # noqa: E402
+from bench_marks import scene as marks_scene  # noqa: E402
+from bench_peers import scene as peers_scene  # noqa: E402
+from bench_rc20 import HALF, MARKS, REAL  # noqa: E402
+
+REJECTION_STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
+
+
+class Recorder:
+    """Wraps ``least_squares`` and ``verify_candidate`` to record each verification's passes and outcome."""
+
+    def __init__(self) -> None:
+        self.records: list[dict[str, Any]] = []
+        self.passes: list[int] = []
+        self.source = ""
+
+    def install(self) -> None:
+        solve, verify = scipy.optimize.least_squares, hough_detector.verify_candidate
+
+        def least_squares(*args: Any, **kwargs: Any) -> Any:
+            sol = solve(*args, **kwargs)
+            self.passes.append(int(sol.nfev))
+            return sol
+
+        def verify_candidate(*args: Any, **kwargs: Any) -> Any:
+            self.passes = []
+            t = time.process_time()
+            out = verify(*args, **kwargs)
+            self.records.append({"source": self.source, "accepted": not isinstance(out, str),
+                                 "passes": list(self.passes), "cpu": time.process_time() - t})
+            return out
+
+        scipy.optimize.least_squares = least_squares
+        hough_detector.verify_candidate = verify_candidate
+
+    def run(self, source: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> None:
+        self.source = source
+        fn(*args, **kwargs)
+
+
+def collect(n: int, rng: np.random.Generator) -> list[dict[str, Any]]:
+    rec = Recorder()
+    rec.install()
+    for cond in CONDITIONS:
+        for style in STYLES:
+            for _ in range(n):
+                img, _, _, mark = marks_scene(style, cond, rng)
+                rec.run(f"marks/{cond}/{style}", make_detector("hough", mark, {}), img)
+                rec.run(f"marks/{cond}/{style}", auto_detect, img, AutoParams(mark=mark))
+    for case in ("two marks", "half mark", "film-border edge"):
+        for style in REJECTION_STYLES:
+            for _ in range(n):
+                img = testing.TRAPS[case](rng, style)
+                rec.run(f"rejection/{case}/{style}", make_detector("hough", "auto", {}), img)
+                rec.run(f"rejection/{case}/{style}", auto_detect, img)
+    for _ in range(n):
+        img = synth.aerial_ground((120, 120), rng)
+        rec.run("rejection/clutter", make_detector("hough", "auto", {}), img)
+        rec.run("rejection/clutter", auto_detect, img)
+    for style in STYLES:
+        for _ in range(n):
+            img, _, _, mark, _ = peers_scene(style, rng)
+            rec.run(f"peers/{style}", auto_detect, img, AutoParams(mark=mark))
+    if REAL.exists():
+        with open_raster(REAL) as r:
+            for name, (x, y) in MARKS.items():
+                crop = np.ascontiguousarray(r.read_window((x - HALF, y - HALF, x + HALF, y + HALF)))
+                rec.run(f"rc20/{name}", aerofid.locate, crop, (0, 0, crop.shape[1], crop.shape[0]), mark="external")
+    return rec.records
+
+
+def report(records: list[dict[str, Any]], limit: int) -> list[str]:
+    out = ["| verifications | count | evaluations, first pass: median / 99 % / max | any pass: max | "
+           f"ran out of {limit} | cross-fit CPU s |", "|---|---|---|---|---|---|"]
+    for label, accepted in (("accepted", True), ("refused", False)):
+        rs = [r for r in records if r["accepted"] == accepted]
+        first = [r["passes"][0] for r in rs if r["passes"]]
+        every = [p for r in rs for p in r["passes"]]
+        if not first:
+            out.append(f"| {label} | {len(rs)} | - | - | - | - |")
+            continue
+        out.append(f"| {label} | {len(rs)} | {np.median(first):.0f} / {np.percentile(first, 99):.0f} / "
+                   f"{max(first)} | {max(every)} | {sum(max(r['passes'], default=0) >= limit for r in rs)} | "
+                   f"{sum(r['cpu'] for r in rs):.1f} |")
+    slow = [r for r in records if r["accepted"] and r["passes"] and max(r["passes"]) > 0.6 * limit]
+    out.append("")
+    out.append("Accepted fits with a pass above 60 % of the limit: " + (
+        "; ".join(f"{r['source']} {r['passes']}" for r in slow) if slow else "none") + ".")
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=8, help="scenes per style and condition")
+    ap.add_argument("--max-evaluations", type=int, default=cross_fit.MAX_EVALUATIONS,
+                    help="cross_fit.MAX_EVALUATIONS for this run")
+    ap.add_argument("--seed", type=int, default=7)
+    args = ap.parse_args()
+    cross_fit.MAX_EVALUATIONS = args.max_evaluations
+    t = time.perf_counter()
+    records = collect(args.n, np.random.default_rng(args.seed))
+    print(f"`python benchmarks/bench_fits.py --n {args.n} --max-evaluations {args.max_evaluations} "
+          f"--seed {args.seed}`, {time.perf_counter() - t:.0f} s:\n")
+    print("\n".join(report(records, args.max_evaluations)))
+
+
+if __name__ == "__main__":
+    main()

@@ -40,7 +40,7 @@ from aerofid.io.colour import COLOUR_POLICIES, to_grey
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import read_reduced_levels
 from aerofid.io.source import ImageSource
-from aerofid.methods import Detector, check_choice, check_polarity, make_detector
+from aerofid.methods import AutoDetector, Detector, check_choice, check_polarity, make_detector
 
 SCREEN_PIXELS = 2_000_000
 """Most pixels of the reduced region that screening holds (a power-of-two reduction is chosen to fit)."""
@@ -203,14 +203,27 @@ class Measurer:
                 break
         return self.window_term(got, half)
 
+    def alone(self, method: str) -> Measurer:
+        """This measurer with ``auto``'s member ``method`` alone as its detector (itself when its detector is not
+        ``auto`` or ``method`` is no seed method)."""
+        member = self.detector.member(method) if isinstance(self.detector, AutoDetector) else None
+        return self if member is None else replace(self, detector=member)
+
     def window_term(self, final: Located, half: float) -> Located:
         """``final`` with the window term: the mark measured again on windows :data:`WINDOW_TERM_SIZES` times
-        ``half`` (the re-centred half-size from ``final``'s own extent), centred on ``final``'s answer, and the
-        differences of the found answers from ``final`` added to its covariance (:func:`with_window_term`). These
-        windows are placed and sized by the final answer alone (not by the window it was measured on, whose size
-        came from the round before: 64 or 65 px on RC20 midside R by the box), so the term, like the centre, does
-        not depend on the box or on where the candidate fell."""
-        others = [self.at(final.x, final.y, f * half, final.candidate) for f in WINDOW_TERM_SIZES]
+        ``half`` (the re-centred half-size from ``final``'s own extent), centred on ``final``'s answer, by the
+        method whose centre ``final`` is (:meth:`alone`), and the differences of the found answers from ``final``
+        added to its covariance (:func:`with_window_term`). These windows are placed and sized by the final answer
+        alone (not by the window it was measured on, whose size came from the round before: 64 or 65 px on RC20
+        midside R by the box), so the term, like the centre, does not depend on the box or on where the candidate
+        fell. The method alone measures how its centre moves with the window without ``auto``'s cross-checks and
+        uniqueness pass (they answered the mark already); on a window where it alone finds nothing, the detector
+        measures it (``auto`` then answers with what it corroborates, e.g. ``symmetry`` on a crop)."""
+        alone = self.alone(final.detection.method)
+        others = []
+        for f in WINDOW_TERM_SIZES:
+            got = alone.at(final.x, final.y, f * half, final.candidate)
+            others.append(got if got.found or alone is self else self.at(final.x, final.y, f * half, final.candidate))
         return with_window_term(final, [(o.x - final.x, o.y - final.y) for o in others if o.found])
 
 

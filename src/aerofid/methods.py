@@ -8,6 +8,7 @@ pixel is read: unknown names and bad values are one-line input errors naming the
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -24,6 +25,27 @@ Detector = Callable[[np.ndarray], Detection]
 
 METHOD_NAMES = ("auto", *METHODS)
 """What ``method`` may be: ``auto`` or one of the seeds' methods (:data:`aerofid.detect.registry.METHODS`)."""
+
+
+@dataclass(frozen=True)
+class AutoDetector:
+    """``auto`` configured (:func:`make_detector`): called on a grey window it runs :func:`aerofid.detect.auto.detect`
+    with ``params`` and the seed methods' ``methods``; :meth:`member` is one of those methods alone, with the
+    parameters ``auto`` gives it."""
+
+    params: auto.AutoParams
+    methods: Mapping[str, MethodParams]
+
+    def __call__(self, grey: np.ndarray) -> Detection:
+        return auto.detect(grey, self.params, methods=self.methods)
+
+    def member(self, name: str) -> Detector | None:
+        """The seed method ``name`` as ``auto`` runs it (None for a name that is no seed method, e.g.
+        ``"centroid"``)."""
+        if name not in METHODS:
+            return None
+        p = auto.seed_params(self.params, self.methods)[name]
+        return lambda grey: METHODS[name].detect(grey, p)
 
 
 def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Detector:
@@ -48,7 +70,7 @@ def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Det
         routed = route_params({"mark": mark, **params}, types)
         auto_params = routed.pop("auto")
         assert isinstance(auto_params, auto.AutoParams)
-        return lambda grey: auto.detect(grey, auto_params, methods=routed)
+        return AutoDetector(auto_params, routed)
     m = METHODS[method_name]
     values = dict(params)
     if "mark" in m.params_type.names():
@@ -68,4 +90,4 @@ def check_polarity(polarity: str) -> None:
     check_choice(polarity, POLARITY_CHOICES, "polarity")
 
 
-__all__ = ["METHOD_NAMES", "Detector", "check_choice", "check_polarity", "make_detector"]
+__all__ = ["METHOD_NAMES", "AutoDetector", "Detector", "check_choice", "check_polarity", "make_detector"]

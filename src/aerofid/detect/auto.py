@@ -17,14 +17,14 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    each other form a group. A group with a single member is re-examined on a crop of the window centred on
    it (half-size = the mark's extent + ``crop_margin``): a '+' from ``hough`` by ``lines`` (not for cloth
    panels, whose thin low-contrast strips on textured ground ``lines`` does not resolve), any answer by
-   ``symmetry`` and, for rings, ``circles``. Two or more independent methods agreeing is strong evidence
-   (*corroborated*). A lone answer is kept only when its method applies to what the window shows (and it
-   passes step 3): a ``hough`` answer (its verification has already checked four balanced arms of a '+';
-   ``lines`` does not survive JPEG blocks, so its silence is no evidence), a ``circles`` answer
-   (two concentric circles, each covered on 60 % of its circumference), or a ``symmetry`` answer whose
-   centre holds a compact core that stands out of the ground (a dot: :func:`core_contrast`). Two found
-   answers that disagree while both lie on the same mark (closer than its extent) mean that at least one is
-   wrong: nothing is answered.
+   ``symmetry`` and, for rings, ``circles``, in the order of :data:`CROSS_CHECKERS` until one agrees. Two or
+   more independent methods agreeing is strong evidence (*corroborated*). A lone answer is kept only when its
+   method applies to what the window shows (and it passes step 3): a ``hough`` answer (its verification has
+   already checked four balanced arms of a '+'; ``lines`` does not survive JPEG blocks, so its silence is no
+   evidence), a ``circles`` answer (two concentric circles, each covered on 60 % of its circumference), or a
+   ``symmetry`` answer whose centre holds a compact core that stands out of the ground (a dot:
+   :func:`core_contrast`). Two found answers that disagree while both lie on the same mark (closer than its
+   extent) mean that at least one is wrong: nothing is answered.
 3. **Verification, independent of the methods** (:func:`verify_centre`), on the group's centre and the
    mark's extent R (from the detectors' own models: the cross fit's arm lengths, the circles' radii; else a
    radial profile of the grey levels):
@@ -89,8 +89,8 @@ MIN_SIDE = 16
 MIN_CROP_SIDE = 17
 """A lone answer is re-examined on its crop only when the crop is at least this many px on each side."""
 CROSS_CHECKERS = {"hough": ("lines", "symmetry"), "circles": ("symmetry", "hough"), "symmetry": ("circles", "hough")}
-"""Step 2: which methods re-examine a lone answer of each method on its crop (``symmetry`` for others; a cloth
-panel's lone ``hough`` answer only by ``symmetry``)."""
+"""Step 2: which methods re-examine a lone answer of each method on its crop, in this order until one agrees
+(``symmetry`` for others; a cloth panel's lone ``hough`` answer only by ``symmetry``)."""
 SEED = 12345
 """Seed of the noise that fills a blanked or isolated area (deterministic answers)."""
 
@@ -493,9 +493,11 @@ def disagreement(img: np.ndarray, groups: list[list[Detection]], noise: float,
 
 
 def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: float) -> str | None:
-    """Step 2 for a lone answer: the methods of :data:`CROSS_CHECKERS` run on a crop of half-size
-    ``extent + crop_margin`` around it; an agreeing answer joins ``group``, a disagreeing one is the reason
-    returned (None otherwise)."""
+    """Step 2 for a lone answer: the methods of :data:`CROSS_CHECKERS` run in turn on a crop of half-size
+    ``extent + crop_margin`` around it until one agrees: that answer joins ``group`` (the others are not run:
+    on the RC20 marks ``hough`` after ``symmetry`` was a failed search costing 2-3 times the rest of the call;
+    on 300 cross-checks of ``benchmarks/bench_fits.py``'s scenes a later checker never disagreed). A
+    disagreeing answer is the reason returned (None otherwise)."""
     lone = group[0]
     crop, x0, y0 = _crop(ctx.img, lone.x, lone.y, int(np.ceil(extent + ctx.params.crop_margin)))
     if lone.method == "hough" and ctx.params.mark == "panel":
@@ -516,6 +518,7 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
             return (f"methods disagree: {lone.method} at ({lone.x:.2f}, {lone.y:.2f}) and {m} on a crop around it "
                     f"at ({d.x:.2f}, {d.y:.2f}), {dist:.2f} px apart")
         group.append(d)
+        return None
     return None
 
 

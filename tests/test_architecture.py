@@ -156,3 +156,33 @@ def test_import_aerofid_loads_no_part_until_a_name_is_used():
         assert getattr(aerofid, name) is getattr(__import__(module, fromlist=[name]), name), name
     with pytest.raises(AttributeError, match="no attribute 'nothing'"):
         aerofid.nothing  # noqa: B018
+
+
+START_UP_HEAVY = ("scipy.ndimage", "scipy.sparse", "scipy.stats", "scipy.spatial", "matplotlib", "aerofid.batch",
+                  "aerofid.frame", "aerofid.resample")
+"""What a one-box ``aerofid locate`` of a ring must not import (issue 10: a call pays only for what it uses)."""
+
+
+def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
+    """The CLI imports the command it runs (``aerofid.cli.COMMANDS``), and a ring that ``circles`` and ``symmetry``
+    corroborate needs no scipy module (the spline coefficients and moving means are aerofid's own, scipy.sparse
+    serves only a reduced JPEG source; scipy.optimize, with scipy.sparse and scipy.spatial, loads when a '+' is
+    fitted)."""
+    png = tmp_path / "ring.png"
+    code = (
+        "import sys, numpy as np, cv2\n"
+        "yy, xx = np.mgrid[0:96, 0:96]\n"
+        "img = 40 + 160 * np.exp(-(np.hypot(xx - 47.3, yy - 48.6) - 12.0) ** 2 / 3.0)\n"
+        "img += np.random.default_rng(0).normal(0, 2, img.shape)\n"
+        f"cv2.imwrite({str(png)!r}, np.clip(img, 0, 255).astype(np.uint8))\n"
+        "from aerofid.cli import main\n"
+        "try:\n"
+        f"    main(['locate', {str(png)!r}, '--box', '20,20,76,76', '--mark', 'external'])\n"
+        "except SystemExit as e:\n"
+        "    print('status', e.code)\n"
+        "print(sorted(m for m in sys.modules if m.startswith(" + repr(START_UP_HEAVY) + ")))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    found = out.split()
+    assert found[0] == "found" and abs(float(found[1][2:]) - 47.3) < 0.05 and abs(float(found[2][2:]) - 48.6) < 0.05
+    assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out

@@ -1,12 +1,13 @@
-"""detect.spline.grid_values: a shifted grid of a cubic spline equals scipy's point-by-point interpolation."""
+"""detect.spline: a shifted grid of a cubic spline equals scipy's point-by-point interpolation, and the coefficients and
+moving means written without scipy equal scipy's."""
 
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from aerofid.detect.spline import grid_values, square_grid
-from aerofid.detect.symmetry import point_symmetry_centre
+from aerofid.detect.spline import cubic_prefilter, grid_values, square_grid
+from aerofid.detect.symmetry import moving_mean, point_symmetry_centre
 
 
 @settings(max_examples=60, deadline=None)
@@ -43,3 +44,21 @@ def test_square_grid_equals_map_coordinates_with_nearest_edges(xc, yc, r, order,
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(float)
     want = ndimage.map_coordinates(img.astype(float), [yy + yc, xx + xc], order=order, mode="nearest")
     np.testing.assert_allclose(square_grid(img, xc, yc, r, order), want, rtol=0, atol=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(h=st.integers(1, 70), w=st.integers(1, 70), seed=st.integers(0, 2**16))
+def test_cubic_prefilter_equals_scipy_spline_filter(h, w, seed):
+    """The truncated inverse filter, mirrored at the edges, gives scipy's coefficients: also for an image smaller
+    than the filter's reach (mirrored more than once)."""
+    img = np.random.default_rng(seed).normal(size=(h, w))
+    want = ndimage.spline_filter(img, order=3, mode="mirror")
+    np.testing.assert_allclose(cubic_prefilter(img), want, rtol=0, atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 80), d=st.integers(1, 12), seed=st.integers(0, 2**16))
+def test_moving_mean_equals_scipy_uniform_filter(n, d, seed):
+    p = np.random.default_rng(seed).normal(size=n)
+    np.testing.assert_allclose(moving_mean(p, d), ndimage.uniform_filter1d(p, 2 * d + 1, mode="nearest"),
+                               rtol=0, atol=1e-12)

@@ -49,14 +49,13 @@ from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
-from aerofid.detect.spline import cubic_coefficients, grid_values, square_grid
+from aerofid.detect.spline import cubic_coefficients, cubic_prefilter, grid_values, square_grid
 from aerofid.robust import MAD_TO_SIGMA
 
 if TYPE_CHECKING:
@@ -661,7 +660,7 @@ def _smoothed_edge_profile(img: np.ndarray, d: int) -> np.ndarray:
     p = edge_profile(img, d)
     n = len(p)
     if n > 2 * d:
-        p[d:n - d] = ndimage.uniform_filter1d(p[d:n - d], 2 * d + 1, mode="nearest")
+        p[d:n - d] = moving_mean(p[d:n - d], d)
     return p
 
 
@@ -820,7 +819,21 @@ def symmetry_accumulation(i2: np.ndarray, row: int, r: int, d: int, xs: np.ndarr
 
 def high_pass(profile: np.ndarray, d: int) -> np.ndarray:
     """Eq. (7): ``I5(x) = mean_{u=-d..d} I4(x + u) - I4(x)`` (ends padded with the nearest value)."""
-    return ndimage.uniform_filter1d(profile, 2 * d + 1, mode="nearest") - profile
+    return moving_mean(profile, d) - profile
+
+
+def moving_mean(profile: np.ndarray, d: int) -> np.ndarray:
+    """The mean of ``profile`` over ``2d + 1`` samples centred on each, its ends extended by their nearest value
+    (``scipy.ndimage.uniform_filter1d(profile, 2 * d + 1, mode="nearest")``).
+
+    Examples
+    --------
+    >>> moving_mean(np.array([0.0, 3.0, 0.0, 0.0]), 1).tolist()
+    [1.0, 1.0, 1.0, 0.0]
+    """
+    p = np.pad(np.asarray(profile, np.float64), d, mode="edge")
+    c = np.concatenate([[0.0], np.cumsum(p)])
+    return (c[2 * d + 1:] - c[:-2 * d - 1]) / (2 * d + 1)
 
 
 def axis_peak(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int,
@@ -1008,7 +1021,9 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
         return None
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
     half = ((yy > 0) | ((yy == 0) & (xx > 0))) & (xx * xx + yy * yy <= r * r)
-    coeffs = ndimage.spline_filter(np.asarray(img, np.float64), order=3)
+    # mirrored coefficients, 2 edge values more around them: the spline's support reaches 1-2 px beyond a grid
+    # point on the window's edge, where the edge coefficient repeats (scipy's mode="nearest")
+    coeffs = np.pad(cubic_prefilter(img), 2, mode="edge")
     step = np.inf
     for _ in range(REFINE_ITERATIONS):
         if not (r <= xc <= w - 1 - r and r <= yc <= h - 1 - r):
@@ -1032,17 +1047,12 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
 def _mirror_terms(coeffs: np.ndarray, xc: float, yc: float, r: int, half: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For the offsets ``u`` of ``half`` (a mask of the (2r+1)-square): ``I(c + u) - I(c - u)`` and its
-    derivatives in x and y (central differences of the spline at +-0.5 px), the spline of ``coeffs`` evaluated
-    on whole shifted grids (:func:`aerofid.detect.spline.grid_values`); point by point where its support reaches
-    the window's edge. ``I(c - u)`` is the grid of ``I(c + u)`` turned by 180 degrees."""
+    derivatives in x and y (central differences of the spline at +-0.5 px), the spline of ``coeffs`` (the
+    window's, with 2 edge values around them) evaluated on whole shifted grids
+    (:func:`aerofid.detect.spline.grid_values`). ``I(c - u)`` is the grid of ``I(c + u)`` turned by 180 degrees."""
     n = 2 * r + 1
-    grids = [grid_values(coeffs, xc - r + dx, yc - r + dy, (n, n))
+    grids = [grid_values(coeffs, xc - r + dx + 2, yc - r + dy + 2, (n, n))
              for dx, dy in ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5))]
-    if any(g is None for g in grids):
-        yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
-        grids = [ndimage.map_coordinates(coeffs, [yy + yc + dy, xx + xc + dx], order=3, mode="nearest",
-                                         prefilter=False)
-                 for dx, dy in ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5))]
     g0, gxp, gxm, gyp, gym = grids
     assert g0 is not None and gxp is not None and gxm is not None and gyp is not None and gym is not None
     dx, dy = gxp - gxm, gyp - gym

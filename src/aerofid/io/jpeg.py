@@ -179,8 +179,10 @@ def _decode_with_cv2(path: Path) -> np.ndarray:
         raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
     if image.ndim == 2:
         return image[:, :, None]
-    if image.shape[2] in (3, 4):  # BGR(A) -> RGB(A) in place: no second copy of a large image
-        cv2.cvtColor(image, cv2.COLOR_BGR2RGB if image.shape[2] == 3 else cv2.COLOR_BGRA2RGBA, dst=image)
+    if image.shape[2] == 3:  # BGR -> RGB: a view with the samples reversed (no pass over a large image)
+        return image[:, :, ::-1]
+    if image.shape[2] == 4:  # BGRA -> RGBA in place: no second copy of a large image
+        cv2.cvtColor(image, cv2.COLOR_BGRA2RGBA, dst=image)
     return image
 
 

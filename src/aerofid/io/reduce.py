@@ -19,13 +19,15 @@ import math
 import operator
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy import sparse
 
 from aerofid.errors import AerofidInputError
 from aerofid.io.source import ImageSource
+
+if TYPE_CHECKING:
+    from scipy import sparse
 
 __all__ = [
     "CHUNK_SAMPLES",
@@ -130,6 +132,8 @@ def block_weights(start: int, stop: int, factor: int, scale: int = 1) -> sparse.
         ``(blocks, sources)`` float64; column 0 is source pixel ``start // scale``. Row ``j`` holds the share
         of block ``j``'s length that each source pixel covers, so every row sums to 1.
     """
+    from scipy import sparse  # only a reduced source needs it (libjpeg's reduced decode): start-up
+
     n = -(-(stop - start) // factor)
     block = np.arange(n)
     b0 = start + block * factor
@@ -251,6 +255,8 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
     step = row_step * max(1, STRIP_BYTES // (row_step * row_bytes))
     weights = None
     if scale > 1:                                        # a reduced source: the area-weighted sparse matrices
+        from scipy import sparse
+
         wy = block_weights(y0, y1, factor, scale)
         wx = sparse.csr_array(sparse.kron(block_weights(x0, x1, factor, scale), sparse.identity(bands)))
         weights = (wy, sparse.csc_array(wy), wx)

@@ -29,7 +29,9 @@ row is the RMS residual (um) of an affine fit of the four corners to their calib
 bench_rc20.py), the next the largest distance from ``auto``'s centre.
 
 Times: wall time of one call on the box, the median over the scenes of each scene's median of ``repeats``
-calls, all in one run, one thread.
+calls, all in one run, one thread. Last, the command line as a user runs it: ``aerofid locate`` of one RC20 box
+in a fresh interpreter (start-up, imports, the JPEG's decode, the search) and its imports alone, each the
+median of ``2 * repeats + 1`` runs.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ import json
 import os
 import platform
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -290,6 +293,30 @@ def bench_real(repeats: int, hipp: Hipp) -> list[str]:
     return out
 
 
+CLI_BOX = "605,119,725,239"
+"""The box of the command-line call timed (corner TL, as in docs/benchmarks_peers.md's start-up table)."""
+
+
+def bench_cli(repeats: int) -> list[str]:
+    """Wall time of one ``aerofid locate`` of the RC20 JPEG (a fresh interpreter: start-up, imports, the JPEG's
+    decode and the search) and of its imports alone, median of ``2 * repeats + 1`` runs each."""
+    if not REAL.exists():
+        return []
+    call = [sys.executable, "-m", "aerofid", "locate", str(REAL), "--box", CLI_BOX, "--mark", "external"]
+    imports = [sys.executable, "-c", "import aerofid.cli.locate_cmd"]
+    out = []
+    for label, cmd in (("`aerofid locate` of one box (whole call)", call),
+                       ("`import aerofid.cli.locate_cmd` (start-up)", imports)):
+        times = []
+        for _ in range(2 * repeats + 1):
+            t = time.perf_counter()
+            subprocess.run(cmd, capture_output=True, check=True)
+            times.append(time.perf_counter() - t)
+        out.append(f"{label}: median {1000 * np.median(times):.0f} ms wall, fastest {1000 * min(times):.0f} ms")
+    return ["", f"The command line on the RC20 JPEG (5908 x 5408, box {CLI_BOX}, `--mark external`), "
+            f"{2 * repeats + 1} runs:", "", *[f"- {line}" for line in out]]
+
+
 def _corner_rms(pos: dict, who: str) -> str:
     cam = read_camera(REAL.parent / "MeasuresCamera.xml")
     fid = [f for f in cam.fiducials if f.name in CALIBRATED and pos[(CALIBRATED[f.name], who)] is not None]
@@ -334,7 +361,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         hipp = Hipp(args.hipp, Path(tmp))
         res = bench_synthetic(args.n, args.repeats, np.random.default_rng(args.seed), hipp)
-        real = bench_real(args.repeats, hipp)
+        real = bench_real(args.repeats, hipp) + bench_cli(args.repeats)
     peers = PEERS if hipp.proc is not None else PEERS[:2]
     hipp_line = (f"hipp {hipp.version} from `{Path(args.hipp).parent.parent.name}`" if hipp.proc is not None
                  else f"hipp not run: {hipp.why}")

@@ -36,11 +36,12 @@ MODEL_TOLERANCE = 0.03
 """The model's own imperfection (union of blurred bars, Gaussian blur) as a fraction of the amplitude: the
 misfit is measured against the larger of the noise and this, so that a nearly noise-free scan is not
 held to a perfection no model reaches."""
-MAX_EVALUATIONS = 50
-"""Most model evaluations per least-squares pass: a pass that needs more found no '+' (the fit fails). Measured
-(``benchmarks/bench_hough.py --evaluations``: 2854 fits of the benchmark, rejection and real RC20 scenes): the
-287 accepted '+' took at most 33 in any pass (99 % at most 31); the refused took a median of 48 in their first
-pass, and a quarter of them ran out of 100."""
+MAX_EVALUATIONS = 100
+"""Most model evaluations per least-squares pass: a pass that needs more found no '+' and the fit fails, with no
+second solver (``benchmarks/bench_fits.py``, 2854 verifications of the benchmark, rejection and real RC20 scenes:
+the bounded trust-region retry that used to follow accepted one '+', in a rejection scene, and took a third of
+the refused fits' time). Most '+' converge in 10-30 evaluations; a true Wild corner '+' of bench_peers.py's scenes
+needed 63."""
 ROBUST_PASSES = 2
 """Reweighted refits after the first least-squares fit (Huber weights)."""
 HUBER_K = 3.0

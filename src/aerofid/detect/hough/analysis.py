@@ -22,6 +22,7 @@ the sub-pixel fit and verification (beyond the seed) in :mod:`aerofid.detect.hou
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -99,6 +100,15 @@ def matched_filter(thetas_deg: np.ndarray, taper: float, half_width: float, sepa
     return peak(d1) + peak(d2)
 
 
+@functools.lru_cache(maxsize=16)
+def _matched_filter(thetas: bytes, taper: float, half_width: float, separation: float) -> np.ndarray:
+    """:func:`matched_filter` of the theta grid ``thetas`` (its float64 bytes), made once per grid and setting (a
+    box's search analyses thousands of windows with the same one); read-only."""
+    w = matched_filter(np.frombuffer(thetas, np.float64), taper, half_width, separation)
+    w.setflags(write=False)
+    return w
+
+
 def _angle_diff(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray:
     """Signed difference a - b of line angles, folded into [-90, 90) degrees."""
     return (np.asarray(a) - np.asarray(b) + 90.0) % 180.0 - 90.0
@@ -106,7 +116,9 @@ def _angle_diff(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray:
 
 def best_pair(projection: np.ndarray, thetas_deg: np.ndarray, params: HoughParams) -> tuple[int, int]:
     """Indices (k1, k2) of the strongest pair of projection peaks ``pair_separation`` apart (C ``coordinate``)."""
-    response = matched_filter(thetas_deg, params.taper, params.taper_half_width, params.pair_separation) @ projection
+    weights = _matched_filter(np.asarray(thetas_deg, np.float64).tobytes(), params.taper, params.taper_half_width,
+                              params.pair_separation)
+    response = weights @ projection
     # the pair (k, k + 90) is the same as (k + 90, k): search theta1 over half the circle for a '+'
     n = len(thetas_deg)
     span = n if params.pair_separation != 90.0 else n // 2
@@ -123,8 +135,8 @@ def column_rho(acc_t: np.ndarray, k: int, rho_min: float, rho_step: float, devia
     cells = np.flatnonzero(acc_t[k] > 0)
     if cells.size == 0:
         return None
-    rho = rho_min + (cells + 0.5) * rho_step
-    med = np.median(rho)
+    rho = rho_min + (cells + 0.5) * rho_step  # ascending: the median is the middle, as np.median gives it
+    med = 0.5 * (rho[(rho.size - 1) // 2] + rho[rho.size // 2])
     keep = np.abs(rho - med) <= deviation
     return float(rho[keep].mean()) if keep.any() else float(med)
 

@@ -17,8 +17,9 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    each other form a group. A group with a single member is re-examined on a crop of the window centred on
    it (half-size = the mark's extent + ``crop_margin``): a '+' from ``hough`` by ``lines`` (not for cloth
    panels, whose thin low-contrast strips on textured ground ``lines`` does not resolve), any answer by
-   ``symmetry`` and, for rings, ``circles``, in the order of :data:`CROSS_CHECKERS` until one agrees. Two or
-   more independent methods agreeing is strong evidence (*corroborated*). A lone answer is kept only when its
+   ``symmetry`` and, for rings, ``circles``, in the order of :data:`CROSS_CHECKERS` (after one agrees, only
+   those that come first in :data:`PRIORITY`). Two or more independent methods agreeing is strong evidence
+   (*corroborated*). A lone answer is kept only when its
    method applies to what the window shows (and it passes step 3): a ``hough`` answer (its verification has
    already checked four balanced arms of a '+'; ``lines`` does not survive JPEG blocks, so its silence is no
    evidence), a ``circles`` answer (two concentric circles, each covered on 60 % of its circumference), or a
@@ -89,8 +90,9 @@ MIN_SIDE = 16
 MIN_CROP_SIDE = 17
 """A lone answer is re-examined on its crop only when the crop is at least this many px on each side."""
 CROSS_CHECKERS = {"hough": ("lines", "symmetry"), "circles": ("symmetry", "hough"), "symmetry": ("circles", "hough")}
-"""Step 2: which methods re-examine a lone answer of each method on its crop, in this order until one agrees
-(``symmetry`` for others; a cloth panel's lone ``hough`` answer only by ``symmetry``)."""
+"""Step 2: which methods re-examine a lone answer of each method on its crop, in this order (``symmetry`` for
+others; a cloth panel's lone ``hough`` answer only by ``symmetry``); after one agrees, only those that could give
+the centre (:func:`cross_check`)."""
 SEED = 12345
 """Seed of the noise that fills a blanked or isolated area (deterministic answers)."""
 
@@ -128,6 +130,10 @@ class AutoParams(MethodParams):
     max_disc_asymmetry: float = 0.2
     """Largest share of the mark disc's structure that may change under a 180-degree rotation (step 3; not
     ``symmetry``'s own ``max_asymmetry``)."""
+    cross_check_rejections: int = 2
+    """``hough`` re-examining a lone answer on its crop gives up after this many refused candidates (its own
+    ``max_rejections`` is 8 for a whole box): a true '+' is the first candidate it verifies (measured in
+    ``HoughParams.max_rejections``), and on the real RC20 rings every verified candidate was refused. Step 2."""
     lone_factor: float = 0.8
     """A lone (uncorroborated) answer's evidence is scaled by this. Score."""
     min_lone_score_hough: float = 0.2
@@ -170,6 +176,8 @@ class AutoParams(MethodParams):
         check(self.mark in MARKS, f"mark must be one of {', '.join(MARKS)}, not {self.mark!r}")
         check(number_in(self.min_agree, 0, MAX_PX, lo_open=True) and number_in(self.max_agree, self.min_agree, MAX_PX),
               f"need 0 < min_agree <= max_agree <= {MAX_PX}, not {self.min_agree!r} and {self.max_agree!r}")
+        check(isinstance(self.cross_check_rejections, int) and self.cross_check_rejections >= 1,
+              f"cross_check_rejections must be a whole number >= 1, not {self.cross_check_rejections!r}")
         check(isinstance(self.crop_margin, int) and 0 <= self.crop_margin <= MAX_PX,
               f"crop_margin must be a whole number of px in [0, {MAX_PX}], not {self.crop_margin!r}")
         for name in ("edge_margin", "min_moat"):
@@ -494,10 +502,11 @@ def disagreement(img: np.ndarray, groups: list[list[Detection]], noise: float,
 
 def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: float) -> str | None:
     """Step 2 for a lone answer: the methods of :data:`CROSS_CHECKERS` run in turn on a crop of half-size
-    ``extent + crop_margin`` around it until one agrees: that answer joins ``group`` (the others are not run:
-    on the RC20 marks ``hough`` after ``symmetry`` was a failed search costing 2-3 times the rest of the call;
-    on 300 cross-checks of ``benchmarks/bench_fits.py``'s scenes a later checker never disagreed). A
-    disagreeing answer is the reason returned (None otherwise)."""
+    ``extent + crop_margin`` around it; an agreeing answer joins ``group``, a disagreeing one is the reason
+    returned (None otherwise). Once one agrees, only checkers that come before every member in :data:`PRIORITY`
+    still run: they could give the centre (``hough`` after ``symmetry`` and ``circles`` agreed on a ring with a
+    '+'), the others could only add evidence to a corroborated answer (``symmetry`` after ``lines`` confirmed a
+    '+'; on 300 cross-checks of ``benchmarks/bench_fits.py``'s scenes a later checker never disagreed)."""
     lone = group[0]
     crop, x0, y0 = _crop(ctx.img, lone.x, lone.y, int(np.ceil(extent + ctx.params.crop_margin)))
     if lone.method == "hough" and ctx.params.mark == "panel":
@@ -505,9 +514,9 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
     else:
         checkers = CROSS_CHECKERS.get(lone.method, ("symmetry",))
     for m in checkers:
-        if min(crop.shape) < MIN_CROP_SIDE:
+        if min(crop.shape) < MIN_CROP_SIDE or (len(group) > 1 and not _outranks(m, group)):
             continue
-        d = ctx.run(m, crop)
+        d = ctx.run(m, crop, max_rejections=ctx.params.cross_check_rejections) if m == "hough" else ctx.run(m, crop)
         if not d.found:
             continue
         d = d.shifted(x0, y0)
@@ -518,8 +527,12 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
             return (f"methods disagree: {lone.method} at ({lone.x:.2f}, {lone.y:.2f}) and {m} on a crop around it "
                     f"at ({d.x:.2f}, {d.y:.2f}), {dist:.2f} px apart")
         group.append(d)
-        return None
     return None
+
+
+def _outranks(method: str, group: list[Detection]) -> bool:
+    """Would an answer of ``method`` give the group's centre (it comes first in :data:`PRIORITY`)?"""
+    return PRIORITY.index(method) < PRIORITY.index(_by_priority(group).method)
 
 
 def lone_answer_refused(ctx: _Context, trace: _Trace, lone: Detection, extent: float) -> str | None:

@@ -1,6 +1,6 @@
 """How many model evaluations the cross fit of ``hough``'s verification needs, accepted against refused.
 
-    python benchmarks/bench_fits.py [--n 8] [--max-evaluations 100] [--seed 7]
+    python benchmarks/bench_fits.py [--n 8] [--max-evaluations 100] [--seed 7] [--marks 30]
 
 Every candidate ``hough`` verifies (:func:`aerofid.detect.hough.detector.verify_candidate`) is recorded with the
 evaluations of each least-squares pass of its cross fit and whether the verification accepted it, over the scenes
@@ -9,6 +9,11 @@ of each rejection case there, ``n`` 200 px boxes per style of bench_peers.py (``
 the 8 real RC20 boxes of bench_rc20.py (skipped when ``../shared/realdata`` is absent). ``--max-evaluations``
 sets :data:`aerofid.detect.hough.cross_fit.MAX_EVALUATIONS` for the run, so that the passes a lower limit would
 cut short can be seen. The cross fit's own CPU time per verification is summed as well.
+
+``--marks N`` adds ``hough`` alone on bench_marks.py's own scenes (its seed 2026, ``N`` per condition and style,
+in its order) and reports the bounded solver's retries (a least-squares pass that ran out of evaluations, then
+the trust-region solver from the same start): how many, how many verifications they rescued, and how far the
+centre had moved in the pass that ran out.
 """
 
 from __future__ import annotations
@@ -46,15 +51,16 @@ class Recorder:
 
     def __init__(self) -> None:
         self.records: list[dict[str, Any]] = []
-        self.passes: list[int] = []
+        self.passes: list[tuple[str, int, float]] = []
         self.source = ""
 
     def install(self) -> None:
         solve, verify = scipy.optimize.least_squares, hough_detector.verify_candidate
 
-        def least_squares(*args: Any, **kwargs: Any) -> Any:
-            sol = solve(*args, **kwargs)
-            self.passes.append(int(sol.nfev))
+        def least_squares(fun: Any, x0: np.ndarray, *args: Any, **kwargs: Any) -> Any:
+            sol = solve(fun, x0, *args, **kwargs)
+            shift = float(np.hypot(sol.x[0] - x0[0], sol.x[1] - x0[1]))
+            self.passes.append((str(kwargs.get("method", "trf")), int(sol.nfev), shift))
             return sol
 
         def verify_candidate(*args: Any, **kwargs: Any) -> Any:
@@ -73,9 +79,9 @@ class Recorder:
         fn(*args, **kwargs)
 
 
-def collect(n: int, rng: np.random.Generator) -> list[dict[str, Any]]:
-    rec = Recorder()
-    rec.install()
+def collect(rec: Recorder, n: int, rng: np.random.Generator) -> list[dict[str, Any]]:
+    """Every verification of the scenes of the module docstring (``n`` per cell)."""
+    rec.records = []
     for cond in CONDITIONS:
         for style in STYLES:
             for _ in range(n):
@@ -104,23 +110,53 @@ def collect(n: int, rng: np.random.Generator) -> list[dict[str, Any]]:
     return rec.records
 
 
+def collect_marks(rec: Recorder, n: int) -> list[dict[str, Any]]:
+    """``hough`` alone on bench_marks.py's scenes (its seed and order, ``n`` per condition and style)."""
+    rec.records = []
+    rng = np.random.default_rng(2026)
+    for cond in CONDITIONS:
+        for style in STYLES:
+            for _ in range(n):
+                img, _, _, mark = marks_scene(style, cond, rng)
+                rec.run(f"marks/{cond}/{style}", make_detector("hough", mark, {}), img)
+    return rec.records
+
+
+def retry_report(records: list[dict[str, Any]]) -> list[str]:
+    """The bounded solver's retries: count, rescued verifications, the centre's move in the pass that ran out."""
+    out = ["| verifications with a retry | count | centre's move before the retry (px): min / median / max | "
+           "moved <= 1 px |", "|---|---|---|---|"]
+    for label, accepted in (("accepted", True), ("refused", False)):
+        moves = []
+        for r in records:
+            if r["accepted"] != accepted:
+                continue
+            methods = [p[0] for p in r["passes"]]
+            if "trf" in methods[1:]:
+                moves.append(r["passes"][methods.index("trf", 1) - 1][2])
+        cell = f"{min(moves):.2f} / {np.median(moves):.2f} / {max(moves):.2f}" if moves else "-"
+        out.append(f"| {label} | {len(moves)} | {cell} | {sum(m <= 1.0 for m in moves)} |")
+    return out
+
+
 def report(records: list[dict[str, Any]], limit: int) -> list[str]:
     out = ["| verifications | count | evaluations, first pass: median / 99 % / max | any pass: max | "
            f"ran out of {limit} | cross-fit CPU s |", "|---|---|---|---|---|---|"]
     for label, accepted in (("accepted", True), ("refused", False)):
         rs = [r for r in records if r["accepted"] == accepted]
-        first = [r["passes"][0] for r in rs if r["passes"]]
-        every = [p for r in rs for p in r["passes"]]
+        first = [r["passes"][0][1] for r in rs if r["passes"]]
+        every = [p[1] for r in rs for p in r["passes"]]
         if not first:
             out.append(f"| {label} | {len(rs)} | - | - | - | - |")
             continue
         out.append(f"| {label} | {len(rs)} | {np.median(first):.0f} / {np.percentile(first, 99):.0f} / "
-                   f"{max(first)} | {max(every)} | {sum(max(r['passes'], default=0) >= limit for r in rs)} | "
+                   f"{max(first)} | {max(every)} | "
+                   f"{sum(max((p[1] for p in r['passes']), default=0) >= limit for r in rs)} | "
                    f"{sum(r['cpu'] for r in rs):.1f} |")
-    slow = [r for r in records if r["accepted"] and r["passes"] and max(r["passes"]) > 0.6 * limit]
+    slow = [r for r in records if r["accepted"] and any(p[1] > 0.6 * limit for p in r["passes"])]
     out.append("")
     out.append("Accepted fits with a pass above 60 % of the limit: " + (
-        "; ".join(f"{r['source']} {r['passes']}" for r in slow) if slow else "none") + ".")
+        "; ".join(f"{r['source']} {[p[1] for p in r['passes']]}" for r in slow) if slow else "none") + ".")
     return out
 
 
@@ -130,13 +166,25 @@ def main() -> None:
     ap.add_argument("--max-evaluations", type=int, default=cross_fit.MAX_EVALUATIONS,
                     help="cross_fit.MAX_EVALUATIONS for this run")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--marks", type=int, default=0, help="also hough alone on N bench_marks.py scenes per cell")
     args = ap.parse_args()
     cross_fit.MAX_EVALUATIONS = args.max_evaluations
     t = time.perf_counter()
-    records = collect(args.n, np.random.default_rng(args.seed))
+    rec = Recorder()
+    rec.install()
+    records = collect(rec, args.n, np.random.default_rng(args.seed))
+    marks = collect_marks(rec, args.marks) if args.marks else []
     print(f"`python benchmarks/bench_fits.py --n {args.n} --max-evaluations {args.max_evaluations} "
-          f"--seed {args.seed}`, {time.perf_counter() - t:.0f} s:\n")
+          f"--seed {args.seed}" + (f" --marks {args.marks}" if args.marks else "")
+          + f"`, {time.perf_counter() - t:.0f} s:\n")
     print("\n".join(report(records, args.max_evaluations)))
+    print("\nRetries by the bounded solver, these scenes:\n")
+    print("\n".join(retry_report(records)))
+    if marks:
+        print(f"\n`hough` alone on bench_marks.py's scenes ({args.marks} per condition and style):\n")
+        print("\n".join(report(marks, args.max_evaluations)))
+        print("\nRetries by the bounded solver, bench_marks.py's scenes:\n")
+        print("\n".join(retry_report(marks)))
 
 
 if __name__ == "__main__":

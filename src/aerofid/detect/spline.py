@@ -21,7 +21,8 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["EDGE_PAD", "bspline3_weights", "cubic_coefficients", "cubic_prefilter", "grid_values", "square_grid"]
+__all__ = ["EDGE_PAD", "NEAR_REACH", "bspline3_weights", "cubic_coefficients", "cubic_prefilter", "grid_values", "near",
+           "square_grid"]
 
 POLE = math.sqrt(3.0) - 2.0
 """The pole of the cubic B-spline's inverse filter."""
@@ -30,6 +31,10 @@ PREFILTER_REACH = 27
 _K = np.arange(-PREFILTER_REACH, PREFILTER_REACH + 1)
 PREFILTER = (-6.0 * POLE / (1.0 - POLE * POLE)) * POLE ** np.abs(_K)
 """The truncated impulse response of the inverse filter (its taps sum to 1)."""
+NEAR_REACH = PREFILTER_REACH + 4
+"""Values of the spline within r px of a point need the image within r + this many px of it (:func:`near`): the
+spline's support (2 px), rounding, and the inverse filter's reach, beyond which where the image is cut changes
+the coefficients by less than 4e-16 of its grey levels. A measuring window is often several times larger."""
 
 EDGE_PAD = 12
 """Edge pixels repeated around an image before its cubic spline coefficients are computed, as
@@ -97,13 +102,33 @@ def cubic_prefilter(img: np.ndarray) -> np.ndarray:
                            borderType=cv2.BORDER_REFLECT_101)
 
 
+def near(img: np.ndarray, xc: float, yc: float, reach: int) -> tuple[np.ndarray, int, int]:
+    """The part of ``img`` within ``reach`` px of the pixel nearest (xc, yc), clipped to the image (a view), and
+    its origin (x0, y0).
+
+    Examples
+    --------
+    >>> part, x0, y0 = near(np.zeros((50, 60)), 5.2, 30.7, 10)
+    >>> part.shape, x0, y0
+    ((21, 16), 0, 21)
+    """
+    h, w = img.shape[:2]
+    cx, cy = int(round(xc)), int(round(yc))
+    x0, y0 = max(0, cx - reach), max(0, cy - reach)
+    return img[y0:min(h, cy + reach + 1), x0:min(w, cx + reach + 1)], x0, y0
+
+
 def square_grid(img: np.ndarray, xc: float, yc: float, r: int, order: int = 3,
                 coeffs: np.ndarray | None = None) -> np.ndarray:
     """``img`` interpolated (``order`` 1 or 3; edge pixels repeated beyond it) on the (2r+1)-square of points
     centred on (xc, yc), float64: what ``scipy.ndimage.map_coordinates(img, ..., order=order, mode="nearest")``
     gives there, by whole grids (:func:`grid_values`). ``coeffs``: :func:`cubic_coefficients` of ``img``, if
-    known."""
+    known; else those of the part of ``img`` the square needs (:func:`near`, :data:`NEAR_REACH`)."""
     n = 2 * r + 1
+    if order == 3 and coeffs is None:
+        part, x0, y0 = near(img, xc, yc, r + NEAR_REACH)
+        if part.shape != np.shape(img):
+            return square_grid(part, xc - x0, yc - y0, r, 3)
     if order == 3:
         c = cubic_coefficients(img) if coeffs is None else coeffs
         got = grid_values(c, xc - r + EDGE_PAD, yc - r + EDGE_PAD, (n, n))

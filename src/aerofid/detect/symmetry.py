@@ -55,7 +55,7 @@ from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
-from aerofid.detect.spline import cubic_coefficients, cubic_prefilter, grid_values, square_grid
+from aerofid.detect.spline import NEAR_REACH, cubic_coefficients, cubic_prefilter, grid_values, near, square_grid
 from aerofid.robust import MAD_TO_SIGMA
 
 if TYPE_CHECKING:
@@ -1009,6 +1009,9 @@ HUBER_K = 1.5
 """Residuals beyond this many robust sigmas get Huber weights in :func:`point_symmetry_centre`."""
 REFINE_ITERATIONS = 8
 """Gauss-Newton iterations of :func:`point_symmetry_centre` at most (it stops at a step below 1e-4 px)."""
+REFINE_DRIFT = 4
+"""The spline coefficients of :func:`point_symmetry_centre` are those of the window's part around its start,
+with this much room for the centre to move before they are made again around it."""
 
 
 def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tuple[float, float] | None:
@@ -1021,14 +1024,18 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
         return None
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
     half = ((yy > 0) | ((yy == 0) & (xx > 0))) & (xx * xx + yy * yy <= r * r)
-    # mirrored coefficients, 2 edge values more around them: the spline's support reaches 1-2 px beyond a grid
-    # point on the window's edge, where the edge coefficient repeats (scipy's mode="nearest")
-    coeffs = np.pad(cubic_prefilter(img), 2, mode="edge")
-    step = np.inf
+    step, start = np.inf, None
     for _ in range(REFINE_ITERATIONS):
         if not (r <= xc <= w - 1 - r and r <= yc <= h - 1 - r):
             return None
-        e, gx, gy = _mirror_terms(coeffs, xc, yc, r, half)
+        if start is None or max(abs(xc - start[0]), abs(yc - start[1])) > REFINE_DRIFT:
+            # the coefficients of the part of the window the disc needs, mirrored at the window's edges, 2 edge
+            # values more around them: the spline's support reaches 1-2 px beyond a grid point on the window's
+            # edge, where the edge coefficient repeats (scipy's mode="nearest")
+            start = (xc, yc)
+            part, x0, y0 = near(img, xc, yc, r + NEAR_REACH + REFINE_DRIFT)
+            coeffs = np.pad(cubic_prefilter(part), 2, mode="edge")
+        e, gx, gy = _mirror_terms(coeffs, xc - x0, yc - y0, r, half)
         # Huber weights: texture that is not point-symmetric (aerial ground around the mark) must not pull
         scale = max(MAD_TO_SIGMA * float(np.median(np.abs(e))), 1e-9)
         wgt = np.minimum(1.0, HUBER_K * scale / np.maximum(np.abs(e), 1e-12))
@@ -1089,6 +1096,8 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
     (the sampling and floor terms are independent per axis). A mark that is long along a diagonal (a '+'
     with one long arm at 45 degrees) has gradients across that arm, and its centre's x and y errors correlate.
     """
+    part, x0, y0 = near(img, xc, yc, r + 1 + NEAR_REACH)
+    img, xc, yc = part, xc - x0, yc - y0
     coeffs = cubic_coefficients(img)
     sub = _resample(img, xc, yc, r + 1, coeffs).astype(np.float64)
     gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])

@@ -11,8 +11,11 @@ import pytest
 
 import aerofid
 from aerofid import synth
+from aerofid.detect.registry import METHODS
 from aerofid.detect.screen import Candidate, local_noise, merge_candidates, screen
-from aerofid.find import reduction_for, window_ladder, with_window_term
+from aerofid.find import Measurer, reduction_for, window_ladder, with_window_term
+from aerofid.io.array import open_image
+from aerofid.methods import AutoDetector, make_detector
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
 
@@ -315,3 +318,21 @@ def test_real_rc20_sigma_is_the_same_in_boxes_whose_windows_differ(realdata):
 def test_search_parameters_are_refused_before_anything_is_read(kw):
     with pytest.raises(aerofid.AerofidInputError):
         aerofid.find_marks(np.zeros((50, 50), np.float32), **kw)
+
+
+def test_the_window_term_measures_with_the_returned_method_alone():
+    """``auto``'s member alone is the seed method with the parameters ``auto`` gives it; a name that is no seed
+    method leaves ``auto`` measuring; a measurer of one method stays as it is."""
+    sc = synth.mark_scene("ring_x_dot", size=30, window=90, rng=np.random.default_rng(3), noise_sigma=0.02)
+    auto_detector = make_detector("auto", "panel", {"max_asymmetry": 0.3})
+    assert isinstance(auto_detector, AutoDetector)
+    alone = auto_detector.member("symmetry")
+    assert alone is not None and auto_detector.member("centroid") is None
+    want = METHODS["symmetry"].detect(sc.image, auto_detector.methods["symmetry"])
+    got = alone(sc.image)
+    assert (got.found, got.x, got.y) == (want.found, want.x, want.y)
+    with open_image(sc.image) as source:
+        m = Measurer(source, auto_detector, ("bright",))
+        assert m.alone("symmetry").detector is not auto_detector and m.alone("centroid") is m
+        single = Measurer(source, make_detector("circles", "auto", {}), ("bright",))
+        assert single.alone("symmetry") is single

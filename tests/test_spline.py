@@ -25,8 +25,8 @@ def test_grid_values_equal_map_coordinates(x0, y0, nx, ny, seed):
 
 
 def test_point_symmetry_centre_finds_the_centre_of_a_symmetric_pattern_near_the_edge_too():
-    """The refinement on whole grids and, where the spline's support reaches the edge, point by point: both reach
-    the centre of a pattern symmetric about a known sub-pixel point."""
+    """The refinement on whole grids, in the middle of the window and where the spline's support reaches its edge:
+    both reach the centre of a pattern symmetric about a known sub-pixel point."""
     yy, xx = np.mgrid[0:64, 0:64].astype(float)
     for cx, cy, r in ((31.3, 30.6, 12), (12.4, 12.7, 12)):
         img = np.exp(-((xx - cx) ** 2 + 0.5 * (yy - cy) ** 2) / 30.0) + 0.3 * np.exp(-((xx - cx) ** 2) / 4.0
@@ -62,3 +62,13 @@ def test_moving_mean_equals_scipy_uniform_filter(n, d, seed):
     p = np.random.default_rng(seed).normal(size=n)
     np.testing.assert_allclose(moving_mean(p, d), ndimage.uniform_filter1d(p, 2 * d + 1, mode="nearest"),
                                rtol=0, atol=1e-12)
+
+
+def test_square_grid_far_outside_the_image_is_the_edge_value():
+    """A centre far beyond the image (no part of it to cut out) gives the nearest edge pixel's value, as scipy's
+    mode="nearest" does."""
+    img = np.random.default_rng(5).normal(size=(40, 50))
+    for xc, yc in ((-100.0, 20.0), (300.0, 10.0), (25.0, -80.0), (-90.0, 200.0)):
+        want = ndimage.map_coordinates(img, [np.mgrid[-2:3, -2:3][0] + yc, np.mgrid[-2:3, -2:3][1] + xc], order=3,
+                                       mode="nearest")
+        np.testing.assert_allclose(square_grid(img, xc, yc, 2), want, rtol=0, atol=1e-6)

@@ -217,13 +217,15 @@ class Measurer:
         alone (not by the window it was measured on, whose size came from the round before: 64 or 65 px on RC20
         midside R by the box), so the term, like the centre, does not depend on the box or on where the candidate
         fell. The method alone measures how its centre moves with the window without ``auto``'s cross-checks and
-        uniqueness pass (they answered the mark already); on a window where it alone finds nothing, the detector
-        measures it (``auto`` then answers with what it corroborates, e.g. ``symmetry`` on a crop)."""
+        uniqueness pass (they answered the mark already); on a window where it alone finds nothing, or something
+        further from ``final`` than the mark's extent (another feature), the detector measures it (``auto`` then
+        answers with what it corroborates, e.g. ``symmetry`` on a crop)."""
         alone = self.alone(final.detection.method)
         others = []
         for f in WINDOW_TERM_SIZES:
             got = alone.at(final.x, final.y, f * half, final.candidate)
-            others.append(got if got.found or alone is self else self.at(final.x, final.y, f * half, final.candidate))
+            same = got.found and math.hypot(got.x - final.x, got.y - final.y) <= final.extent
+            others.append(got if same or alone is self else self.at(final.x, final.y, f * half, final.candidate))
         return with_window_term(final, [(o.x - final.x, o.y - final.y) for o in others if o.found])
 
 

@@ -69,7 +69,7 @@ from aerofid.conventions import FOUND, MARKS, Box
 from aerofid.detect.asymmetry import patch as _patch
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
-from aerofid.detect.params import MAX_PX, MethodParams, check, number_in
+from aerofid.detect.params import MAX_PX, MethodParams, check, is_int, number_in
 from aerofid.detect.registry import METHODS, SEED_METHODS
 from aerofid.detect.result import Detection, unusable_window
 
@@ -132,8 +132,9 @@ class AutoParams(MethodParams):
     ``symmetry``'s own ``max_asymmetry``)."""
     cross_check_rejections: int = 2
     """``hough`` re-examining a lone answer on its crop gives up after this many refused candidates (its own
-    ``max_rejections`` is 8 for a whole box): a true '+' is the first candidate it verifies (measured in
-    ``HoughParams.max_rejections``), and on the real RC20 rings every verified candidate was refused. Step 2."""
+    ``max_rejections`` is 8 for a whole box; a lower one of the user's is kept): a true '+' is the first candidate
+    it verifies (measured in ``HoughParams.max_rejections``), and on the real RC20 rings every verified candidate
+    was refused. Step 2."""
     lone_factor: float = 0.8
     """A lone (uncorroborated) answer's evidence is scaled by this. Score."""
     min_lone_score_hough: float = 0.2
@@ -176,7 +177,7 @@ class AutoParams(MethodParams):
         check(self.mark in MARKS, f"mark must be one of {', '.join(MARKS)}, not {self.mark!r}")
         check(number_in(self.min_agree, 0, MAX_PX, lo_open=True) and number_in(self.max_agree, self.min_agree, MAX_PX),
               f"need 0 < min_agree <= max_agree <= {MAX_PX}, not {self.min_agree!r} and {self.max_agree!r}")
-        check(isinstance(self.cross_check_rejections, int) and self.cross_check_rejections >= 1,
+        check(is_int(self.cross_check_rejections) and self.cross_check_rejections >= 1,
               f"cross_check_rejections must be a whole number >= 1, not {self.cross_check_rejections!r}")
         check(isinstance(self.crop_margin, int) and 0 <= self.crop_margin <= MAX_PX,
               f"crop_margin must be a whole number of px in [0, {MAX_PX}], not {self.crop_margin!r}")
@@ -516,7 +517,7 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
     for m in checkers:
         if min(crop.shape) < MIN_CROP_SIDE or (len(group) > 1 and not _outranks(m, group)):
             continue
-        d = ctx.run(m, crop, max_rejections=ctx.params.cross_check_rejections) if m == "hough" else ctx.run(m, crop)
+        d = ctx.run(m, crop, max_rejections=_cross_check_rejections(ctx)) if m == "hough" else ctx.run(m, crop)
         if not d.found:
             continue
         d = d.shifted(x0, y0)
@@ -528,6 +529,14 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
                     f"at ({d.x:.2f}, {d.y:.2f}), {dist:.2f} px apart")
         group.append(d)
     return None
+
+
+def _cross_check_rejections(ctx: _Context) -> int:
+    """``hough``'s ``max_rejections`` in a cross-check: ``cross_check_rejections``, or the user's own limit for
+    ``hough`` when that is lower."""
+    own = getattr(ctx.seeds["hough"], "max_rejections", None)
+    limit = ctx.params.cross_check_rejections
+    return limit if own is None else min(own, limit)
 
 
 def _outranks(method: str, group: list[Detection]) -> bool:

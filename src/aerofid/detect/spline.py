@@ -61,7 +61,7 @@ def grid_values(coeffs: np.ndarray, x0: float, y0: float, shape: tuple[int, int]
     """The spline of ``order`` 3 with coefficients ``coeffs`` (``scipy.ndimage.spline_filter(image, order=3)``),
     or the bilinear interpolation (``order`` 1) of the image ``coeffs``, at the points ``(x0 + i, y0 + j)``,
     ``i < shape[1]``, ``j < shape[0]`` (x = column, y = row): an array of ``shape``. None when the support reaches
-    outside ``coeffs`` (then the edge mode decides; interpolate point by point)."""
+    outside ``coeffs`` (then the edge mode decides: pad ``coeffs`` further, as :func:`square_grid` does)."""
     ny, nx = shape
     ix, iy = math.floor(x0), math.floor(y0)
     if order == 3:
@@ -114,8 +114,8 @@ def near(img: np.ndarray, xc: float, yc: float, reach: int) -> tuple[np.ndarray,
     """
     h, w = img.shape[:2]
     cx, cy = int(round(xc)), int(round(yc))
-    x0, y0 = max(0, cx - reach), max(0, cy - reach)
-    return img[y0:min(h, cy + reach + 1), x0:min(w, cx + reach + 1)], x0, y0
+    x0, y0 = min(max(0, cx - reach), w), min(max(0, cy - reach), h)
+    return img[y0:max(y0, min(h, cy + reach + 1)), x0:max(x0, min(w, cx + reach + 1))], x0, y0
 
 
 def square_grid(img: np.ndarray, xc: float, yc: float, r: int, order: int = 3,
@@ -123,9 +123,11 @@ def square_grid(img: np.ndarray, xc: float, yc: float, r: int, order: int = 3,
     """``img`` interpolated (``order`` 1 or 3; edge pixels repeated beyond it) on the (2r+1)-square of points
     centred on (xc, yc), float64: what ``scipy.ndimage.map_coordinates(img, ..., order=order, mode="nearest")``
     gives there, by whole grids (:func:`grid_values`). ``coeffs``: :func:`cubic_coefficients` of ``img``, if
-    known; else those of the part of ``img`` the square needs (:func:`near`, :data:`NEAR_REACH`)."""
+    known; else, for a centre inside the image, those of the part of ``img`` the square needs (:func:`near`,
+    :data:`NEAR_REACH`)."""
     n = 2 * r + 1
-    if order == 3 and coeffs is None:
+    h, w = np.shape(img)
+    if order == 3 and coeffs is None and 0 <= xc <= w - 1 and 0 <= yc <= h - 1:
         part, x0, y0 = near(img, xc, yc, r + NEAR_REACH)
         if part.shape != np.shape(img):
             return square_grid(part, xc - x0, yc - y0, r, 3)
@@ -138,7 +140,6 @@ def square_grid(img: np.ndarray, xc: float, yc: float, r: int, order: int = 3,
         return got
     # the square reaches beyond the padding: more edge values (far outside, the spline of the edge-padded image
     # is the edge pixel's value, as scipy's mode="nearest" gives there)
-    h, w = np.shape(img)
     extra = r + 3 + math.ceil(max(0.0, -xc, -yc, xc - (w - 1), yc - (h - 1)))
     if order == 3:
         c = np.pad(cubic_coefficients(img) if coeffs is None else coeffs, extra, mode="edge")

@@ -824,7 +824,7 @@ def high_pass(profile: np.ndarray, d: int) -> np.ndarray:
 
 def moving_mean(profile: np.ndarray, d: int) -> np.ndarray:
     """The mean of ``profile`` over ``2d + 1`` samples centred on each, its ends extended by their nearest value
-    (``scipy.ndimage.uniform_filter1d(profile, 2 * d + 1, mode="nearest")``).
+    (``scipy.ndimage.uniform_filter1d(profile, 2 * d + 1, mode="nearest")``), in float64.
 
     Examples
     --------

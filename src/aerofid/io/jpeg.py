@@ -181,7 +181,7 @@ def _decode_with_cv2(path: Path) -> np.ndarray:
         return image[:, :, None]
     if image.shape[2] == 3:  # BGR -> RGB: a view with the samples reversed (no pass over a large image)
         return image[:, :, ::-1]
-    if image.shape[2] == 4:  # BGRA -> RGBA in place: no second copy of a large image
+    if image.shape[2] == 4:  # BGRA -> RGBA in place (no view reorders 4 samples so): no second copy of the image
         cv2.cvtColor(image, cv2.COLOR_BGRA2RGBA, dst=image)
     return image
 

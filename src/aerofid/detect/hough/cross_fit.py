@@ -215,7 +215,8 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
     times faster than the bounded trust-region solver (a solution that leaves the plausible region is reported
     via ``at_bound``). When LM runs out of evaluations with the centre still within :data:`RETRY_SHIFT` of the
     start, it has wandered into a degenerate shape (a hair-thin, very bright stroke; an arm growing without end)
-    while the '+' held: the bounded trust-region solver then runs once from the same start."""
+    while the '+' held, and when it ends on values that are not finite: the bounded trust-region solver then runs
+    once from the same start."""
 
     # the solvers ask for the Jacobian at nearly every point whose residuals they computed (MINPACK: after each
     # accepted step), and both come from the same bar profiles: compute them together, keep the last Jacobian
@@ -233,8 +234,9 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
         sol = scipy.optimize.least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
                                            max_nfev=MAX_EVALUATIONS)
-        ran_out = np.all(np.isfinite(sol.x)) and not (sol.success or sol.status > 0)
-        if ran_out and np.hypot(sol.x[0] - start[0], sol.x[1] - start[1]) <= RETRY_SHIFT:
+        finite = bool(np.all(np.isfinite(sol.x)))
+        ran_out = finite and not (sol.success or sol.status > 0)
+        if not finite or (ran_out and np.hypot(sol.x[0] - start[0], sol.x[1] - start[1]) <= RETRY_SHIFT):
             inside = np.array(start, float)
             inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
             inside = np.clip(inside, lo + 1e-9, hi - 1e-9)

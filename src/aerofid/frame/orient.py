@@ -162,7 +162,7 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
         best: FrameOrientation | None = None
         for layout in _attempts(source, features, f, fid_mm, cam.y_axis, size, layouts):
             located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features,
-                                    mark, profile)
+                                    profile)
             res = _judged(cam, layout, located, model, head, size, size_source, lie, profile)
             if best is None or _standing(res) > _standing(best):
                 best = res
@@ -282,7 +282,7 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 
 
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
-                  features: tuple[Candidate, ...], mark: str = "auto",
+                  features: tuple[Candidate, ...],
                   profile: RollProfile | None = None) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
     strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at
@@ -321,10 +321,10 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
             tolerance = alone_tolerance = layout.tolerance_px
             name = name or (_frame_method(out, done) if done else None)
-        quick = (_by_method(measurer, name, mark, _coarse(measurer, name, mark, start), at, alone_tolerance)
+        quick = (_by_method(measurer, name, _coarse(measurer, name, start), at, alone_tolerance)
                  if name is not None and len(measurer.polarities) == 1 else None)
         if quick is None:
-            quick = _coarse_first(measurer, mark, start, at, tolerance)
+            quick = _coarse_first(measurer, start, at, tolerance)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
@@ -345,7 +345,7 @@ def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str
     return name if name in METHODS else None
 
 
-def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: tuple[float, float],
+def _by_method(measurer: Measurer, name: str, start: Candidate, at: tuple[float, float],
                tolerance: float) -> Located | None:
     """A mark measured by the method ``name`` alone (the marks of one frame, or of one roll, are alike), on the
     window the marks' extent (``start.radius``) sizes at ``start`` (the prediction, or a coarse answer):
@@ -354,8 +354,7 @@ def _by_method(measurer: Measurer, name: str, mark: str, start: Candidate, at: t
     (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within ``tolerance`` px of the prediction
     ``at``, else None (then ``auto`` measures it). The geometry of the marks found (or the layout) is what replaces
     ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross."""
-    detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
-    alone = replace(measurer, detector=detector)
+    alone = measurer.alone(name)
     for window in (ALONE_WINDOW, RECENTRED_WINDOW):
         got = _alone(alone, start, at, tolerance, window)
         if got is not None:
@@ -378,7 +377,7 @@ def _alone(alone: Measurer, start: Candidate, at: tuple[float, float], tolerance
     return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
 
 
-def _coarse_first(measurer: Measurer, mark: str, start: Candidate, at: tuple[float, float],
+def _coarse_first(measurer: Measurer, start: Candidate, at: tuple[float, float],
                   tolerance: float) -> Located | None:
     """The first mark, and a later one the frame's method alone did not find: ``auto`` (every method, the
     measurer's polarities) on the scan reduced by :func:`_coarse_factor`, then the method and polarity it chose
@@ -391,11 +390,11 @@ def _coarse_first(measurer: Measurer, mark: str, start: Candidate, at: tuple[flo
     coarse = replace(measurer, source=view).candidate(_reduced(start, view), settle=False)
     if not coarse.found or coarse.detection.method not in METHODS:
         return None
-    return _by_method(replace(measurer, polarities=(coarse.polarity,)), coarse.detection.method, mark,
-                      _full(coarse, view), at, tolerance)
+    return _by_method(replace(measurer, polarities=(coarse.polarity,)), coarse.detection.method, _full(coarse, view),
+                      at, tolerance)
 
 
-def _coarse(measurer: Measurer, name: str, mark: str, start: Candidate) -> Candidate:
+def _coarse(measurer: Measurer, name: str, start: Candidate) -> Candidate:
     """Where a later mark is measured at full resolution: ``start`` (its prediction, sized like the marks) moved
     to the centre and extent the method ``name`` finds there on the scan reduced by :func:`_coarse_factor`, so
     that the full-resolution window is the re-centred one at once (:func:`_by_method`); ``start`` when the marks
@@ -404,9 +403,8 @@ def _coarse(measurer: Measurer, name: str, mark: str, start: Candidate) -> Candi
     if f == 1:
         return start
     view = ReducedView(measurer.source, f)
-    detector, _ = configure(name, mark, measurer.polarities[0], measurer.colour, {})
     small = _reduced(start, view)
-    coarse = replace(measurer, source=view, detector=detector).at(small.x, small.y,
+    coarse = replace(measurer.alone(name), source=view).at(small.x, small.y,
                                                                   recentred_half(small.radius, ALONE_WINDOW), small)
     return _full(coarse, view) if coarse.found else start
 

@@ -105,9 +105,10 @@ class CrossFit:
 SQRT_2PI = np.sqrt(2.0 * np.pi)
 
 
-def _profile(u: np.ndarray, extent: float, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _profile(u: np.ndarray, extent: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A box of width ``extent`` blurred by a Gaussian of std ``s`` at ``u``, and its derivatives by u,
-    extent and s: P = Phi(alpha) - Phi(beta), alpha = (u + extent/2)/s, beta = (u - extent/2)/s."""
+    extent and s: P = Phi(alpha) - Phi(beta), alpha = (u + extent/2)/s, beta = (u - extent/2)/s. ``u`` may hold
+    several profiles as rows, ``extent`` then a column of their widths (one call for all four of a cross)."""
     al, be = (u + extent / 2.0) / s, (u - extent / 2.0) / s
     with np.errstate(over="ignore", under="ignore"):  # far from the edges the Gaussian is 0
         pa, pb = np.exp(-0.5 * al * al) / SQRT_2PI, np.exp(-0.5 * be * be) / SQRT_2PI
@@ -118,44 +119,44 @@ def _profile(u: np.ndarray, extent: float, s: float) -> tuple[np.ndarray, np.nda
 def cross_model(p: np.ndarray, px: np.ndarray, py: np.ndarray, x0: float, y0: float,
                 jacobian: bool = False):
     """Grey values of the blurred-cross model with parameters ``p`` at the points (px, py), and with
-    ``jacobian=True`` also d(model)/d(p) as an (n, 12) array."""
+    ``jacobian=True`` also d(model)/d(p) as an (n, 12) array. The four box profiles (across and along each bar)
+    are evaluated together, as the rows (r1, u1, r2, u2) of one array."""
     xc, yc, t1, t2, l1, l2, w, s, a, b0, bx, by = p
     # lengths, width and blur enter by their magnitude, so an unconstrained solver cannot flip their sign
     signs = np.sign([l1, l2, w, s]) + (np.array([l1, l2, w, s]) == 0)
     l1, l2, w, s = abs(l1), abs(l2), abs(w), max(abs(s), 0.05)
     dx, dy = px - xc, py - yc
-    parts = []
-    for t, length in ((t1, l1), (t2, l2)):
-        c, sn = np.cos(t), np.sin(t)
-        r = dx * c + dy * sn          # across the bar (along its normal)
-        u = -dx * sn + dy * c         # along the bar
-        pr, pr_u, pr_a, pr_s = _profile(r, w, s)
-        pu, pu_u, pu_a, pu_s = _profile(u, length, s)
-        parts.append((c, sn, r, u, pr, pr_u, pr_a, pr_s, pu, pu_u, pu_a, pu_s))
-    c1 = parts[0][4] * parts[0][8]
-    c2 = parts[1][4] * parts[1][8]
+    cos = np.array([np.cos(t1), np.cos(t2)])
+    sin = np.array([np.sin(t1), np.sin(t2)])
+    ru = np.empty((4, px.size))
+    ru[0::2] = dx * cos[:, None] + dy * sin[:, None]      # across each bar (along its normal)
+    ru[1::2] = -dx * sin[:, None] + dy * cos[:, None]     # along each bar
+    # P and its derivatives by the coordinate, the extent and the blur; rows 0, 2 across, 1, 3 along each bar
+    P, P_u, P_e, P_s = _profile(ru, np.array([[w], [l1], [w], [l2]]), s)
+    across, along = P[0::2], P[1::2]
+    c1, c2 = across * along                               # each bar's coverage
     union = c1 + c2 - c1 * c2
     model = b0 + bx * (px - x0) + by * (py - y0) + a * union
     if not jacobian:
         return model
-    J = np.empty((px.size, 12))
-    J[:, 0] = J[:, 1] = 0.0
-    J[:, 6] = J[:, 7] = 0.0
-    for k, (c, sn, r, u, pr, pr_u, pr_a, pr_s, pu, pu_u, pu_a, pu_s) in enumerate(parts):
-        weight = a * (1.0 - (c2 if k == 0 else c1))      # d model / d c_k
-        dc_dr, dc_du = pr_u * pu, pr * pu_u
-        J[:, 0] += weight * (dc_dr * -c + dc_du * sn)      # dr/dxc = -cos t, du/dxc = sin t
-        J[:, 1] += weight * (dc_dr * -sn + dc_du * -c)     # dr/dyc = -sin t, du/dyc = -cos t
-        J[:, 2 + k] = weight * (dc_dr * u - dc_du * r)     # dr/dt = u, du/dt = -r
-        J[:, 4 + k] = weight * pr * pu_a
-        J[:, 6] += weight * pr_a * pu
-        J[:, 7] += weight * (pr_s * pu + pr * pu_s)
-    J[:, 4:8] *= signs
-    J[:, 8] = union
-    J[:, 9] = 1.0
-    J[:, 10] = px - x0
-    J[:, 11] = py - y0
-    return model, J
+    # both bars at once, as rows k = 0, 1: d model / d c_k, and d c_k by the across (r) and along (u) coordinates
+    weight = a * (1.0 - np.stack([c2, c1]))
+    r, u = ru[0::2], ru[1::2]
+    dc_dr, dc_du = P_u[0::2] * along, across * P_u[1::2]
+    c, sn = cos[:, None], sin[:, None]
+    J = np.empty((12, px.size))      # filled by rows, handed over as its (n, 12) transpose (Fortran order)
+    J[0] = (weight * (dc_dr * -c + dc_du * sn)).sum(axis=0)     # dr/dxc = -cos t, du/dxc = sin t
+    J[1] = (weight * (dc_dr * -sn + dc_du * -c)).sum(axis=0)    # dr/dyc = -sin t, du/dyc = -cos t
+    J[2:4] = weight * (dc_dr * u - dc_du * r)                   # dr/dt = u, du/dt = -r
+    J[4:6] = weight * across * P_e[1::2]                        # the lengths
+    J[6] = (weight * P_e[0::2] * along).sum(axis=0)             # the stroke width
+    J[7] = (weight * (P_s[0::2] * along + across * P_s[1::2])).sum(axis=0)
+    J[4:8] *= signs[:, None]
+    J[8] = union
+    J[9] = 1.0
+    J[10] = px - x0
+    J[11] = py - y0
+    return model, J.T
 
 
 @dataclass(frozen=True)

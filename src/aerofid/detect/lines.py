@@ -380,25 +380,62 @@ def _ground_ring(fr: _Frame, band: float, other: tuple[float, float, float] | No
 def _local_background(fr: _Frame, ring: np.ndarray, uc: float, band: float) -> np.ndarray:
     """Local background at every pixel: a plane g = c0 + c1 v + c2 u fitted to the strips just outside the band,
     per ``SLICE_LENGTH`` px stretch of the line (a ramp of the film density across the band would otherwise
-    move the centroids); one plane for the whole ring where a stretch does not have both sides."""
+    move the centroids); one plane for the whole ring where a stretch does not have both sides. The stretches'
+    planes are solved together (:func:`_stretch_planes`)."""
     u = fr.u - uc
     seg = np.floor(u / SLICE_LENGTH).astype(np.int64)
     bg = _plane(fr.g[ring], fr.v[ring], u[ring], fr.v, u)
-    # the pixels of each stretch, and the ring's, in raster order (stable sorts): no full-window mask per stretch
-    every, in_ring = _by_stretch(seg), _by_stretch(seg, np.flatnonzero(ring))
-    for sgi, m in in_ring.items():
-        if m.size >= 8 and np.ptp(fr.v[m]) > band:   # both sides of the band
-            on = every[sgi]
-            bg[on] = _plane(fr.g[m], fr.v[m], u[m], fr.v[on], u[on])
+    key = seg - seg.min()
+    planes = _stretch_planes(key[ring], fr.g[ring], fr.v[ring], u[ring], band, int(key.max()) + 1)
+    for k in planes.solo:   # a stretch whose plane is ill-conditioned: least squares on its own
+        m, on = ring & (key == k), key == k
+        bg[on] = _plane(fr.g[m], fr.v[m], u[m], fr.v[on], u[on])
+    on = planes.fitted[key]
+    k = key[on]
+    bg[on] = planes.c0[k] + planes.c1[k] * (fr.v[on] - planes.v0[k]) + planes.c2[k] * (u[on] - planes.u0[k])
     return bg
 
 
-def _by_stretch(seg: np.ndarray, idx: np.ndarray | None = None) -> dict[int, np.ndarray]:
-    """The indices ``idx`` (default: all) grouped by their stretch number ``seg[idx]``, each group ascending."""
-    idx = np.arange(seg.size) if idx is None else idx
-    order = np.argsort(seg[idx], kind="stable")
-    keys, starts = np.unique(seg[idx][order], return_index=True)
-    return {int(k): idx[g] for k, g in zip(keys, np.split(order, starts[1:]))}
+@dataclass(frozen=True)
+class _StretchPlanes:
+    """Planes ``g = c0 + c1 (v - v0) + c2 (u - u0)`` per stretch (index = stretch number), ``fitted`` where one
+    was solved here; ``solo``: stretches to fit on their own."""
+
+    fitted: np.ndarray
+    c0: np.ndarray
+    c1: np.ndarray
+    c2: np.ndarray
+    v0: np.ndarray
+    u0: np.ndarray
+    solo: tuple[int, ...]
+
+
+ILL_CONDITIONED = 1e-10
+"""A stretch's centred normal matrix whose determinant is below this fraction of the product of its diagonal
+(nearly collinear samples) is solved by least squares on its own (:func:`_plane`)."""
+
+
+def _stretch_planes(key: np.ndarray, g: np.ndarray, v: np.ndarray, u: np.ndarray, band: float,
+                    n: int) -> _StretchPlanes:
+    """Least-squares planes of the ring samples (g, v, u) per stretch ``key`` (0..n-1), for every stretch with at
+    least 8 samples on both sides of the band (v spanning more than ``band``): normal equations of the samples
+    centred on their stretch's means (so the slopes decouple from the mean), all stretches at once."""
+    count = np.bincount(key, minlength=n).astype(np.float64)
+    vmin, vmax = np.full(n, np.inf), np.full(n, -np.inf)
+    np.minimum.at(vmin, key, v)
+    np.maximum.at(vmax, key, v)
+    fit = (count >= 8) & (vmax - vmin > band)
+    safe = np.maximum(count, 1.0)
+    v0, u0, c0 = (np.bincount(key, weights=x, minlength=n) / safe for x in (v, u, g))
+    dv, du, dg = v - v0[key], u - u0[key], g - c0[key]
+    svv, suu, svu, sgv, sgu = (np.bincount(key, weights=x, minlength=n)
+                               for x in (dv * dv, du * du, dv * du, dg * dv, dg * du))
+    det = svv * suu - svu * svu
+    good = det > ILL_CONDITIONED * svv * suu
+    inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
+    c1, c2 = (suu * sgv - svu * sgu) * inv, (svv * sgu - svu * sgv) * inv
+    solo = tuple(int(k) for k in np.flatnonzero(fit & ~good))
+    return _StretchPlanes(fit & good, c0, c1, c2, v0, u0, solo)
 
 
 def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: np.ndarray) -> np.ndarray:

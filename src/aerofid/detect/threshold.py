@@ -91,7 +91,7 @@ def _reddi_iteration(class_means: Callable[[int], tuple[float, float]], n_bins: 
         if abs(e) < 0.5:
             return k, it
         visited[k] = abs(e)
-        k_next = int(np.clip(round(k + e), 1, n_bins - 1))
+        k_next = min(max(int(round(k + e)), 1), n_bins - 1)
         if k_next in visited:  # a cycle: keep the k that came closest to the condition (cthval's ikbest)
             return min(visited, key=visited.__getitem__), it
         k = k_next

@@ -4,6 +4,8 @@ import zlib
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 from aerofid import synth
@@ -234,3 +236,44 @@ def test_marks_without_lines_get_no_confident_wrong_centre(style, found):
         n += d.found
         assert not d.found or np.hypot(d.x - m.x, d.y - m.y) < 1.0, (d.x - m.x, d.y - m.y)
     assert n == found
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.floats(-1.5, 1.5), st.floats(0.0, 3.14))
+def test_stretch_planes_equal_each_stretchs_own_least_squares(seed, ramp, theta):
+    """The background planes solved together (normal equations, centred) are each stretch's own least-squares
+    plane (numpy's lstsq through _plane), stretch by stretch, on windows with a density ramp and noise."""
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(12, 60, 2)
+    yy, xx = np.mgrid[0:h, 0:w]
+    window = 0.3 + ramp * 0.004 * xx - 0.002 * yy + rng.normal(0, 0.02, (h, w))
+    fr = lines._frame(window, theta, float(rng.uniform(0, min(h, w))))
+    band = float(rng.uniform(1.0, 4.0))
+    ring = (np.abs(fr.v) > band) & (np.abs(fr.v) <= band + 3.0) & (rng.random(fr.v.size) > 0.2)
+    if ring.sum() < 4:
+        return
+    uc = float(rng.uniform(0, max(h, w)))
+    got = lines._local_background(fr, ring, uc, band)
+    u = fr.u - uc
+    seg = np.floor(u / lines.SLICE_LENGTH).astype(np.int64)
+    want = lines._plane(fr.g[ring], fr.v[ring], u[ring], fr.v, u)
+    for s in np.unique(seg):
+        m, on = ring & (seg == s), seg == s
+        if m.sum() >= 8 and np.ptp(fr.v[m]) > band:
+            want[on] = lines._plane(fr.g[m], fr.v[m], u[m], fr.v[on], u[on])
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+
+
+def test_a_stretch_of_one_row_gets_its_own_least_squares_plane():
+    """A stretch whose ring samples lie on one row (u constant: its normal equations are singular) is fitted on its
+    own, as numpy's lstsq gives it (the minimum-norm plane)."""
+    yy, xx = np.mgrid[0:9, 0:40]
+    window = 0.3 + 0.01 * xx + 0.02 * yy + 0.001 * np.sin(xx * yy)
+    fr = lines._frame(window, 0.0, 20.0)
+    ring = np.abs(fr.v) > 2.0
+    got = lines._local_background(fr, ring, 0.0, 2.0)
+    last = fr.u == 8.0                       # the second stretch: row 8 alone
+    want = lines._plane(fr.g[ring & last], fr.v[ring & last], fr.u[ring & last], fr.v[last], fr.u[last])
+    assert lines._stretch_planes((fr.u[ring] >= 8).astype(np.int64), fr.g[ring], fr.v[ring], fr.u[ring], 2.0,
+                                 2).solo == (1,)
+    np.testing.assert_allclose(got[last], want, rtol=0, atol=1e-12)

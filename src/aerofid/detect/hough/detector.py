@@ -161,6 +161,23 @@ def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
     return Verified(x=float(x), y=float(y), refinement=ref)
 
 
+def verify_like(image: np.ndarray, x: float, y: float, model: CrossFit, turn: float,
+                params: HoughParams = DEFAULT) -> Verified | str:
+    """Beyond the seed: is there a '+' like ``model`` (a fitted '+', its parameters in any window) turned by ``turn``
+    degrees, at (x, y) of ``image``? The blurred-cross fit starts there with ``model``'s bars turned (normal angles
+    minus ``turn``: OpenCV's counter-clockwise turn of an image with y down), arms, stroke and blur, and what it
+    finds must pass the same checks as a candidate of the search (:func:`shape_refusal`, :func:`quality_refusal`,
+    within ``MAX_REFINE_SHIFT`` of (x, y)). Returns :class:`Verified` or the reason."""
+    ref = fit_cross(image, x, y, model.theta1 - turn, model.theta2 - turn, 0.5 * max(model.length1, model.length2),
+                    width=model.width, blur=model.blur, max_shift=EARLY_EXIT_SHIFT)
+    if ref is None:
+        return "sub-pixel fit failed"
+    if np.hypot(ref.x - x, ref.y - y) > MAX_REFINE_SHIFT:
+        return f"sub-pixel fit moved more than {MAX_REFINE_SHIFT} px from the start"
+    reason = shape_refusal(ref) or quality_refusal(ref, params)
+    return reason if reason is not None else Verified(x=float(ref.x), y=float(ref.y), refinement=ref)
+
+
 @dataclass(frozen=True)
 class HoughResult(Detection):
     """The answer of the ``hough`` method with its intermediate results (window pixels of the window searched).
@@ -298,5 +315,5 @@ def detect(window: np.ndarray, params: HoughParams = DEFAULT) -> HoughResult:
                        refinement=refinement)
 
 
-__all__ = ["HoughResult", "Verified", "arm_half_length", "detect", "quality_refusal", "refine_window",
+__all__ = ["HoughResult", "Verified", "arm_half_length", "detect", "quality_refusal", "refine_window", "verify_like",
            "shape_refusal", "verify_candidate"]

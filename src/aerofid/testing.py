@@ -16,7 +16,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from aerofid.synth import add_gaussian_noise, aerial_ground, blur, film_border, mark_scene, mark_shape, paint_shape
+from aerofid.synth import (
+    add_gaussian_noise,
+    aerial_ground,
+    blur,
+    film_border,
+    mark_scene,
+    mark_shape,
+    paint_shape,
+    panel_scene,
+)
 
 MARK_RADIUS = {"notch_dot": 0.075}
 """The visible mark's radius as a fraction of its size, by style (0.5 for the styles not listed)."""
@@ -28,7 +37,10 @@ def _blur_noise(img: np.ndarray, rng: np.random.Generator, noise: float = 0.02) 
 
 
 def two_marks(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:
-    """Two marks of one style side by side, 1.1-1.6 sizes apart, on film border: an ambiguous box."""
+    """Two marks of one style side by side, 1.1-1.6 sizes apart, on film border: an ambiguous box (cloth panels:
+    :func:`two_panels`)."""
+    if style == "panel":
+        return two_panels(rng, n)
     img = film_border((n, n), rng)
     size = rng.uniform(20, 30)
     a = rng.uniform(0, np.pi)
@@ -39,6 +51,23 @@ def two_marks(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:
         img = paint_shape(img, (float(p[0]), float(p[1])), mark_shape(style, size, rng.uniform(0, 90)), 0.85, 8,
                           extent=size)
     return _blur_noise(img, rng)
+
+
+def two_panels(rng: np.random.Generator, n: int = 120) -> np.ndarray:
+    """Two cloth panels of 7-11 px (sizes within 10 %, each turned at random, each on its patch of lawn) 2.5-4.5
+    sizes apart on aerial ground, both at least 2 sizes inside the box: an ambiguous box."""
+    size = rng.uniform(7, 11)
+    contrast = rng.uniform(0.2, 0.35)
+    lo, hi = 2 * size, n - 2 * size
+    first = rng.uniform(lo, hi, 2)
+    second = first
+    while np.hypot(*(second - first)) < 2.5 * size or not np.all((second >= lo) & (second <= hi)):
+        a, d = rng.uniform(0, 2 * np.pi), rng.uniform(2.5, 4.5) * size
+        second = first + d * np.array([np.cos(a), np.sin(a)])
+    img = panel_scene(rng, shape_hw=(n, n), centre=(float(first[0]), float(first[1])), size=size,
+                      contrast=contrast).image
+    return panel_scene(rng, centre=(float(second[0]), float(second[1])), size=size * rng.uniform(0.9, 1.1),
+                       contrast=contrast, blur_sigma=0.3, noise_sigma=0.0, ground=img).image
 
 
 def half_mark(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:
@@ -69,4 +98,4 @@ def border_edge(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarra
 TRAPS = {"two marks": two_marks, "half mark": half_mark, "film-border edge": border_edge}
 """Every trap scene generator by name."""
 
-__all__ = ["MARK_RADIUS", "TRAPS", "border_edge", "half_mark", "two_marks"]
+__all__ = ["MARK_RADIUS", "TRAPS", "border_edge", "half_mark", "two_marks", "two_panels"]

@@ -24,12 +24,14 @@ PEAK_SEPARATION = 2
 
 @dataclass(frozen=True)
 class Matches:
-    """Per position of a template's centre in the window (offset ``half`` from the map's origin): the best
-    correlation over the turns, and the turn (degrees) that gave it."""
+    """Per position of a template's centre pixel in the window (offset ``half`` from the map's origin): the best
+    correlation over the turns, and the turn (degrees) that gave it; ``offset``: where in its centre pixel the
+    template's mark lies (x, y), so that a match at pixel p puts the mark at p + offset."""
 
     score: np.ndarray
     turn: np.ndarray
     half: int
+    offset: tuple[float, float]
 
 
 def turned_matches(image: np.ndarray, window: np.ndarray, x: float, y: float, half: int,
@@ -60,21 +62,22 @@ def turned_matches(image: np.ndarray, window: np.ndarray, x: float, y: float, ha
             better = got > score
             score, turn = np.where(better, got, score), np.where(better, float(angle), turn)
     assert score is not None and turn is not None
-    return Matches(score, turn, half)
+    return Matches(score, turn, half, (x - cx, y - cy))
 
 
 def match_peaks(matches: Matches, x: float, y: float, exclude: float, minimum: float,
                 count: int) -> list[tuple[float, float, float, float]]:
     """The ``count`` best local maxima of ``matches`` of at least ``minimum``, further than ``exclude`` px from
-    (x, y) (the mark itself), best first: (score, x, y, turn) in window pixels."""
+    (x, y) (the mark itself), best first: (score, x, y, turn), the mark's place in window pixels (to a pixel)."""
     s = matches.score.astype(np.float32)
+    dx, dy = matches.offset
     yy, xx = np.mgrid[0:s.shape[0], 0:s.shape[1]] + matches.half
-    s = np.where(np.hypot(xx - x, yy - y) > exclude, s, -1.0).astype(np.float32)
+    s = np.where(np.hypot(xx + dx - x, yy + dy - y) > exclude, s, -1.0).astype(np.float32)
     k = 2 * PEAK_SEPARATION + 1
     top = (s == cv2.dilate(s, np.ones((k, k), np.uint8))) & (s >= minimum)
     rows, cols = np.nonzero(top)
     order = np.argsort(-s[rows, cols], kind="stable")[:count]
-    return [(float(s[rows[i], cols[i]]), float(cols[i] + matches.half), float(rows[i] + matches.half),
+    return [(float(s[rows[i], cols[i]]), float(cols[i] + matches.half + dx), float(rows[i] + matches.half + dy),
              float(matches.turn[rows[i], cols[i]])) for i in order]
 
 

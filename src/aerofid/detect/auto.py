@@ -699,7 +699,8 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     (:func:`aerofid.detect.twins.turned_matches`);
     the ``twin_fits`` best places correlating at least ``twin_match``, beyond the blanked disc, are fitted with the
     blurred-cross model started from the panel's own fit, turned (:func:`aerofid.detect.hough.detector.verify_like`),
-    and each '+' that passes ``hough``'s verification is a second panel (score: its correlation). ``hough``'s own
+    and each '+' that passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`), is a second panel
+    (score: its correlation). ``hough``'s own
     search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
     scored a second panel's window 0.03-0.9: it let 3 of 20 boxes with two panels through as found (scratch
     scenes of bench_peers.py's kind, the second panel 2.5-6 sizes away, turned at random, its size within 10 %)."""
@@ -714,11 +715,29 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     for score, x, y, turn in match_peaks(matches, panel.x, panel.y, extent + p.edge_margin + half, p.twin_match,
                                          p.twin_fits):
         got = verify_like(blanked, x, y, model, turn, ctx.seeds["hough"])  # type: ignore[arg-type]
-        if isinstance(got, Verified):
+        if isinstance(got, Verified) and twin_shape(got.refinement, model, p):
             f = got.refinement
             out.append(HoughResult(status=FOUND, x=got.x, y=got.y, score=score, sigma=f.sigma, sigma_x=f.sigma_x,
                                    sigma_y=f.sigma_y, cov_xy=f.cov_xy, method="hough", refinement=f))
     return out
+
+
+def twin_shape(other: CrossFit, panel: CrossFit, params: AutoParams = AutoParams()) -> bool:
+    """A fitted '+' is shaped like the panel when its stroke width and its longer bar are each within
+    ``second_size`` times the panel's (:func:`similar_size`): a crossing of two roads, 3 times as wide as a strongly
+    blurred panel beside it, correlated 0.57 with it and passed ``hough``'s verification (bench_marks.py, strong
+    blur).
+
+    Examples
+    --------
+    >>> from aerofid.detect.hough.cross_fit import CrossFit
+    >>> panel = CrossFit(0, 0, .1, .1, 0, 90, 10.9, 10.5, 1.46, 1.48, .37, .01, .01, (.3, .3, .3, .3))
+    >>> road = CrossFit(0, 0, .1, .1, 0, 90, 18.2, 20.0, 4.74, 1.55, .2, .01, .01, (.2, .2, .2, .2))
+    >>> twin_shape(road, panel), twin_shape(panel, panel)
+    (False, True)
+    """
+    return similar_size(other.width, panel.width, params) and similar_size(
+        max(other.length1, other.length2), max(panel.length1, panel.length2), params)
 
 
 def answer_extent(img: np.ndarray, d: Detection, extent: float, noise: float,

@@ -38,7 +38,9 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
      mark fail here);
    - *uniqueness*: the disc is blanked out with the ground's grey level; a compact feature of the mark's
      size left in the rest of the window (:func:`structure_left`), or a second answer there of the group's
-     methods, ``symmetry`` or ``circles`` (:func:`second_marks`), makes the box ambiguous.
+     methods, ``symmetry`` or ``circles`` (:func:`second_marks`), makes the box ambiguous. For a cloth panel
+     the second '+' is sought by the panel's own image, turned, instead of ``hough``'s search
+     (:func:`panel_twins`).
 
 4. **Compact dots with no method** (the Zeiss dot in a notch, whose frame edge spoils the whole-window
    methods): when nothing was found, the single strongest compact blob (difference of Gaussians, not an

@@ -147,7 +147,7 @@ def bench_rejections(n, rng):
            "Every found answer here is wrong (clutter, a half mark, a mark half on the bright image area) or "
            "ambiguous (two marks in the box): the count of found answers per method, of n cases. 120 x 120 "
            "windows; marks 20-40 px; the two marks 1.1-1.6 sizes apart (two cloth panels of 7-11 px, the last row: "
-           "2.5-4.5 sizes apart on aerial ground, `mark=\"panel\"`); half marks have their centre 0-0.6 of "
+           "1.8-4.5 sizes apart on aerial ground, `mark=\"panel\"`); half marks have their centre 0-0.6 of "
            "their radius inside the box edge; film-border marks have the edge between the dark border and the "
            "aerial image area within half their radius of their centre.\n",
            "| case | style | n | " + " | ".join(METHODS) + " |", "|---|---|---|" + "---|" * len(METHODS)]

@@ -99,7 +99,7 @@ def test_auto_finds_panels_on_aerial_ground_with_mark_panel():
 
 def test_two_cloth_panels_in_a_box_are_ambiguous():
     """Two panels of one survey in a box (testing.two_panels): the second is found by the first's own image, turned
-    (panel_twins), and the box is refused as ambiguous; hough's search of the blanked box let 2 of these 20
+    (panel_twins), and the box is refused as ambiguous; hough's search of the blanked box let 5 of 40 such boxes
     through."""
     rng = np.random.default_rng(3)
     twins = 0
@@ -108,6 +108,32 @@ def test_two_cloth_panels_in_a_box_are_ambiguous():
         assert not d.found, (d.x, d.y)
         twins += "a second mark-like feature (hough)" in d.reason
     assert twins >= 15
+
+
+def _two_panels_at(first, second):
+    rng = np.random.default_rng(12)
+    img = synth.panel_scene(rng, shape_hw=(100, 100), centre=first, size=9.0, angle_deg=20.0, contrast=0.3,
+                            blur_sigma=0.0, noise_sigma=0.0).image
+    img = synth.panel_scene(rng, centre=second, size=9.3, angle_deg=55.0, contrast=0.3, blur_sigma=0.0,
+                            noise_sigma=0.0, ground=img).image
+    return np.clip(synth.add_gaussian_noise(synth.blur(img, 0.6), 0.015, rng), 0, 1).astype(np.float32)
+
+
+@pytest.mark.parametrize("room", [13.0, 20.0, 30.0])
+def test_two_panels_are_ambiguous_wherever_the_first_lies(room):
+    d = detect(_two_panels_at((99.0 - room, 99.0 - room), (22.3, 48.6)), AutoParams(mark="panel"))
+    assert not d.found and "second mark-like feature" in d.reason, d.reason
+
+
+def test_two_panels_near_the_box_edges_are_ambiguous_by_hough_s_search(monkeypatch):
+    """The panel's turned image needs 11 px of room around it (half-size 7); with 10.5 px panel_twins cannot look
+    and hough's search of the blanked box looks for the second panel, as before."""
+    calls = []
+    real = auto.panel_twins
+    monkeypatch.setattr(auto, "panel_twins", lambda *a: calls.append(real(*a)) or calls[-1])
+    d = detect(_two_panels_at((88.5, 88.5), (10.5, 10.5)), AutoParams(mark="panel"))
+    assert calls == [None]
+    assert not d.found and "second mark-like feature (hough)" in d.reason, d.reason
 
 
 def test_a_lone_panel_is_not_refused_for_clutter_that_resembles_it():

@@ -44,10 +44,13 @@ def test_the_mark_itself_and_places_below_the_minimum_are_not_peaks():
     assert [p[0] for p in peaks] == sorted((p[0] for p in peaks), reverse=True)
 
 
-def test_no_template_where_its_surroundings_leave_the_image():
+def test_no_template_where_its_turned_square_leaves_the_image_or_is_flat():
+    """A square of half-size 7 turned needs 7 sqrt 2 + 1 = 11 px around its centre: 11 px of room is enough."""
     img, _, _ = _two_crosses(0.0)
     assert turned_matches(img, img, 10.0, 60.0, 7) is None
+    assert turned_matches(img, img, 11.0, 60.0, 7) is not None
     assert turned_matches(img, img[:10, :10], 80.0, 60.0, 7) is None
+    assert turned_matches(np.full((60, 60), 0.3, np.float32), img, 30.0, 30.0, 7) is None
 
 
 @pytest.mark.parametrize("bad", [{"twin_fits": 0}, {"twin_fits": 2.5}, {"twin_match": 1.5}, {"twin_match": -0.1}])

@@ -54,20 +54,22 @@ def two_marks(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:
 
 
 def two_panels(rng: np.random.Generator, n: int = 120) -> np.ndarray:
-    """Two cloth panels of 7-11 px (sizes within 10 %, each turned at random, each on its patch of lawn) 2.5-4.5
-    sizes apart on aerial ground, both at least 2 sizes inside the box: an ambiguous box."""
+    """Two cloth panels of 7-11 px (sizes within 10 %, each turned at random, each on its patch of lawn) 1.8-4.5
+    sizes apart on aerial ground, both at least 2 sizes inside the box, blurred (0.6 px) and noisy (0.015) together:
+    an ambiguous box."""
     size = rng.uniform(7, 11)
     contrast = rng.uniform(0.2, 0.35)
     lo, hi = 2 * size, n - 2 * size
     first = rng.uniform(lo, hi, 2)
     second = first
-    while np.hypot(*(second - first)) < 2.5 * size or not np.all((second >= lo) & (second <= hi)):
-        a, d = rng.uniform(0, 2 * np.pi), rng.uniform(2.5, 4.5) * size
+    while np.hypot(*(second - first)) < 1.8 * size or not np.all((second >= lo) & (second <= hi)):
+        a, d = rng.uniform(0, 2 * np.pi), rng.uniform(1.8, 4.5) * size
         second = first + d * np.array([np.cos(a), np.sin(a)])
     img = panel_scene(rng, shape_hw=(n, n), centre=(float(first[0]), float(first[1])), size=size,
-                      contrast=contrast).image
-    return panel_scene(rng, centre=(float(second[0]), float(second[1])), size=size * rng.uniform(0.9, 1.1),
-                       contrast=contrast, blur_sigma=0.3, noise_sigma=0.0, ground=img).image
+                      contrast=contrast, blur_sigma=0.0, noise_sigma=0.0).image
+    img = panel_scene(rng, centre=(float(second[0]), float(second[1])), size=size * rng.uniform(0.9, 1.1),
+                      contrast=contrast, blur_sigma=0.0, noise_sigma=0.0, ground=img).image
+    return np.clip(add_gaussian_noise(blur(img, 0.6), 0.015, rng), 0, 1).astype(np.float32)
 
 
 def half_mark(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:

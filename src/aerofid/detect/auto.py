@@ -72,6 +72,7 @@ from aerofid.detect.asymmetry import patch as _patch
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.hough.cross_fit import CrossFit
 from aerofid.detect.hough.detector import HoughResult, Verified, verify_like
+from aerofid.detect.hough.params import HoughParams
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MethodParams, check, is_int, number_in
 from aerofid.detect.registry import METHODS, SEED_METHODS
@@ -667,7 +668,8 @@ def second_marks(ctx: _Context, blanked: np.ndarray, group: list[Detection], bes
     with the mark blanked out that are another mark: beyond ``extent`` from it, scoring at least
     ``second_ratio`` of the method's score on the mark, of a similar size (:func:`similar_size` of
     :func:`answer_extent`). For a cloth panel that ``hough`` fitted, :func:`panel_twins` takes the place of
-    ``hough``'s search of the blanked window."""
+    ``hough``'s search of the blanked window where it can look (not when the panel is too close to the window's
+    edge for its turned image)."""
     p = ctx.params
     own = {d.method: d.score for d in group}
     fitted = next((d for d in group if isinstance(getattr(d, "refinement", None), CrossFit)), None)
@@ -675,9 +677,9 @@ def second_marks(ctx: _Context, blanked: np.ndarray, group: list[Detection], bes
     for m in sorted(set(own) | {"symmetry", "circles"}):
         if m not in SEED_METHODS or m == "lines":
             continue
-        if m == "hough" and p.mark == "panel" and fitted is not None:
-            again += [d for d in panel_twins(ctx, blanked, fitted, extent)
-                      if similar_size(answer_extent(blanked, d, extent, ctx.noise, p), extent, p)]
+        twins = panel_twins(ctx, blanked, fitted, extent) if m == "hough" and p.mark == "panel" and fitted else None
+        if twins is not None:
+            again += twins
             continue
         floor = p.second_ratio * own.get(m, 0.0)
         # hough need not verify (fit) candidates too weak to count as a second mark
@@ -694,29 +696,29 @@ panels the other panel then correlated best of all places (0.75-0.94); 2 px (mor
 ranked it second or seventh twice, 0 or -1 px second or third once."""
 
 
-def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: float) -> list[Detection]:
+def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: float) -> list[Detection] | None:
     """Uniqueness of a cloth panel (beyond the seeds): a second panel of the same survey looks like this one. The
     panel's own image (a square of half-size ``extent`` + :data:`TWIN_MARGIN` around ``hough``'s centre) is turned
     in 10 degree steps through a quarter turn and correlated with the blanked window
     (:func:`aerofid.detect.twins.turned_matches`);
-    the ``twin_fits`` best places correlating at least ``twin_match``, beyond the blanked disc, are fitted with the
+    the ``twin_fits`` best places correlating at least ``twin_match``, outside the blanked disc, are fitted with the
     blurred-cross model started from the panel's own fit, turned (:func:`aerofid.detect.hough.detector.verify_like`),
     and each '+' that passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`), is a second panel
-    (score: its correlation). ``hough``'s own
+    (score: its correlation). None when the panel is too near the window's edge (or flat) for its turned image:
+    then ``hough``'s search runs as before. ``hough``'s own
     search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
     scored a second panel's window 0.03-0.9: it let 3 of 20 boxes with two panels through as found (scratch
     scenes of bench_peers.py's kind, the second panel 2.5-6 sizes away, turned at random, its size within 10 %)."""
-    p = ctx.params
+    p, hp = ctx.params, ctx.seeds["hough"]
     model = getattr(panel, "refinement", None)
-    assert isinstance(model, CrossFit)
-    half = int(np.ceil(extent + TWIN_MARGIN))
-    matches = turned_matches(ctx.img, blanked, panel.x, panel.y, half)
+    assert isinstance(model, CrossFit) and isinstance(hp, HoughParams)
+    matches = turned_matches(ctx.img, blanked, panel.x, panel.y, int(np.ceil(extent + TWIN_MARGIN)))
     if matches is None:
-        return []
+        return None
     out: list[Detection] = []
-    for score, x, y, turn in match_peaks(matches, panel.x, panel.y, extent + p.edge_margin + half, p.twin_match,
+    for score, x, y, turn in match_peaks(matches, panel.x, panel.y, extent + p.edge_margin, p.twin_match,
                                          p.twin_fits):
-        got = verify_like(blanked, x, y, model, turn, ctx.seeds["hough"])  # type: ignore[arg-type]
+        got = verify_like(blanked, x, y, model, turn, hp)
         if isinstance(got, Verified) and twin_shape(got.refinement, model, p):
             f = got.refinement
             out.append(HoughResult(status=FOUND, x=got.x, y=got.y, score=score, sigma=f.sigma, sigma_x=f.sigma_x,

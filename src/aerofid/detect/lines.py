@@ -415,10 +415,16 @@ ILL_CONDITIONED = 1e-10
 (nearly collinear samples) is solved by least squares on its own (:func:`_plane`)."""
 
 
+MIN_SPREAD = 1e-6
+"""... and so is one whose samples, once v is accounted for, spread along the line by less than this (px^2 per
+sample)."""
+
+
 def _stretch_planes(key: np.ndarray, g: np.ndarray, v: np.ndarray, u: np.ndarray, band: float,
                     n: int) -> _StretchPlanes:
     """Least-squares planes of the ring samples (g, v, u) per stretch ``key`` (0..n-1), for every stretch with at
-    least 8 samples on both sides of the band (v spanning more than ``band``): normal equations of the samples
+    least 8 samples whose v spans more than ``band`` (both sides of the band, for a ring of strips narrower than
+    the band): normal equations of the samples
     centred on their stretch's means (so the slopes decouple from the mean), all stretches at once."""
     count = np.bincount(key, minlength=n).astype(np.float64)
     vmin, vmax = np.full(n, np.inf), np.full(n, -np.inf)
@@ -431,7 +437,9 @@ def _stretch_planes(key: np.ndarray, g: np.ndarray, v: np.ndarray, u: np.ndarray
     svv, suu, svu, sgv, sgu = (np.bincount(key, weights=x, minlength=n)
                                for x in (dv * dv, du * du, dv * du, dg * dv, dg * du))
     det = svv * suu - svu * svu
-    good = det > ILL_CONDITIONED * svv * suu
+    # the spread of u left once v explains what it can (det / svv per sample) must also be real: samples on one
+    # pixel line at a bar angle a rounding error off an axis leave a relative test satisfied
+    good = (det > ILL_CONDITIONED * svv * suu) & (det > MIN_SPREAD * svv * safe)
     inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
     c1, c2 = (suu * sgv - svu * sgu) * inv, (svv * sgu - svu * sgv) * inv
     solo = tuple(int(k) for k in np.flatnonzero(fit & ~good))

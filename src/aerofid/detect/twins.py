@@ -38,9 +38,18 @@ def turned_matches(image: np.ndarray, window: np.ndarray, x: float, y: float, ha
                    period: float = 90.0, step: float = TURN_STEP) -> Matches | None:
     """The square of half-size ``half`` around (x, y) in ``image``, turned by 0, ``step``, ... below ``period``
     degrees about (x, y) (bilinear), each matched with ``window`` (same pixel grid as ``image``: e.g. the image
-    with the mark blanked out); None when the square's surroundings (2 ``half``) leave ``image`` or the window is
-    smaller than the template."""
-    big = 2 * half
+    with the mark blanked out); None when what the turned square needs of ``image`` (``half`` sqrt 2 + 1 px
+    around) leaves it, the square is flat, or the window is smaller than the template.
+
+    Examples
+    --------
+    >>> img = np.zeros((40, 60), np.float32); img[18:23, 10:13] = img[19:22, 9:14] = 1.0
+    >>> img[8:13, 45:48] = img[9:12, 44:49] = 1.0            # the same '+' 35 px right, 10 px up
+    >>> m = turned_matches(img, img, 11.0, 20.0, 4)
+    >>> [(round(s, 2), x, y) for s, x, y, _ in match_peaks(m, 11.0, 20.0, 5.0, 0.5, 1)]
+    [(1.0, 46.0, 10.0)]
+    """
+    big = int(np.ceil(half * np.sqrt(2.0))) + 1
     cx, cy = int(round(x)), int(round(y))
     h, w = image.shape
     if cx - big < 0 or cy - big < 0 or cx + big >= w or cy + big >= h or min(window.shape) < 2 * half + 1:
@@ -49,13 +58,14 @@ def turned_matches(image: np.ndarray, window: np.ndarray, x: float, y: float, ha
     target = np.ascontiguousarray(window, np.float32)
     centre = (x - (cx - big), y - (cy - big))
     score = turn = None
+    if float(crop[big - half:big + half + 1, big - half:big + half + 1].std()) < 1e-6:
+        return None   # a flat template correlates 1 with everything
     for angle in np.arange(0.0, period - 1e-9, step):
         m = cv2.getRotationMatrix2D(centre, float(angle), 1.0)
         turned = cv2.warpAffine(crop, m, crop.shape[::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
         got = cv2.matchTemplate(target, np.ascontiguousarray(turned[big - half:big + half + 1,
                                                                     big - half:big + half + 1]),
                                 cv2.TM_CCOEFF_NORMED)
-        got = np.where(np.isfinite(got), got, -1.0)     # a flat stretch of the window matches nothing
         if score is None or turn is None:
             score, turn = got, np.zeros_like(got)
         else:

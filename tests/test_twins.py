@@ -53,7 +53,8 @@ def test_no_template_where_its_turned_square_leaves_the_image_or_is_flat():
     assert turned_matches(np.full((60, 60), 0.3, np.float32), img, 30.0, 30.0, 7) is None
 
 
-@pytest.mark.parametrize("bad", [{"twin_fits": 0}, {"twin_fits": 2.5}, {"twin_match": 1.5}, {"twin_match": -0.1}])
+@pytest.mark.parametrize("bad", [{"twin_fits": 0}, {"twin_fits": 2.5}, {"twin_match": 1.5}, {"twin_match": -0.1},
+                                 {"twin_slack": 0.0}])
 def test_twin_parameters_are_checked(bad):
     with pytest.raises(ValueError):
         AutoParams(**bad)

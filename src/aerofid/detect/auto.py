@@ -162,6 +162,10 @@ class AutoParams(MethodParams):
     0.63-0.81: the fit decides). Step 3."""
     twin_fits: int = 3
     """... at most this many of them, the best first. Step 3."""
+    twin_slack: float = 2.0
+    """... and a fitted '+' there counts with twice ``hough``'s limits on its centre's sigma and its misfit
+    (``quality_refusal``'s ``slack``): to refuse a box is the safe side (a panel beside another, correlating 0.90 with
+    it, had a misfit of 1.9 times the noise against ``hough``'s 1.8). Step 3."""
     extent_percentile: float = 75.0
     """The mark's extent from the radial profile (:func:`profile_extent`) uses this percentile over each
     circle. Step 3."""
@@ -199,7 +203,7 @@ class AutoParams(MethodParams):
             check(number_in(getattr(self, name), 0, MAX_PX), f"{name} must be in [0, {MAX_PX}] px, "
                   f"not {getattr(self, name)!r}")
         for name in ("max_disc_asymmetry", "second_size", "min_core_snr", "isolate_factor", "blob_edge_ratio",
-                     "min_blob_snr"):
+                     "min_blob_snr", "twin_slack"):
             check(number_in(getattr(self, name), 0, MAX_PX, lo_open=True), f"{name} must be in (0, {MAX_PX}], "
                   f"not {getattr(self, name)!r}")
         for name in ("lone_factor", "min_lone_score_hough", "min_lone_score_circles", "min_lone_score_symmetry",
@@ -703,8 +707,9 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     (:func:`aerofid.detect.twins.turned_matches`);
     the ``twin_fits`` best places correlating at least ``twin_match``, outside the blanked disc, are fitted with the
     blurred-cross model started from the panel's own fit, turned (:func:`aerofid.detect.hough.detector.verify_like`),
-    and each '+' that passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`), is a second panel
-    (score: its correlation). None when the panel is too near the window's edge (or flat) for its turned image:
+    and each '+' that passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`) and clear of its disc
+    (centres further apart than the two extents), is a second panel (score: its correlation). None when the panel
+    is too near the window's edge (or flat) for its turned image:
     then ``hough``'s search runs as before. ``hough``'s own
     search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
     scored a second panel's window 0.03-0.9: it let 3 of 20 boxes with two panels through as found (scratch
@@ -718,11 +723,14 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     out: list[Detection] = []
     for score, x, y, turn in match_peaks(matches, panel.x, panel.y, extent + p.edge_margin, p.twin_match,
                                          p.twin_fits):
-        got = verify_like(blanked, x, y, model, turn, hp)
+        got = verify_like(blanked, x, y, model, turn, hp, p.twin_slack)
         if isinstance(got, Verified) and twin_shape(got.refinement, model, p):
             f = got.refinement
-            out.append(HoughResult(status=FOUND, x=got.x, y=got.y, score=score, sigma=f.sigma, sigma_x=f.sigma_x,
-                                   sigma_y=f.sigma_y, cov_xy=f.cov_xy, method="hough", refinement=f))
+            twin = HoughResult(status=FOUND, x=got.x, y=got.y, score=score, sigma=f.sigma, sigma_x=f.sigma_x,
+                               sigma_y=f.sigma_y, cov_xy=f.cov_xy, method="hough", refinement=f)
+            # two panels lie side by side: a '+' reaching into the panel's own disc is not another one
+            if np.hypot(twin.x - panel.x, twin.y - panel.y) > extent + (twin.extent or 0.0):
+                out.append(twin)
     return out
 
 

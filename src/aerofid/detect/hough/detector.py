@@ -126,12 +126,14 @@ def shape_refusal(ref: CrossFit) -> str | None:
     return None
 
 
-def quality_refusal(ref: CrossFit, params: HoughParams = DEFAULT) -> str | None:
-    """Why the fitted '+' is not trusted (uncertain centre, misfit, unbalanced or faint arms), or None."""
-    if ref.sigma > MAX_CENTRE_SIGMA:
-        return (f"the centre is too uncertain (sigma {ref.sigma:.2f} px > {MAX_CENTRE_SIGMA} px): a faint or "
-                "blurred '+', or texture")
-    if ref.misfit > MAX_MISFIT:
+def quality_refusal(ref: CrossFit, params: HoughParams = DEFAULT, slack: float = 1.0) -> str | None:
+    """Why the fitted '+' is not trusted (uncertain centre, misfit, unbalanced or faint arms), or None; ``slack``
+    widens the limits of the centre's sigma and of the misfit (a second '+' sought to refuse a box need not be one
+    whose centre could be trusted)."""
+    if ref.sigma > slack * MAX_CENTRE_SIGMA:
+        return (f"the centre is too uncertain (sigma {ref.sigma:.2f} px > {slack * MAX_CENTRE_SIGMA:g} px): a faint "
+                "or blurred '+', or texture")
+    if ref.misfit > slack * MAX_MISFIT:
         return f"the '+' model does not explain the grey values (misfit {ref.misfit:.1f} x noise)"
     if ref.arm_balance < params.min_arm_balance:
         return f"arms unbalanced ({ref.arm_balance:.2f} < {params.min_arm_balance}): not a '+'"
@@ -162,19 +164,19 @@ def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
 
 
 def verify_like(image: np.ndarray, x: float, y: float, model: CrossFit, turn: float,
-                params: HoughParams = DEFAULT) -> Verified | str:
+                params: HoughParams = DEFAULT, slack: float = 1.0) -> Verified | str:
     """Beyond the seed: is there a '+' like ``model`` (a fitted '+', its parameters in any window) turned by ``turn``
     degrees, at (x, y) of ``image``? The blurred-cross fit starts there with ``model``'s bars turned (normal angles
     minus ``turn``: OpenCV's counter-clockwise turn of an image with y down), arms, stroke and blur, and what it
-    finds must pass the same checks as a candidate of the search (:func:`shape_refusal`, :func:`quality_refusal`,
-    within ``MAX_REFINE_SHIFT`` of (x, y)). Returns :class:`Verified` or the reason."""
+    finds must pass the same checks as a candidate of the search (:func:`shape_refusal`, :func:`quality_refusal` with
+    ``slack``, within ``MAX_REFINE_SHIFT`` of (x, y)). Returns :class:`Verified` or the reason."""
     ref = fit_cross(image, x, y, model.theta1 - turn, model.theta2 - turn, 0.5 * max(model.length1, model.length2),
                     width=model.width, blur=model.blur, max_shift=EARLY_EXIT_SHIFT)
     if ref is None:
         return "sub-pixel fit failed"
     if np.hypot(ref.x - x, ref.y - y) > MAX_REFINE_SHIFT:
         return f"sub-pixel fit moved more than {MAX_REFINE_SHIFT} px from the start"
-    reason = shape_refusal(ref) or quality_refusal(ref, params)
+    reason = shape_refusal(ref) or quality_refusal(ref, params, slack)
     return reason if reason is not None else Verified(x=float(ref.x), y=float(ref.y), refinement=ref)
 
 

@@ -708,7 +708,8 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     the ``twin_fits`` best places correlating at least ``twin_match``, outside the blanked disc, are fitted with the
     blurred-cross model started from the panel's own fit, turned (:func:`aerofid.detect.hough.detector.verify_like`),
     and each '+' that passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`) and clear of its disc
-    (centres further apart than the two extents), is a second panel (score: its correlation). None when the panel
+    (centres further apart than the two extents), is a second panel (score: its correlation; the first found ends
+    the search). None when the panel
     is too near the window's edge (or flat) for its turned image:
     then ``hough``'s search runs as before. ``hough``'s own
     search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
@@ -720,7 +721,6 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     matches = turned_matches(ctx.img, blanked, panel.x, panel.y, int(np.ceil(extent + TWIN_MARGIN)))
     if matches is None:
         return None
-    out: list[Detection] = []
     for score, x, y, turn in match_peaks(matches, panel.x, panel.y, extent + p.edge_margin, p.twin_match,
                                          p.twin_fits):
         got = verify_like(blanked, x, y, model, turn, hp, p.twin_slack)
@@ -730,8 +730,8 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
                                sigma_y=f.sigma_y, cov_xy=f.cov_xy, method="hough", refinement=f)
             # two panels lie side by side: a '+' reaching into the panel's own disc is not another one
             if np.hypot(twin.x - panel.x, twin.y - panel.y) > extent + (twin.extent or 0.0):
-                out.append(twin)
-    return out
+                return [twin]   # one second panel makes the box ambiguous
+    return []
 
 
 def twin_shape(other: CrossFit, panel: CrossFit, params: AutoParams = AutoParams()) -> bool:

@@ -211,13 +211,14 @@ def _start(pt: _Patch, thetas_deg: tuple[float, float], arm: float, width: float
     return np.clip(p0, lo + 1e-9, hi - 1e-9), lo, hi
 
 
-def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> Any:
+def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                   retry: bool = True) -> Any:
     """One weighted least-squares pass from ``start``: Levenberg-Marquardt (MINPACK) without bounds, several
     times faster than the bounded trust-region solver (a solution that leaves the plausible region is reported
     via ``at_bound``). When LM runs out of evaluations with the centre still within :data:`RETRY_SHIFT` of the
     start, it has wandered into a degenerate shape (a hair-thin, very bright stroke; an arm growing without end)
     while the '+' held, and when it ends on values that are not finite: the bounded trust-region solver then runs
-    once from the same start."""
+    once from the same start (unless not ``retry``)."""
 
     # the solvers ask for the Jacobian at nearly every point whose residuals they computed (MINPACK: after each
     # accepted step), and both come from the same bar profiles: compute them together, keep the last Jacobian
@@ -237,7 +238,7 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
                                            max_nfev=MAX_EVALUATIONS)
         finite = bool(np.all(np.isfinite(sol.x)))
         ran_out = finite and not (sol.success or sol.status > 0)
-        if not finite or (ran_out and np.hypot(sol.x[0] - start[0], sol.x[1] - start[1]) <= RETRY_SHIFT):
+        if retry and (not finite or (ran_out and np.hypot(sol.x[0] - start[0], sol.x[1] - start[1]) <= RETRY_SHIFT)):
             inside = np.array(start, float)
             inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
             inside = np.clip(inside, lo + 1e-9, hi - 1e-9)
@@ -247,7 +248,7 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
 
 
 def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                  max_shift: float = np.inf) -> tuple[np.ndarray, np.ndarray] | None:
+                  max_shift: float = np.inf, retry: bool = True) -> tuple[np.ndarray, np.ndarray] | None:
     """The least-squares solution, iteratively reweighted: pixels hit by dust, scratches or impulse noise
     (|v| > HUBER_K robust sigmas) get Huber weights, so that they neither pull the centre nor inflate the
     misfit. Returns (parameters, final weights) or None when a pass fails.
@@ -261,7 +262,7 @@ def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     x: np.ndarray | None = None
     for k in range(1 + ROBUST_PASSES):
         try:
-            sol = _least_squares(pt, p0 if x is None else x, weights, lo, hi)
+            sol = _least_squares(pt, p0 if x is None else x, weights, lo, hi, retry)
         except (ValueError, np.linalg.LinAlgError):
             return None
         if not np.all(np.isfinite(sol.x)) or (not sol.success and sol.status <= 0):
@@ -343,7 +344,7 @@ def _at_bound(sol: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
 def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float,
               arm: float, width: float = 2.0, blur: float = 0.8,
               margin: float = PATCH_MARGIN, max_patch: int = MAX_PATCH,
-              max_shift: float = np.inf) -> CrossFit | None:
+              max_shift: float = np.inf, retry: bool = True) -> CrossFit | None:
     """Fit the blurred-cross model around the start (x, y) with arms of half-length ``arm`` px.
 
     Parameters
@@ -359,6 +360,8 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     max_shift : float
         A first least-squares pass whose centre moves further than this (px) from the start is not refitted
         (:func:`_robust_solve`; the caller refuses a '+' that far off).
+    retry : bool
+        Whether a pass that ran out of evaluations gets the bounded solver's second try (:func:`_least_squares`).
 
     Returns
     -------
@@ -370,7 +373,7 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     if pt is None:
         return None
     p0, lo, hi = _start(pt, thetas, arm, width, blur)
-    solved = _robust_solve(pt, p0, lo, hi, max_shift)
+    solved = _robust_solve(pt, p0, lo, hi, max_shift, retry)
     if solved is None:
         return None
     sol, weights = solved

@@ -56,7 +56,14 @@ def two_marks(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:
 def two_panels(rng: np.random.Generator, n: int = 120) -> np.ndarray:
     """Two cloth panels of 7-11 px (sizes within 10 %, each turned at random, each on its patch of lawn) 1.8-4.5
     sizes apart on aerial ground, both at least 2 sizes inside the box, blurred (0.6 px) and noisy (0.015) together:
-    an ambiguous box."""
+    an ambiguous box.
+
+    Examples
+    --------
+    >>> box = two_panels(np.random.default_rng(3))
+    >>> box.shape, box.dtype.name, bool(0 <= box.min() and box.max() <= 1)
+    ((120, 120), 'float32', True)
+    """
     size = rng.uniform(7, 11)
     contrast = rng.uniform(0.2, 0.35)
     lo, hi = 2 * size, n - 2 * size

@@ -171,7 +171,22 @@ def verify_like(image: np.ndarray, x: float, y: float, model: CrossFit, turn: fl
     bounded solver's second try: from a start that close, no '+' of 35 such twins needed it, while it took 60 % of
     the time of the fits that found none, in scratch boxes with one and two panels), and what it
     finds must pass the same checks as a candidate of the search (:func:`shape_refusal`, :func:`quality_refusal` with
-    ``slack``, within ``MAX_REFINE_SHIFT`` of (x, y)). Returns :class:`Verified` or the reason."""
+    ``slack``, within ``MAX_REFINE_SHIFT`` of (x, y)). Returns :class:`Verified` or the reason.
+
+    Examples
+    --------
+    >>> from aerofid import synth
+    >>> img = synth.panel_scene(np.random.default_rng(4), centre=(25.3, 30.6), size=9.0, angle_deg=12.0,
+    ...                         contrast=0.4, ground=np.full((60, 100), 0.3, np.float32)).image
+    >>> img = synth.panel_scene(np.random.default_rng(5), centre=(74.7, 29.2), size=9.0, angle_deg=12.0,
+    ...                         contrast=0.4, ground=img).image
+    >>> first = detect(img[:, :50], HoughParams(mark="panel"))
+    >>> got = verify_like(img, 75.0, 29.0, first.refinement, 0.0)
+    >>> round(got.x, 1), round(got.y, 1)
+    (74.7, 29.2)
+    >>> verify_like(img, 50.0, 10.0, first.refinement, 0.0)
+    'sub-pixel fit moved more than 2.0 px from the start'
+    """
     ref = fit_cross(image, x, y, model.theta1 - turn, model.theta2 - turn, 0.5 * max(model.length1, model.length2),
                     width=model.width, blur=model.blur, max_shift=EARLY_EXIT_SHIFT, retry=False)
     if ref is None:

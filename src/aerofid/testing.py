@@ -31,9 +31,9 @@ MARK_RADIUS = {"notch_dot": 0.075}
 """The visible mark's radius as a fraction of its size, by style (0.5 for the styles not listed)."""
 
 
-def _blur_noise(img: np.ndarray, rng: np.random.Generator, noise: float = 0.02) -> np.ndarray:
-    """Blur 0.7 px, Gaussian noise, clip to [0, 1]."""
-    return np.clip(add_gaussian_noise(blur(img, 0.7), noise, rng), 0, 1).astype(np.float32)
+def _blur_noise(img: np.ndarray, rng: np.random.Generator, noise: float = 0.02, sigma: float = 0.7) -> np.ndarray:
+    """Blur ``sigma`` px, Gaussian noise, clip to [0, 1]."""
+    return np.clip(add_gaussian_noise(blur(img, sigma), noise, rng), 0, 1).astype(np.float32)
 
 
 def two_marks(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:
@@ -76,7 +76,7 @@ def two_panels(rng: np.random.Generator, n: int = 120) -> np.ndarray:
                       contrast=contrast, blur_sigma=0.0, noise_sigma=0.0).image
     img = panel_scene(rng, centre=(float(second[0]), float(second[1])), size=size * rng.uniform(0.9, 1.1),
                       contrast=contrast, blur_sigma=0.0, noise_sigma=0.0, ground=img).image
-    return np.clip(add_gaussian_noise(blur(img, 0.6), 0.015, rng), 0, 1).astype(np.float32)
+    return _blur_noise(img, rng, 0.015, 0.6)
 
 
 def half_mark(rng: np.random.Generator, style: str, n: int = 120) -> np.ndarray:

@@ -704,15 +704,13 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     """Uniqueness of a cloth panel (beyond the seeds): a second panel of the same survey looks like this one. The
     panel's own image (a square of half-size ``extent`` + :data:`TWIN_MARGIN` around ``hough``'s centre) is turned
     in 10 degree steps through a quarter turn and correlated with the blanked window
-    (:func:`aerofid.detect.twins.turned_matches`);
-    the ``twin_fits`` best places correlating at least ``twin_match``, outside the blanked disc, are fitted with the
-    blurred-cross model started from the panel's own fit, turned (:func:`aerofid.detect.hough.detector.verify_like`),
-    and each '+' that passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`) and clear of its disc
-    (centres further apart than the two extents), is a second panel (score: its correlation; the first found ends
-    the search). None when the panel
-    is too near the window's edge (or flat) for its turned image:
-    then ``hough``'s search runs as before. ``hough``'s own
-    search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
+    (:func:`aerofid.detect.twins.turned_matches`); the ``twin_fits`` best places correlating at least
+    ``twin_match``, outside the blanked disc, are fitted with the blurred-cross model started from the panel's own
+    fit, turned (:func:`aerofid.detect.hough.detector.verify_like`), and each '+' that passes ``hough``'s
+    verification, shaped like the panel (:func:`twin_shape`) and clear of its disc (centres further apart than the
+    two extents), is a second panel (score: its correlation; the first found ends the search). None when the panel
+    is too near the window's edge (or flat) for its turned image: then ``hough``'s search runs as before. ``hough``'s
+    own search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
     scored a second panel's window 0.03-0.9: it let 3 of 20 boxes with two panels through as found (scratch
     scenes of bench_peers.py's kind, the second panel 2.5-6 sizes away, turned at random, its size within 10 %)."""
     p, hp = ctx.params, ctx.seeds["hough"]

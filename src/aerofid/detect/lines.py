@@ -388,7 +388,8 @@ def _local_background(fr: _Frame, ring: np.ndarray, uc: float, band: float) -> n
     key = seg - seg.min()
     planes = _stretch_planes(key[ring], fr.g[ring], fr.v[ring], u[ring], band, int(key.max()) + 1)
     for k in planes.solo:   # a stretch whose plane is ill-conditioned: least squares on its own
-        m, on = ring & (key == k), key == k
+        on = key == k
+        m = ring & on
         bg[on] = _plane(fr.g[m], fr.v[m], u[m], fr.v[on], u[on])
     on = planes.fitted[key]
     k = key[on]
@@ -424,8 +425,8 @@ def _stretch_planes(key: np.ndarray, g: np.ndarray, v: np.ndarray, u: np.ndarray
                     n: int) -> _StretchPlanes:
     """Least-squares planes of the ring samples (g, v, u) per stretch ``key`` (0..n-1), for every stretch with at
     least 8 samples whose v spans more than ``band`` (both sides of the band, for a ring of strips narrower than
-    the band): normal equations of the samples
-    centred on their stretch's means (so the slopes decouple from the mean), all stretches at once."""
+    the band): normal equations of the samples centred on their stretch's means (so the slopes decouple from the
+    mean), all stretches at once."""
     count = np.bincount(key, minlength=n).astype(np.float64)
     vmin, vmax = np.full(n, np.inf), np.full(n, -np.inf)
     np.minimum.at(vmin, key, v)

@@ -55,23 +55,20 @@ def turned_matches(image: np.ndarray, window: np.ndarray, x: float, y: float, ha
     if cx - big < 0 or cy - big < 0 or cx + big >= w or cy + big >= h or min(window.shape) < 2 * half + 1:
         return None
     crop = np.ascontiguousarray(image[cy - big:cy + big + 1, cx - big:cx + big + 1], np.float32)
+    inner = slice(big - half, big + half + 1)
+    if float(crop[inner, inner].std()) < 1e-6:
+        return None   # a flat template correlates 1 with everything
     target = np.ascontiguousarray(window, np.float32)
     centre = (x - (cx - big), y - (cy - big))
-    score = turn = None
-    if float(crop[big - half:big + half + 1, big - half:big + half + 1].std()) < 1e-6:
-        return None   # a flat template correlates 1 with everything
-    for angle in np.arange(0.0, period - 1e-9, step):
+    angles = np.arange(0.0, period - 1e-9, step)
+    maps = []
+    for angle in angles:
         m = cv2.getRotationMatrix2D(centre, float(angle), 1.0)
         turned = cv2.warpAffine(crop, m, crop.shape[::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
-        got = cv2.matchTemplate(target, np.ascontiguousarray(turned[big - half:big + half + 1,
-                                                                    big - half:big + half + 1]),
-                                cv2.TM_CCOEFF_NORMED)
-        if score is None or turn is None:
-            score, turn = got, np.zeros_like(got)
-        else:
-            better = got > score
-            score, turn = np.where(better, got, score), np.where(better, float(angle), turn)
-    assert score is not None and turn is not None
+        maps.append(cv2.matchTemplate(target, np.ascontiguousarray(turned[inner, inner]), cv2.TM_CCOEFF_NORMED))
+    best = np.argmax(maps, axis=0)                    # the first turn of equals
+    score = np.take_along_axis(np.asarray(maps), best[None], axis=0)[0]
+    turn = angles[best]
     return Matches(score, turn, half, (x - cx, y - cy))
 
 

@@ -152,15 +152,20 @@ def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
     # than EARLY_EXIT_SHIFT from there will be refused: no refits (cross_fit._robust_solve)
     ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis),
                     max_shift=EARLY_EXIT_SHIFT)
+    return _verdict(ref, origin, (cand.x, cand.y), "the Hough centre", params)
+
+
+def _verdict(ref: CrossFit | None, origin: tuple[float, float], start: tuple[float, float], named: str,
+             params: HoughParams, slack: float = 1.0) -> Verified | str:
+    """The checks of a fitted '+' (in a window at ``origin``): a fit, within ``MAX_REFINE_SHIFT`` of ``start``
+    (called ``named`` in the reason), no :func:`shape_refusal` or :func:`quality_refusal` (with ``slack``)."""
     if ref is None:
         return "sub-pixel fit failed"
     x, y = ref.x + origin[0], ref.y + origin[1]
-    if np.hypot(x - cand.x, y - cand.y) > MAX_REFINE_SHIFT:
-        return f"sub-pixel fit moved more than {MAX_REFINE_SHIFT} px from the Hough centre"
-    reason = shape_refusal(ref) or quality_refusal(ref, params)
-    if reason is not None:
-        return reason
-    return Verified(x=float(x), y=float(y), refinement=ref)
+    if np.hypot(x - start[0], y - start[1]) > MAX_REFINE_SHIFT:
+        return f"sub-pixel fit moved more than {MAX_REFINE_SHIFT} px from {named}"
+    reason = shape_refusal(ref) or quality_refusal(ref, params, slack)
+    return reason if reason is not None else Verified(x=float(x), y=float(y), refinement=ref)
 
 
 def verify_like(image: np.ndarray, x: float, y: float, model: CrossFit, turn: float,
@@ -189,12 +194,7 @@ def verify_like(image: np.ndarray, x: float, y: float, model: CrossFit, turn: fl
     """
     ref = fit_cross(image, x, y, model.theta1 - turn, model.theta2 - turn, 0.5 * max(model.length1, model.length2),
                     width=model.width, blur=model.blur, max_shift=EARLY_EXIT_SHIFT, retry=False)
-    if ref is None:
-        return "sub-pixel fit failed"
-    if np.hypot(ref.x - x, ref.y - y) > MAX_REFINE_SHIFT:
-        return f"sub-pixel fit moved more than {MAX_REFINE_SHIFT} px from the start"
-    reason = shape_refusal(ref) or quality_refusal(ref, params, slack)
-    return reason if reason is not None else Verified(x=float(ref.x), y=float(ref.y), refinement=ref)
+    return _verdict(ref, (0.0, 0.0), (x, y), "the start", params, slack)
 
 
 @dataclass(frozen=True)

@@ -336,3 +336,32 @@ def test_the_window_term_measures_with_the_returned_method_alone():
         assert m.alone("symmetry").detector is not auto_detector and m.alone("centroid") is m
         single = Measurer(source, make_detector("circles", "auto", {}), ("bright",))
         assert single.alone("symmetry") is single
+
+
+@pytest.mark.parametrize("style", ["ring_x_dot", "cross", "dot"])
+def test_the_window_term_of_symmetry_equals_the_full_method_on_its_windows(style):
+    """The window term measured from the known centre (``Measurer.again``: symmetry's ``remeasure``) gives the same
+    differences as the method run whole on the same windows (``Measurer.at``), in the polarity the mark was found in
+    (symmetry is blind to it: either may be); a dark mark too."""
+    for polarity in ("bright", "dark"):
+        sc = _scene(style, (150.3, 149.6), size=36.0, seed=5, noise_sigma=0.02, blur_sigma=0.8)
+        img = sc.image if polarity == "bright" else 1.0 - sc.image
+        with open_image(img) as source:
+            m = Measurer(source, make_detector("symmetry", "auto", {}), ("bright", "dark"))
+            final = m.at(150.0, 150.0, 2.5 * 18 + 8)
+            assert final.found
+            for f in (0.75, 1 / 0.75):
+                half = f * (2.5 * final.extent + 8)
+                again, full = m.again(final, half), m.at(final.x, final.y, half)
+                assert again.found and full.found and again.polarity == final.polarity
+                assert np.hypot(again.x - full.x, again.y - full.y) < 1e-3
+
+
+def test_again_with_auto_is_a_whole_measurement():
+    """``auto`` has no cheaper remeasurement: ``again`` is ``at`` on the same window."""
+    sc = _scene("ring_x_dot", (100.2, 99.7), window=200, size=30.0, seed=6, noise_sigma=0.02)
+    with open_image(sc.image) as source:
+        m = Measurer(source, make_detector("auto", "external", {}), ("bright",))
+        final = m.at(100.0, 100.0, 83.0)
+        again, full = m.again(final, 60.0), m.at(final.x, final.y, 60.0)
+        assert again.found and (again.x, again.y, again.detection.method) == (full.x, full.y, full.detection.method)

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from aerofid.detect.spline import cubic_prefilter, grid_values, square_grid
+from aerofid.detect.spline import cubic_prefilter, grid_differences, grid_values, square_grid
 from aerofid.detect.symmetry import moving_mean, point_symmetry_centre
 
 
@@ -22,6 +22,23 @@ def test_grid_values_equal_map_coordinates(x0, y0, nx, ny, seed):
         yy, xx = np.mgrid[0:ny, 0:nx].astype(float)
         want = ndimage.map_coordinates(coeffs, [yy + y0, xx + x0], order=3, mode="nearest", prefilter=False)
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(x0=st.floats(-3.0, 40.0), y0=st.floats(-3.0, 30.0), nx=st.integers(1, 25), ny=st.integers(1, 25),
+       seed=st.integers(0, 2**16))
+def test_grid_differences_equal_grids_half_a_pixel_either_side(x0, y0, nx, ny, seed):
+    """The value and the central differences at +-1/2 px from one set of passes equal five grids of grid_values
+    (and scipy's map_coordinates, by the test above); None exactly where one of the five grids reaches outside."""
+    coeffs = ndimage.spline_filter(np.random.default_rng(seed).normal(size=(50, 60)), order=3)
+    got = grid_differences(coeffs, x0, y0, (ny, nx))
+    grids = [grid_values(coeffs, x0 + dx, y0 + dy, (ny, nx))
+             for dx, dy in ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5))]
+    assert (got is None) == any(g is None for g in grids)
+    if got is not None:
+        g0, gxp, gxm, gyp, gym = grids
+        for a, b in zip(got, (g0, gxp - gxm, gyp - gym)):  # type: ignore[operator]
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
 
 
 def test_point_symmetry_centre_finds_the_centre_of_a_symmetric_pattern_near_the_edge_too():

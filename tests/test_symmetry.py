@@ -25,10 +25,12 @@ from aerofid.detect.symmetry import (
     kernel_radius,
     mirror_differences,
     point_symmetry_centre,
+    remeasure,
     search_range,
     self_diagnosis,
     simplified_log,
     symmetry_accumulation,
+    symmetry_profile,
 )
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye")
@@ -340,3 +342,63 @@ def test_symmetry_accumulation_is_eq4_with_or_without_reused_differences(seed, r
     wide = mirror_differences(i2, r, r, 49 - r)
     np.testing.assert_allclose(symmetry_accumulation(i2, row, r, d, xs), direct, rtol=1e-5)
     np.testing.assert_allclose(symmetry_accumulation(i2, row, r, d, xs, wide), direct, rtol=1e-5)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 120), st.integers(0, 70))
+def test_symmetry_profile_is_eq2_term_by_term(seed, n, d):
+    """Eq. (2) averaged over the terms that exist, written out per position, equals the vectorised profile; inf
+    where fewer than max(1, d // 2) terms exist."""
+    a = np.random.default_rng(seed).normal(size=n) * 100.0
+    want = np.full(n, np.inf)
+    for x in range(n):
+        k = min(d, x, n - 1 - x)
+        if k >= max(1, d // 2):
+            want[x] = np.mean([abs(a[x + u] - a[x - u]) for u in range(1, k + 1)])
+    got = symmetry_profile(a, d)
+    assert np.array_equal(np.isinf(got), np.isinf(want))
+    np.testing.assert_allclose(got[np.isfinite(want)], want[np.isfinite(want)], rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("style", STYLES)
+def test_remeasure_equals_detect_on_other_windows(style):
+    """The window term's measurement from the known centre equals the full method's answer on windows smaller and
+    larger than the one the mark was found on (the ladder's steps), wherever the full method finds it."""
+    rng = np.random.default_rng(17)
+    compared = 0
+    for _ in range(4):
+        size = rng.uniform(24, 50)
+        big = synth.mark_scene(style, size, window=int(4 * size), rng=rng, noise_sigma=0.02, blur_sigma=0.8)
+        c = (big.image.shape[0] - 1) / 2
+        first = detect(big.image)
+        assert first.found
+        for half in (0.6 * size, 0.8 * size, 1.3 * size):
+            h = int(half)
+            crop = big.image[int(c) - h:int(c) + h + 1, int(c) - h:int(c) + h + 1]
+            x0 = y0 = int(c) - h
+            full, again = detect(crop), remeasure(crop, first.x - x0, first.y - y0)
+            assert again.found == full.found or not full.found
+            if full.found:
+                compared += 1
+                assert np.hypot(again.x - full.x, again.y - full.y) < 1e-3
+                assert again.radius == full.radius
+    assert compared >= 8
+
+
+def test_remeasure_refuses_a_mark_cut_by_the_window_as_detect_does():
+    """A window whose edge cuts the known mark: the same refusal as the full method (the centre at the limit of the
+    search range, or no room for the kernel), never a centre."""
+    s = synth.mark_scene("ring_x_dot", 40, window=160, rng=np.random.default_rng(3), noise_sigma=0.02)
+    first = detect(s.image)
+    crop = s.image[:, int(first.x) - 15:]   # the radius is 22 px
+    got = remeasure(crop, first.x - (int(first.x) - 15), first.y)
+    assert not got.found and got.reason
+    assert not detect(crop).found
+
+
+def test_remeasure_without_point_refine_is_detect():
+    s = synth.mark_scene("dot", 30, window=100, rng=np.random.default_rng(4), noise_sigma=0.02)
+    p = SymmetryParams(point_refine=False)
+    full = detect(s.image, p)
+    again = remeasure(s.image, full.x + 0.4, full.y - 0.3, p)
+    assert again.found and (again.x, again.y, again.sigma) == (full.x, full.y, full.sigma)

@@ -40,7 +40,7 @@ from aerofid.io.colour import COLOUR_POLICIES, to_grey
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import read_reduced_levels
 from aerofid.io.source import ImageSource
-from aerofid.methods import AutoDetector, Detector, check_choice, check_polarity, make_detector
+from aerofid.methods import AutoDetector, Detector, MethodDetector, check_choice, check_polarity, make_detector
 
 SCREEN_PIXELS = 2_000_000
 """Most pixels of the reduced region that screening holds (a power-of-two reduction is chosen to fit)."""
@@ -155,15 +155,10 @@ class Measurer:
     def at(self, x: float, y: float, half: float, candidate: Candidate | None = None,
            blank: tuple[float, float, float] | None = None) -> Located:
         """The detector's answer on the window of half-size ``half`` centred on the pixel nearest (x, y)."""
-        h = int(min(max(math.ceil(half), MIN_HALF), MAX_HALF))
-        cx, cy = int(round(x)), int(round(y))
-        box, _ = clip_box((cx - h, cy - h, cx + h + 1, cy + h + 1), self.source.width, self.source.height)
-        samples = self.source.read_window(box)
+        box, samples = self._window(x, y, half)
         best: Located | None = None
         for pol in self.polarities:
-            grey = to_grey(samples, self.colour, pol)
-            if pol == "dark":
-                grey = 1.0 - grey
+            grey = self._grey(samples, pol)
             if blank is not None:
                 grey = blank_disc(grey, blank[0] - box[0], blank[1] - box[1], blank[2])
             det = self.detector(grey).shifted(box[0], box[1])
@@ -172,6 +167,30 @@ class Measurer:
                 best = got
         assert best is not None
         return best
+
+    def again(self, final: Located, half: float) -> Located:
+        """``final``'s mark measured on the window of half-size ``half`` centred on it: in its polarity, by the seed
+        method's :meth:`~aerofid.methods.MethodDetector.remeasure` from its centre where it has one, else by
+        :meth:`at`."""
+        if not (isinstance(self.detector, MethodDetector) and self.detector.remeasures):
+            return self.at(final.x, final.y, half, final.candidate)
+        box, samples = self._window(final.x, final.y, half)
+        grey = self._grey(samples, final.polarity)
+        det = self.detector.remeasure(grey, final.x - box[0], final.y - box[1]).shifted(box[0], box[1])
+        return Located(det, final.polarity, box, grey, final.candidate)
+
+    def _window(self, x: float, y: float, half: float) -> tuple[Box, np.ndarray]:
+        """The window of half-size ``half`` (within :data:`MIN_HALF`, :data:`MAX_HALF`) centred on the pixel nearest
+        (x, y), clipped to the image, and its samples."""
+        h = int(min(max(math.ceil(half), MIN_HALF), MAX_HALF))
+        cx, cy = int(round(x)), int(round(y))
+        box, _ = clip_box((cx - h, cy - h, cx + h + 1, cy + h + 1), self.source.width, self.source.height)
+        return box, self.source.read_window(box)
+
+    def _grey(self, samples: np.ndarray, pol: Polarity) -> np.ndarray:
+        """The window's grey levels, the mark bright for polarity ``pol``."""
+        grey = to_grey(samples, self.colour, pol)
+        return 1.0 - grey if pol == "dark" else grey
 
     def candidate(self, c: Candidate, blank: tuple[float, float, float] | None = None,
                   settle: bool = True) -> Located:
@@ -223,7 +242,7 @@ class Measurer:
         alone = self.alone(final.detection.method)
         others = []
         for f in WINDOW_TERM_SIZES:
-            got = alone.at(final.x, final.y, f * half, final.candidate)
+            got = alone.again(final, f * half)
             same = got.found and math.hypot(got.x - final.x, got.y - final.y) <= final.extent
             others.append(got if same or alone is self else self.at(final.x, final.y, f * half, final.candidate))
         return with_window_term(final, [(o.x - final.x, o.y - final.y) for o in others if o.found])

@@ -16,7 +16,7 @@ import numpy as np
 from aerofid.conventions import MARKS, POLARITY_CHOICES
 from aerofid.detect import auto
 from aerofid.detect.params import MethodParams
-from aerofid.detect.registry import METHODS, route_params
+from aerofid.detect.registry import METHODS, Method, route_params
 from aerofid.detect.result import Detection
 from aerofid.errors import AerofidInputError
 
@@ -25,6 +25,29 @@ Detector = Callable[[np.ndarray], Detection]
 
 METHOD_NAMES = ("auto", *METHODS)
 """What ``method`` may be: ``auto`` or one of the seeds' methods (:data:`aerofid.detect.registry.METHODS`)."""
+
+
+@dataclass(frozen=True)
+class MethodDetector:
+    """One seed method configured (:func:`make_detector`, :meth:`AutoDetector.member`): called on a grey window it
+    runs the method with ``params``; :meth:`remeasure` measures a mark it found again on another window."""
+
+    method: Method
+    params: MethodParams
+
+    def __call__(self, grey: np.ndarray) -> Detection:
+        return self.method.detect(grey, self.params)
+
+    @property
+    def remeasures(self) -> bool:
+        """Whether the method measures a known mark on another window more cheaply (:meth:`remeasure`)."""
+        return self.method.again is not None
+
+    def remeasure(self, grey: np.ndarray, x: float, y: float) -> Detection:
+        """The mark the method measured at (x, y) (window pixels) on another window, measured on ``grey``
+        (:attr:`aerofid.detect.registry.Method.again`; only where :attr:`remeasures`)."""
+        assert self.method.again is not None
+        return self.method.again(grey, x, y, self.params)
 
 
 @dataclass(frozen=True)
@@ -39,13 +62,12 @@ class AutoDetector:
     def __call__(self, grey: np.ndarray) -> Detection:
         return auto.detect(grey, self.params, methods=self.methods)
 
-    def member(self, name: str) -> Detector | None:
+    def member(self, name: str) -> MethodDetector | None:
         """The seed method ``name`` as ``auto`` runs it (None for a name that is no seed method, e.g.
         ``"centroid"``)."""
         if name not in METHODS:
             return None
-        p = auto.seed_params(self.params, self.methods)[name]
-        return lambda grey: METHODS[name].detect(grey, p)
+        return MethodDetector(METHODS[name], auto.seed_params(self.params, self.methods)[name])
 
 
 def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Detector:
@@ -75,8 +97,7 @@ def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Det
     values = dict(params)
     if "mark" in m.params_type.names():
         values["mark"] = mark
-    p = m.params_type.from_mapping(values, method_name)
-    return lambda grey: m.detect(grey, p)
+    return MethodDetector(m, m.params_type.from_mapping(values, method_name))
 
 
 def check_choice(value: str, choices: Sequence[str], what: str) -> None:
@@ -90,4 +111,5 @@ def check_polarity(polarity: str) -> None:
     check_choice(polarity, POLARITY_CHOICES, "polarity")
 
 
-__all__ = ["METHOD_NAMES", "AutoDetector", "Detector", "check_choice", "check_polarity", "make_detector"]
+__all__ = ["METHOD_NAMES", "AutoDetector", "Detector", "MethodDetector", "check_choice", "check_polarity",
+           "make_detector"]

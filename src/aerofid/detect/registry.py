@@ -29,6 +29,9 @@ class Method:
     seed: str
     function: Callable[..., Detection]
     params_type: type[MethodParams]
+    again: Callable[..., Detection] | None = None
+    """``again(window, x, y, params)``: the answer on another window of a mark the method measured at (x, y) (window
+    pixels), cheaper than ``function`` (:func:`aerofid.detect.symmetry.remeasure`), or None."""
 
     def detect(self, window: np.ndarray, params: MethodParams | None = None) -> Detection:
         """Run the method on ``window`` with ``params`` (its defaults when None)."""
@@ -37,7 +40,8 @@ class Method:
 
 METHODS: dict[str, Method] = {
     "hough": Method("hough", "Hunt, Ryan & Gifford (seed 001, thesis 000)", hough.detect, hough.HoughParams),
-    "symmetry": Method("symmetry", "Cho & Kim (seed 002)", symmetry.detect, symmetry.SymmetryParams),
+    "symmetry": Method("symmetry", "Cho & Kim (seed 002)", symmetry.detect, symmetry.SymmetryParams,
+                       symmetry.remeasure),
     "circles": Method("circles", "Seedahmed (seed 003)", circles.detect, circles.CirclesParams),
     "lines": Method("lines", "Sohn et al. (seed 004)", lines.detect, lines.LinesParams),
 }

@@ -21,8 +21,8 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["EDGE_PAD", "NEAR_REACH", "bspline3_weights", "cubic_coefficients", "cubic_prefilter", "grid_values", "near",
-           "square_grid"]
+__all__ = ["EDGE_PAD", "NEAR_REACH", "bspline3_weights", "cubic_coefficients", "cubic_prefilter", "grid_differences",
+           "grid_values", "near", "square_grid"]
 
 POLE = math.sqrt(3.0) - 2.0
 """The pole of the cubic B-spline's inverse filter."""
@@ -73,12 +73,44 @@ def grid_values(coeffs: np.ndarray, x0: float, y0: float, shape: tuple[int, int]
             iy - first + ny + taps - 1 > coeffs.shape[0]):
         return None
     block = coeffs[iy - first:iy - first + ny + taps - 1, ix - first:ix - first + nx + taps - 1]
-    rows = wy[0] * block[0:ny]
-    for t in range(1, taps):
-        rows = rows + wy[t] * block[t:t + ny]
-    out = wx[0] * rows[:, 0:nx]
-    for t in range(1, taps):
-        out = out + wx[t] * rows[:, t:t + nx]
+    return _taps(_taps(block, wy, ny, axis=0), wx, nx, axis=1)
+
+
+def grid_differences(coeffs: np.ndarray, x0: float, y0: float, shape: tuple[int, int]
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The cubic spline ``S`` of ``coeffs`` at the points ``(x0 + i, y0 + j)`` as :func:`grid_values` gives it, and
+    its central differences there, ``S(x + 1/2, y) - S(x - 1/2, y)`` and ``S(x, y + 1/2) - S(x, y - 1/2)``; None
+    when their support reaches outside ``coeffs``.
+
+    The points half a pixel either side of a grid share one set of weights (their fractions are equal, their
+    first taps one coefficient apart), so a difference is one pass of those weights over the differences of
+    neighbouring partial sums, not two grids: 22 passes over the grid for the three, against 40 for five grids.
+    """
+    ny, nx = shape
+    ix, iy = math.floor(x0), math.floor(y0)
+    jx, jy = math.floor(x0 + 0.5), math.floor(y0 + 0.5)       # x + 1/2 starts at tap jx - 1, x - 1/2 at jx - 2
+    if min(ix - 1, iy - 1, jx - 2, jy - 2) < 0 or jx + nx + 2 > coeffs.shape[1] or jy + ny + 2 > coeffs.shape[0] or (
+            ix + nx + 2 > coeffs.shape[1] or iy + ny + 2 > coeffs.shape[0]):
+        return None
+    wx, wy = bspline3_weights(x0 - ix), bspline3_weights(y0 - iy)
+    hx, hy = bspline3_weights(x0 + 0.5 - jx), bspline3_weights(y0 + 0.5 - jy)
+    # along y at y0 first, on the columns jx - 2 ... that the value and the x-differences need
+    rows = _taps(coeffs[iy - 1:iy + ny + 2, jx - 2:jx + nx + 2], wy, ny, axis=0)
+    value = _taps(rows[:, ix - 1 - (jx - 2):], wx, nx, axis=1)
+    dx = _taps(np.diff(rows, axis=1), hx, nx, axis=1)
+    # along x at x0 first, on the rows jy - 2 ... that the y-differences need
+    cols = _taps(coeffs[jy - 2:jy + ny + 2, ix - 1:ix + nx + 2], wx, nx, axis=1)
+    dy = _taps(np.diff(cols, axis=0), hy, ny, axis=0)
+    return value, dx, dy
+
+
+def _taps(block: np.ndarray, w: np.ndarray, n: int, axis: int) -> np.ndarray:
+    """``sum_t w[t] block[t:t + n]`` along ``axis`` (0: rows, 1: columns)."""
+    def part(t: int) -> np.ndarray:
+        return block[t:t + n] if axis == 0 else block[:, t:t + n]
+    out = w[0] * part(0)
+    for t in range(1, len(w)):
+        out += w[t] * part(t)
     return out
 
 

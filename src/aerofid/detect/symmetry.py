@@ -55,7 +55,7 @@ from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
-from aerofid.detect.spline import NEAR_REACH, cubic_coefficients, cubic_prefilter, grid_values, near, square_grid
+from aerofid.detect.spline import NEAR_REACH, cubic_coefficients, cubic_prefilter, grid_differences, near, square_grid
 from aerofid.robust import MAD_TO_SIGMA
 
 if TYPE_CHECKING:
@@ -448,6 +448,52 @@ def detect(window: np.ndarray, params: SymmetryParams = DEFAULT) -> SymmetryResu
                           method=METHOD, **trace.fields())
 
 
+def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = DEFAULT) -> SymmetryResult:
+    """The centre of a mark this method measured before, at (x, y) (window pixels), on another window: how the
+    centre moves with the window, which :meth:`aerofid.find.Measurer.window_term` adds to its uncertainty.
+
+    The window changes the centre through stage 1 (the fiducial area gives the kernel radius) and the
+    point-symmetry refinement at that radius; the searches of stages 2 and 4 only lead back to the known centre.
+    So: stage 1 as :func:`detect`; the known pixel must lie inside the search range (else the mark is cut by this
+    window's edge, as :func:`detect` refuses it); :func:`point_symmetry_centre` from (x, y), within
+    ``p.max_refine_shift`` of it; the checks of the final centre (self-diagnosis, point symmetry, faintness). The
+    answer equals :func:`detect`'s within 1e-3 px wherever both find it (the window-term windows of the
+    synthetic frames of ``benchmarks/bench_frames.py`` and of the real RC20 marks), at a quarter of its cost; it
+    has no sigma (``nan``). Without ``point_refine`` the centre is eq. (15)'s, which only the full stages give:
+    :func:`detect` then.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from aerofid import synth
+    >>> scene = synth.mark_scene("ring_x_dot", 40, window=90, rng=np.random.default_rng(1))
+    >>> d = detect(scene.image)
+    >>> again = remeasure(scene.image[2:-3, 4:], d.x - 4, d.y - 2)
+    >>> again.found, bool(np.hypot(again.x + 4 - d.x, again.y + 2 - d.y) < 0.05)
+    (True, True)
+    """
+    p = params
+    img = np.asarray(window)
+    if not p.point_refine:
+        return detect(img, p)
+    problem = _window_problem(img, p)
+    if problem is not None:
+        return SymmetryResult.not_found(METHOD, problem)
+    t = _Trace()
+    img = img.astype(np.float32, copy=False)
+    try:
+        noise, bounds, r = _area_stage(img, p, t)
+        t.aoi = aoi = search_range(bounds, r, p, img.shape)
+        t.centre_pixel = (int(round(x)), int(round(y)))
+        _check_in_range(*t.centre_pixel, aoi)
+        xs, ys = _refine(img, x, y, r, p, start="the known centre")
+        score = _verify_centre(img, xs, ys, r, noise, p, t)
+    except Refused as f:
+        return SymmetryResult.not_found(METHOD, f.reason, **t.fields())
+    return SymmetryResult(status=FOUND, x=float(xs), y=float(ys), score=float(np.clip(score, 0.0, 1.0)),
+                          sigma=float("nan"), method=METHOD, **t.fields())
+
+
 def _window_problem(img: np.ndarray, p: SymmetryParams) -> str | None:
     """Why the method cannot run on ``img`` at all (the shape, NaN, no variation), or None."""
     if img.ndim != 2:
@@ -465,11 +511,7 @@ def _window_problem(img: np.ndarray, p: SymmetryParams) -> str | None:
 
 def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, float]:
     """The four stages on a usable window; fills ``t``; returns (x, y, score) or raises :class:`Refused`."""
-    t.noise_sigma = noise = laplacian_noise_sigma(img)
-    area_img = img if p.area_smooth <= 1 else cv2.blur(img, (p.area_smooth, p.area_smooth),
-                                                        borderType=cv2.BORDER_REFLECT)
-    t.bounds = bounds = fiducial_area(area_img, edge_step=p.edge_step, diagonal=p.diagonal)
-    t.radius = r = kernel_radius(bounds, p, img.shape)
+    noise, bounds, r = _area_stage(img, p, t)
     t.log = i2 = simplified_log(img, p.log_inner, p.log_gap, p.log_outer)
     t.aoi = aoi = search_range(bounds, r, p, img.shape)
     x, y, d = _unit_pixel_centre(i2, bounds, r, aoi, p, t)
@@ -480,7 +522,8 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     xs, ys = _subpixel_stage(img, x, y, r, d, p, t)
     x15, y15 = xs, ys
     if p.point_refine:
-        xs, ys = _refine(img, xs, ys, r, p, t)
+        t.centre_eq15 = (xs, ys)
+        xs, ys = _refine(img, xs, ys, r, p)
     score = _verify_centre(img, xs, ys, r, noise, p, t)
     cov = centre_covariance(img, xs, ys, r, noise, p.sigma_inefficiency, p.sigma_floor)
     # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
@@ -488,6 +531,16 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     t.sigma_y = float(np.hypot(np.sqrt(cov[1, 1]), ys - y15))
     t.cov_xy = float(cov[0, 1])
     return float(xs), float(ys), float(np.clip(score, 0.0, 1.0))
+
+
+def _area_stage(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, FiducialArea, int]:
+    """The window's noise and stage 1 (seed 3.1): the fiducial area and the kernel radius it gives; fills ``t``."""
+    t.noise_sigma = noise = laplacian_noise_sigma(img)
+    area_img = img if p.area_smooth <= 1 else cv2.blur(img, (p.area_smooth, p.area_smooth),
+                                                        borderType=cv2.BORDER_REFLECT)
+    t.bounds = bounds = fiducial_area(area_img, edge_step=p.edge_step, diagonal=p.diagonal)
+    t.radius = r = kernel_radius(bounds, p, img.shape)
+    return noise, bounds, r
 
 
 def kernel_radius(bounds: FiducialArea, p: SymmetryParams, shape: tuple[int, ...]) -> int:
@@ -556,11 +609,17 @@ def _unit_pixel_centre(i2: np.ndarray, bounds: FiducialArea, r: int, aoi: tuple[
     if not converged:
         raise Refused(f"symmetry centre diverged: shifts {', '.join(f'{s:.1f}' for s in shifts)} px "
                        f"in {len(shifts)} iterations")
+    _check_in_range(x, y, aoi)
+    return x, y, d
+
+
+def _check_in_range(x: int, y: int, aoi: tuple[int, int, int, int]) -> None:
+    """A unit-pixel centre at the limit of the search range ``aoi`` is a failure (a mark cut by the window edge)."""
+    lo_x, lo_y, hi_x, hi_y = aoi
     for name, c, lo, hi in (("x", x, lo_x, hi_x), ("y", y, lo_y, hi_y)):
         if hi - lo >= 2 and (c <= lo or c >= hi):
             raise Refused(f"symmetry centre {name}={c} is at the limit of the search range [{lo}, {hi}]: "
                            "the mark is probably cut by the window edge or larger than the window")
-    return x, y, d
 
 
 def _converged(shifts: list[float], converge_px: float, interval_final: bool) -> bool:
@@ -608,16 +667,16 @@ def _subpixel_stage(img: np.ndarray, x: int, y: int, r: int, d: int, p: Symmetry
     return xs, ys
 
 
-def _refine(img: np.ndarray, xs: float, ys: float, r: int, p: SymmetryParams, t: _Trace) -> tuple[float, float]:
-    """Beyond the seed: :func:`point_symmetry_centre` from eq. (15)'s centre; it must converge and stay within
-    ``p.max_refine_shift`` of it."""
-    t.centre_eq15 = (xs, ys)
+def _refine(img: np.ndarray, xs: float, ys: float, r: int, p: SymmetryParams,
+            start: str = "eq. (15)'s") -> tuple[float, float]:
+    """Beyond the seed: :func:`point_symmetry_centre` from the ``start`` centre (xs, ys), eq. (15)'s; it must
+    converge and stay within ``p.max_refine_shift`` of it."""
     got = point_symmetry_centre(img, xs, ys, r)
     if got is None:
         raise Refused("the point-symmetry refinement did not converge (a flat or one-sided pattern)")
     shift = float(np.hypot(got[0] - xs, got[1] - ys))
     if shift > p.max_refine_shift:
-        raise Refused(f"the point-symmetry centre lies {shift:.2f} px from eq. (15)'s (> {p.max_refine_shift} "
+        raise Refused(f"the point-symmetry centre lies {shift:.2f} px from {start} (> {p.max_refine_shift} "
                        "px): the two disagree")
     return got
 
@@ -677,14 +736,19 @@ def _crossings(profile: np.ndarray, valid: np.ndarray | None = None) -> tuple[in
 def symmetry_profile(a: np.ndarray, d: int) -> np.ndarray:
     """Eq. (2): ``I_s(x) = sum_{u=1..d} |I_a(x + u) - I_a(x - u)|``, averaged over the terms that exist
     (so it is comparable near the ends); ``inf`` where fewer than ``max(1, d // 2)`` terms exist."""
+    a = np.asarray(a, np.float64)
     n = len(a)
     out = np.full(n, np.inf)
-    for x in range(n):
-        k = min(d, x, n - 1 - x)
-        if k < max(1, d // 2):
-            continue
-        u = np.arange(1, k + 1)
-        out[x] = np.abs(a[x + u] - a[x - u]).mean()
+    if d < 1 or n < 3:
+        return out
+    # terms[u - 1, x] = |a(x + u) - a(x - u)| for u = 1..d where both exist, summed over u = 1..k(x)
+    x = np.arange(n)
+    k = np.minimum(np.minimum(x, n - 1 - x), d)
+    u = np.arange(1, d + 1)[:, None]
+    terms = np.abs(a[np.clip(x + u, 0, n - 1)] - a[np.clip(x - u, 0, n - 1)])
+    sums = np.cumsum(terms, axis=0)
+    ok = k >= max(1, d // 2)
+    out[ok] = sums[k[ok] - 1, x[ok]] / k[ok]
     return out
 
 
@@ -1055,14 +1119,13 @@ def _mirror_terms(coeffs: np.ndarray, xc: float, yc: float, r: int, half: np.nda
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For the offsets ``u`` of ``half`` (a mask of the (2r+1)-square): ``I(c + u) - I(c - u)`` and its
     derivatives in x and y (central differences of the spline at +-0.5 px), the spline of ``coeffs`` (the
-    window's, with 2 edge values around them) evaluated on whole shifted grids
-    (:func:`aerofid.detect.spline.grid_values`). ``I(c - u)`` is the grid of ``I(c + u)`` turned by 180 degrees."""
+    window's, with 2 edge values around them) evaluated on whole grids
+    (:func:`aerofid.detect.spline.grid_differences`). ``I(c - u)`` is the grid of ``I(c + u)`` turned by 180
+    degrees."""
     n = 2 * r + 1
-    grids = [grid_values(coeffs, xc - r + dx + 2, yc - r + dy + 2, (n, n))
-             for dx, dy in ((0.0, 0.0), (0.5, 0.0), (-0.5, 0.0), (0.0, 0.5), (0.0, -0.5))]
-    g0, gxp, gxm, gyp, gym = grids
-    assert g0 is not None and gxp is not None and gxm is not None and gyp is not None and gym is not None
-    dx, dy = gxp - gxm, gyp - gym
+    got = grid_differences(coeffs, xc - r + 2, yc - r + 2, (n, n))
+    assert got is not None
+    g0, dx, dy = got
     return ((g0 - g0[::-1, ::-1])[half], (dx - dx[::-1, ::-1])[half], (dy - dy[::-1, ::-1])[half])
 
 
@@ -1115,5 +1178,5 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
 __all__ = ["DEFAULT", "METHOD", "AxisProfile", "FiducialArea", "MirrorDifferences", "Profiles", "SelfDiagnosis",
            "SubpixelStage", "SymmetryParams", "SymmetryResult", "axis_peak", "centre_covariance", "centre_sigma",
            "detect", "enlargement", "fiducial_area", "high_pass", "kernel_radius", "mirror_differences", "ncc",
-           "point_symmetry_centre", "search_range", "self_diagnosis", "simplified_log", "subpixel_centre",
+           "point_symmetry_centre", "remeasure", "search_range", "self_diagnosis", "simplified_log", "subpixel_centre",
            "symmetry_accumulation", "symmetry_profile"]

@@ -363,9 +363,10 @@ def test_symmetry_profile_is_eq2_term_by_term(seed, n, d):
 @pytest.mark.parametrize("style", STYLES)
 def test_remeasure_equals_detect_on_other_windows(style):
     """The window term's measurement from the known centre equals the full method's answer on windows smaller and
-    larger than the one the mark was found on (the ladder's steps), wherever the full method finds it."""
+    larger than the one the mark was found on (the ladder's steps), wherever the full method finds it; given the
+    first answer, a window with its kernel radius answers its centre."""
     rng = np.random.default_rng(17)
-    compared = 0
+    compared = same_radius = 0
     for _ in range(4):
         size = rng.uniform(24, 50)
         big = synth.mark_scene(style, size, window=int(4 * size), rng=rng, noise_sigma=0.02, blur_sigma=0.8)
@@ -377,12 +378,18 @@ def test_remeasure_equals_detect_on_other_windows(style):
             crop = big.image[int(c) - h:int(c) + h + 1, int(c) - h:int(c) + h + 1]
             x0 = y0 = int(c) - h
             full, again = detect(crop), remeasure(crop, first.x - x0, first.y - y0)
+            known = remeasure(crop, first.x - x0, first.y - y0, final=first)
             assert again.found == full.found or not full.found
+            assert known.found == again.found
             if full.found:
                 compared += 1
                 assert np.hypot(again.x - full.x, again.y - full.y) < 1e-3
-                assert again.radius == full.radius
-    assert compared >= 8
+                assert np.hypot(known.x - full.x, known.y - full.y) < 1e-3
+                assert again.radius == full.radius == known.radius
+                same_radius += again.radius == first.radius
+                if again.radius == first.radius:   # the same disc: the known centre itself
+                    assert (known.x, known.y) == (first.x - x0, first.y - y0)
+    assert compared >= 8 and same_radius >= 1
 
 
 def test_remeasure_refuses_a_mark_cut_by_the_window_as_detect_does():

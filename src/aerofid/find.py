@@ -176,7 +176,8 @@ class Measurer:
             return self.at(final.x, final.y, half, final.candidate)
         box, samples = self._window(final.x, final.y, half)
         grey = self._grey(samples, final.polarity)
-        det = self.detector.remeasure(grey, final.x - box[0], final.y - box[1]).shifted(box[0], box[1])
+        det = self.detector.remeasure(grey, final.x - box[0], final.y - box[1], final.detection)
+        det = det.shifted(box[0], box[1])
         return Located(det, final.polarity, box, grey, final.candidate)
 
     def _window(self, x: float, y: float, half: float) -> tuple[Box, np.ndarray]:

@@ -43,11 +43,11 @@ class MethodDetector:
         """Whether the method measures a known mark on another window more cheaply (:meth:`remeasure`)."""
         return self.method.again is not None
 
-    def remeasure(self, grey: np.ndarray, x: float, y: float) -> Detection:
-        """The mark the method measured at (x, y) (window pixels) on another window, measured on ``grey``
-        (:attr:`aerofid.detect.registry.Method.again`; only where :attr:`remeasures`)."""
+    def remeasure(self, grey: np.ndarray, x: float, y: float, final: Detection) -> Detection:
+        """The mark the method measured at (x, y) (window pixels) as ``final`` on another window, measured on
+        ``grey`` (:attr:`aerofid.detect.registry.Method.again`; only where :attr:`remeasures`)."""
         assert self.method.again is not None
-        return self.method.again(grey, x, y, self.params)
+        return self.method.again(grey, x, y, self.params, final)
 
 
 @dataclass(frozen=True)

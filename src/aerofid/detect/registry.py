@@ -30,8 +30,8 @@ class Method:
     function: Callable[..., Detection]
     params_type: type[MethodParams]
     again: Callable[..., Detection] | None = None
-    """``again(window, x, y, params)``: the answer on another window of a mark the method measured at (x, y) (window
-    pixels), cheaper than ``function`` (:func:`aerofid.detect.symmetry.remeasure`), or None."""
+    """``again(window, x, y, params, final)``: the answer on another window of a mark the method measured at (x, y)
+    (window pixels) as ``final``, cheaper than ``function`` (:func:`aerofid.detect.symmetry.remeasure`), or None."""
 
     def detect(self, window: np.ndarray, params: MethodParams | None = None) -> Detection:
         """Run the method on ``window`` with ``params`` (its defaults when None)."""

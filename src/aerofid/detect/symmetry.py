@@ -448,7 +448,8 @@ def detect(window: np.ndarray, params: SymmetryParams = DEFAULT) -> SymmetryResu
                           method=METHOD, **trace.fields())
 
 
-def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = DEFAULT) -> SymmetryResult:
+def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = DEFAULT,
+              final: Detection | None = None) -> SymmetryResult:
     """The centre of a mark this method measured before, at (x, y) (window pixels), on another window: how the
     centre moves with the window, which :meth:`aerofid.find.Measurer.window_term` adds to its uncertainty.
 
@@ -461,6 +462,11 @@ def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = D
     synthetic frames of ``benchmarks/bench_frames.py`` and of the real RC20 marks), at a quarter of its cost; it
     has no sigma (``nan``). Without ``point_refine`` the centre is eq. (15)'s, which only the full stages give:
     :func:`detect` then.
+
+    ``final``: this method's answer at (x, y) (any window's coordinates). Where stage 1 gives the kernel radius
+    ``final`` was refined with, the disc about the centre holds the same pixels: the refinement would stop where it
+    starts (within its convergence, 1e-4 px) and the checks repeat ``final``'s, so neither runs and the answer is
+    (x, y) with ``final``'s score.
 
     Examples
     --------
@@ -486,6 +492,9 @@ def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = D
         t.aoi = aoi = search_range(bounds, r, p, img.shape)
         t.centre_pixel = (int(round(x)), int(round(y)))
         _check_in_range(*t.centre_pixel, aoi)
+        if isinstance(final, SymmetryResult) and final.found and final.radius == r:
+            return SymmetryResult(status=FOUND, x=float(x), y=float(y), score=final.score, sigma=float("nan"),
+                                  method=METHOD, **t.fields())
         xs, ys = _refine(img, x, y, r, p, start="the known centre")
         score = _verify_centre(img, xs, ys, r, noise, p, t)
     except Refused as f:

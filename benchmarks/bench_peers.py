@@ -31,7 +31,9 @@ bench_rc20.py), the next the largest distance from ``auto``'s centre.
 Times: wall time of one call on the box, the median over the scenes of each scene's median of ``repeats``
 calls, all in one run, one thread. Last, the command line as a user runs it: ``aerofid locate`` of one RC20 box
 in a fresh interpreter (start-up, imports, the JPEG's decode, the search) and its imports alone, each the
-median of ``2 * repeats + 1`` runs.
+median of ``2 * repeats + 1`` runs after one untimed run, with the package's bytecode written (as ``pip install``
+leaves it; runs before session 11 compiled the changed modules in every call where the environment set
+PYTHONDONTWRITEBYTECODE, as this machine's does).
 """
 
 from __future__ import annotations
@@ -304,13 +306,17 @@ def bench_cli(repeats: int) -> list[str]:
         return []
     call = [sys.executable, "-m", "aerofid", "locate", str(REAL), "--box", CLI_BOX, "--mark", "external"]
     imports = [sys.executable, "-c", "import aerofid.cli.locate_cmd"]
+    # as installed: pip compiles the package's bytecode when it installs it; a PYTHONDONTWRITEBYTECODE in the
+    # benchmark's environment would make every call compile the modules changed since their last .pyc
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     out = []
     for label, cmd in (("`aerofid locate` of one box (whole call)", call),
                        ("`import aerofid.cli.locate_cmd` (start-up)", imports)):
+        subprocess.run(cmd, capture_output=True, check=True, env=env)   # writes the bytecode, not timed
         times = []
         for _ in range(2 * repeats + 1):
             t = time.perf_counter()
-            subprocess.run(cmd, capture_output=True, check=True)
+            subprocess.run(cmd, capture_output=True, check=True, env=env)
             times.append(time.perf_counter() - t)
         out.append(f"{label}: median {1000 * np.median(times):.0f} ms wall, fastest {1000 * min(times):.0f} ms")
     return ["", f"The command line on the RC20 JPEG (5908 x 5408, box {CLI_BOX}, `--mark external`), "

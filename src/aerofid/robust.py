@@ -1,6 +1,14 @@
-"""Robust statistics shared by every layer (the lowest module of the package: it imports only numpy)."""
+"""Robust statistics shared by every layer (the lowest module of the package: it imports only numpy).
+
+The medians here are numpy's (``np.median``), computed from one sort instead of ``np.partition``: numpy's
+vectorised sort of a window's 40 000-80 000 grey levels or differences takes a third to a half of the time of
+its selection, and the absolute deviations' median of :func:`robust_std` is read from the same sorted values
+(the k-th smallest of two sorted runs) instead of a second selection.
+"""
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 
@@ -8,18 +16,68 @@ MAD_TO_SIGMA = 1.4826
 """Median absolute deviation -> standard deviation of a Gaussian."""
 
 
+def median(values: np.ndarray) -> np.floating[Any]:
+    """``np.median(values)`` of all the values, from a sort: the same value and floating type (float32 values give a
+    float32 median, integers a float64 one; nan if any value is nan or there are none).
+
+    Examples
+    --------
+    >>> float(median(np.array([3.0, 1.0, 2.0, 10.0])))
+    2.5
+    """
+    s = np.sort(np.asarray(values), axis=None)
+    return _middle(s if np.issubdtype(s.dtype, np.floating) else s.astype(np.float64))
+
+
 def robust_std(values: np.ndarray) -> float:
     """MAD_TO_SIGMA x the median absolute deviation of ``values`` (0 for no values).
+
+    Equal to ``MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))`` in float64: the absolute deviations below
+    and above the median are two sorted runs of the sorted values, and their median is found by bisection.
 
     Examples
     --------
     >>> robust_std(np.array([1.0, 2.0, 3.0, 4.0, 100.0]))
     1.4826
     """
-    v = np.asarray(values, np.float64).ravel()
-    if v.size == 0:
+    s = np.sort(np.asarray(values, np.float64), axis=None)
+    n = s.size
+    if n == 0:
         return 0.0
-    return float(MAD_TO_SIGMA * np.median(np.abs(v - np.median(v))))
+    m = float(_middle(s))
+    if np.isnan(m):
+        return float("nan")
+    half = np.searchsorted(s, m)              # s[:half] < m <= s[half:]
+    below = m - s[:half][::-1]                # |s - m| of the values below the median, ascending
+    above = s[half:] - m                      # and of those from it up, ascending
+    k = n // 2
+    hi = _kth_of_two(below, above, k)
+    mad = hi if n % 2 else (_kth_of_two(below, above, k - 1) + hi) / 2.0
+    return float(MAD_TO_SIGMA * mad)
 
 
-__all__ = ["MAD_TO_SIGMA", "robust_std"]
+def _middle(s: np.ndarray) -> np.floating[Any]:
+    """The median of sorted floating values, in their type (numpy sorts nan last; the median of values with a nan
+    is nan)."""
+    n = s.size
+    if n == 0 or np.isnan(s[-1]):
+        return s.dtype.type(np.nan)
+    k = n // 2
+    return s[k] if n % 2 else (s[k - 1] + s[k]) / s.dtype.type(2)
+
+
+def _kth_of_two(a: np.ndarray, b: np.ndarray, k: int) -> float:
+    """The k-th smallest (from 0) of the union of the ascending arrays ``a`` and ``b``: bisection on how many
+    of the k + 1 smallest come from ``a``."""
+    lo, hi = max(0, k + 1 - b.size), min(k + 1, a.size)
+    while lo < hi:
+        i = (lo + hi) // 2
+        if b[k - i] > a[i]:                  # a[i] is among the k + 1 smallest: take more of a
+            lo = i + 1
+        else:
+            hi = i
+    j = k + 1 - lo
+    return float(max(a[lo - 1] if lo > 0 else -np.inf, b[j - 1] if j > 0 else -np.inf))
+
+
+__all__ = ["MAD_TO_SIGMA", "median", "robust_std"]

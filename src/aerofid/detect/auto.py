@@ -81,6 +81,7 @@ from aerofid.detect.params import MAX_PX, MethodParams, check, is_int, number_in
 from aerofid.detect.registry import METHODS, SEED_METHODS
 from aerofid.detect.result import Detection, unusable_window
 from aerofid.detect.twins import match_peaks, turned_matches
+from aerofid.robust import median
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -483,8 +484,8 @@ def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams(
     >>> share, round(level, 3)
     (0.96, 0.1)
     """
-    flat = np.abs(img - np.median(img)) <= max(4.0 * noise, params.plain_floor)
-    level = float(np.median(img[flat])) if flat.any() else float(np.median(img))
+    flat = np.abs(img - median(img)) <= max(4.0 * noise, params.plain_floor)
+    level = float(median(img[flat])) if flat.any() else float(median(img))
     return float(flat.mean()), level
 
 
@@ -798,7 +799,7 @@ def ground_level(img: np.ndarray, x: float, y: float, r_in: float, r_out: float)
     yy, xx = np.mgrid[0:h, 0:w]
     d = np.hypot(xx - x, yy - y)
     sel = (d >= r_in) & (d <= r_out)
-    return float(np.median(img[sel])) if sel.sum() >= 8 else float(np.median(img))
+    return float(median(img[sel])) if sel.sum() >= 8 else float(median(img))
 
 
 def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: float,
@@ -813,7 +814,7 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
     rr = np.hypot(xx, yy)
     ring = (rr > k - 2) & (rr <= k)
-    g = float(np.median(p[ring])) if ring.any() else float(np.median(p))
+    g = float(median(p[ring])) if ring.any() else float(median(p))
     dev = np.abs(p - g)
     inside = rr <= k
     prof = ring_percentiles(dev[inside], np.floor(rr[inside]).astype(int), k + 1, percentile)
@@ -870,7 +871,7 @@ def core_contrast(img: np.ndarray, x: float, y: float, extent: float, noise: flo
     ground = (rr > extent + 1) & (rr <= extent + 4)
     if not ground.any():
         return 0.0
-    return float((p[core].mean() - np.median(p[ground])) / (max(noise, 1e-4) / np.sqrt(core.sum())))
+    return float((p[core].mean() - median(p[ground])) / (max(noise, 1e-4) / np.sqrt(core.sum())))
 
 
 def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float = 0.0,
@@ -893,7 +894,7 @@ def _significance(img: np.ndarray, x: float, y: float, extent: float,
                   noise: float) -> tuple[np.ndarray, float, float]:
     """(smoothed image, ground level, threshold): a pixel of the image smoothed by 1 px is significant when it
     differs from the window's median by more than max(6 x its noise, a quarter of the mark's amplitude)."""
-    g = float(np.median(img))
+    g = float(median(img))
     sm = cv2.GaussianBlur(img, (0, 0), 1.0)
     k = int(np.ceil(extent))
     amp = float(np.abs(cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0) - g).max())

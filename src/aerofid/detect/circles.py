@@ -44,6 +44,7 @@ from aerofid.conventions import FOUND
 from aerofid.detect.noise import difference_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused, unusable_window
+from aerofid.robust import median
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -166,7 +167,7 @@ def edges(window: np.ndarray, canny_sigma: float = CANNY_SIGMA, canny_high: floa
     # noise estimate (a real RC20 scan: 1 grey level) while their gradients made half the window Canny edges.
     # The edge-position noise of the adjustment (_expected_edge_rms) uses the same effective noise.
     gain = _gradient_noise_gain(canny_sigma)
-    g_noise = max(noise * gain, float(np.median(mag)) / RAYLEIGH_MEDIAN)
+    g_noise = max(noise * gain, float(median(mag)) / RAYLEIGH_MEDIAN)
     noise = g_noise / gain
     empty = np.zeros(0)
     if not np.isfinite(mag).all() or mag.max() <= 0:
@@ -316,7 +317,7 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
 
     def refine(i: int | np.integer) -> tuple[float, float]:
         sel = ok & (np.abs(d - centres[i]) <= 1.0)
-        r = float(np.median(d[sel])) if sel.any() else float(centres[i])
+        r = float(median(d[sel])) if sel.any() else float(centres[i])
         sel = ok & (np.abs(d - r) <= 1.0)
         return r, _coverage(ep.x[sel], ep.y[sel], cx, cy)
 
@@ -1003,14 +1004,14 @@ def _notch_rim(window: np.ndarray, noise: float, cx: float, cy: float, radii: li
     inside, outside = window[(d >= r - 6) & (d <= r - 2)], window[(d >= r + 2) & (d <= r + 6)]
     if inside.size < 20 or outside.size < 20:
         return False
-    return float(np.median(outside) - np.median(inside)) >= max(6.0 * noise, 0.05)
+    return float(median(outside) - median(inside)) >= max(6.0 * noise, 0.05)
 
 
 def _expected_edge_rms(ep: EdgePoints, lab: np.ndarray, canny_sigma: float) -> float:
     """Edge position scatter the noise alone explains, plus the Devernay/pixel-grid quantisation floor:
     sqrt((gradient noise / (|gradient| / (edge width)))^2 + 0.05^2), using the median gradient on the
     circles and an edge width of sqrt(1 + canny_sigma^2) px."""
-    g = float(np.median(ep.mag[lab >= 0])) if (lab >= 0).any() else 1.0
+    g = float(median(ep.mag[lab >= 0])) if (lab >= 0).any() else 1.0
     g_noise = ep.noise * _gradient_noise_gain(canny_sigma)
     width = np.sqrt(1.0 + canny_sigma ** 2)
     return float(np.hypot(g_noise / max(g, 1e-9) * width, 0.05))

@@ -37,7 +37,7 @@ from aerofid.detect.noise import difference_noise_sigma
 from aerofid.detect.params import MethodParams, check, is_int, number_in
 from aerofid.detect.result import Detection, Refused, unusable_window
 from aerofid.detect.threshold import local_dynamic_threshold
-from aerofid.robust import robust_std
+from aerofid.robust import median, robust_std
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -455,7 +455,7 @@ def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: 
         coef, *_ = np.linalg.lstsq(X, g, rcond=None)
         if np.all(np.isfinite(coef)):
             return coef[0] + coef[1] * v_at + coef[2] * u_at
-    return np.full(np.shape(v_at), float(np.median(g)) if g.size else 0.0)
+    return np.full(np.shape(v_at), float(median(g)) if g.size else 0.0)
 
 
 @dataclass(frozen=True)
@@ -490,7 +490,7 @@ def _slice_centroids(us: np.ndarray, vs: np.ndarray, wgt: np.ndarray, q: np.ndar
     good = (W >= 0.3 * float(np.percentile(W[pos], 90))) & (cnt >= 2)
     if good.sum() < 4:
         return None
-    med = float(np.median(W[good]))
+    med = float(median(W[good]))
     good &= (W >= 0.5 * med) & (W <= 1.6 * med)
     if good.sum() < 4:
         return None
@@ -498,8 +498,8 @@ def _slice_centroids(us: np.ndarray, vs: np.ndarray, wgt: np.ndarray, q: np.ndar
     # noise-only variance of each centroid: noise^2 * sum_i q_i^2 (v_i - V)^2 / W^2
     var_noise = noise * noise * (Wv2[good] - 2 * V * Wv1[good] + Wq2[good] * V * V) / W[good] ** 2
     # the bar must stand out of its sides: the slice weights against the noise of a weight
-    w_noise = noise * float(np.sqrt(np.median(Wq2[good])))
-    contrast = float(np.median(W[good])) / max(w_noise, 1e-9)
+    w_noise = noise * float(np.sqrt(median(Wq2[good])))
+    contrast = float(median(W[good])) / max(w_noise, 1e-9)
     U = (np.arange(nb) + k0)[good].astype(np.float64)
     return _Slices(U, V, var_noise, contrast)
 

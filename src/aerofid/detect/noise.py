@@ -21,7 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from aerofid.robust import robust_std
+from aerofid.robust import median, robust_std
 
 
 def difference_noise_sigma(window: np.ndarray) -> float:
@@ -39,7 +39,7 @@ def laplacian_noise_sigma(img: np.ndarray) -> float:
     resists the mark's edges)."""
     k = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
     resp = cv2.filter2D(img.astype(np.float32), -1, k, borderType=cv2.BORDER_REFLECT)[1:-1, 1:-1]
-    return float(np.median(np.abs(resp)) / 0.6745 / 6.0)
+    return float(median(np.abs(resp)) / 0.6745 / 6.0)
 
 
 __all__ = ["difference_noise_sigma", "laplacian_noise_sigma"]

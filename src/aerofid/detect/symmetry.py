@@ -56,7 +56,7 @@ from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
 from aerofid.detect.spline import NEAR_REACH, cubic_coefficients, cubic_prefilter, grid_differences, near, square_grid
-from aerofid.robust import MAD_TO_SIGMA
+from aerofid.robust import MAD_TO_SIGMA, median
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -780,7 +780,7 @@ def fiducial_area(img: np.ndarray, edge_step: int = 2, diagonal: str | None = No
     rot = cv2.warpAffine(img, m, (size, size), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                          borderValue=float("nan"))
     valid = np.isfinite(rot)
-    fill = float(np.median(img))
+    fill = float(median(img))
     rot = np.where(valid, rot, fill).astype(np.float32)
     b = _area_upright(rot, edge_step)
     inv = cv2.invertAffineTransform(m)
@@ -1110,7 +1110,7 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
             coeffs = np.pad(cubic_prefilter(part), 2, mode="edge")
         e, gx, gy = _mirror_terms(coeffs, xc - x0, yc - y0, r, half)
         # Huber weights: texture that is not point-symmetric (aerial ground around the mark) must not pull
-        scale = max(MAD_TO_SIGMA * float(np.median(np.abs(e))), 1e-9)
+        scale = max(MAD_TO_SIGMA * float(median(np.abs(e))), 1e-9)
         wgt = np.minimum(1.0, HUBER_K * scale / np.maximum(np.abs(e), 1e-12))
         A = np.column_stack([gx, gy]) * wgt[:, None]
         N = A.T @ A

@@ -1,0 +1,38 @@
+"""aerofid.robust: the medians from one sort are numpy's."""
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from aerofid.robust import MAD_TO_SIGMA, median, robust_std
+
+_FLOATS = st.sampled_from([np.float32, np.float64])
+_SHAPES = st.tuples(st.integers(1, 40), st.integers(1, 7))
+
+
+@given(arrays(_FLOATS, _SHAPES, elements=st.floats(-1e3, 1e3, width=32)))
+def test_median_is_numpys_in_value_and_type(values):
+    ours, numpys = median(values), np.median(values)
+    assert ours == numpys and type(ours) is type(numpys)
+
+
+@given(arrays(np.int64, _SHAPES, elements=st.integers(-100, 100)))
+def test_median_of_integers_is_numpys_float64(values):
+    ours = median(values)
+    assert ours == np.median(values) and type(ours) is np.float64
+
+
+@given(arrays(_FLOATS, _SHAPES, elements=st.floats(-1e3, 1e3, width=32)))
+def test_robust_std_is_the_scaled_median_absolute_deviation(values):
+    v = values.astype(np.float64)
+    assert robust_std(values) == MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))
+
+
+def test_ties_around_the_median_and_nan():
+    # many values equal to the median: the deviations below and above it tie at 0
+    v = np.array([5.0, 5.0, 5.0, 5.0, 1.0, 9.0, 5.0, 2.0])
+    assert robust_std(v) == MAD_TO_SIGMA * np.median(np.abs(v - np.median(v))) == 0.0
+    assert robust_std(np.array([])) == 0.0
+    assert np.isnan(median(np.array([1.0, np.nan, 3.0]))) and np.isnan(robust_std(np.array([1.0, np.nan])))
+    assert np.isnan(median(np.array([], np.float32)))

@@ -6,6 +6,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 import aerofid
@@ -412,3 +414,15 @@ def test_a_crosss_extent_is_bounded_by_what_its_fit_saw():
     assert auto.group_extent(img, [d, _found(20.0, 20.0)], 0.02) == pytest.approx(23.0 + 1.0 + 0.8)
     short = dataclasses.replace(d, refinement=dataclasses.replace(fit, length1=30.0))
     assert auto.group_extent(img, [short], 0.02) == pytest.approx(15.0 + 1.0 + 0.8)
+
+
+@given(st.integers(1, 30), st.lists(st.tuples(st.integers(0, 29), st.integers(0, 6)), max_size=200),
+       st.floats(0.0, 100.0))
+def test_ring_percentiles_are_numpys_percentile_per_ring(n, pairs, percentile):
+    """Step 3's radial profile: each ring's percentile (ties in value included) as np.percentile gives it."""
+    ring = np.array([r % n for r, _ in pairs], int)
+    values = np.array([v / 4.0 for _, v in pairs], float)
+    ours = auto.ring_percentiles(values, ring, n, percentile)
+    for i in range(n):
+        on = values[ring == i]
+        assert ours[i] == pytest.approx(np.percentile(on, percentile) if on.size else 0.0, abs=1e-12)

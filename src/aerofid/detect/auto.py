@@ -825,14 +825,17 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
 
 def ring_percentiles(values: np.ndarray, ring: np.ndarray, n: int, percentile: float) -> np.ndarray:
     """The ``percentile``-th percentile (linear interpolation, as :func:`numpy.percentile`) of ``values`` on each
-    ring ``0 .. n - 1`` (0 for a ring without values), all rings in one sort.
+    ring ``0 .. n - 1`` (0 for a ring without values), all rings in one ordering: the values sorted, then stably
+    by ring (numpy's radix sort of 16-bit ring numbers; a third of the time of ``np.lexsort``).
 
     Examples
     --------
     >>> ring_percentiles(np.array([1.0, 3.0, 2.0, 9.0]), np.array([0, 0, 0, 2]), 3, 50.0).tolist()
     [2.0, 0.0, 9.0]
     """
-    order = np.lexsort((values, ring))
+    by_value = np.argsort(values)
+    rings = ring[by_value]
+    order = by_value[np.argsort(rings.astype(np.int16) if n <= np.iinfo(np.int16).max else rings, kind="stable")]
     v = np.asarray(values, np.float64)[order]
     counts = np.bincount(ring, minlength=n)
     starts = np.cumsum(counts) - counts
@@ -975,7 +978,7 @@ def blob_peaks(img: np.ndarray, params: AutoParams = AutoParams()) -> list[tuple
     at sigma 1, 1.5, 2 and 2.5 px, strongest first. Lowe's edge-response test on the DoG's Hessian: a blob
     curves both ways (det > 0, trace^2 / det below ``blob_edge_ratio``), a point on a straight edge or frame
     line only across it."""
-    peaks = []
+    found: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for s in (1.0, 1.5, 2.0, 2.5):
         dog = (cv2.GaussianBlur(img, (0, 0), s) - cv2.GaussianBlur(img, (0, 0), 1.6 * s)) * s
         dil = cv2.dilate(dog, np.ones((5, 5), np.uint8))
@@ -985,9 +988,10 @@ def blob_peaks(img: np.ndarray, params: AutoParams = AutoParams()) -> list[tuple
         det, tr = dxx * dyy - dxy * dxy, dxx + dyy
         blobby = (det > 0) & (tr < 0) & (tr * tr < params.blob_edge_ratio * det)
         ys, xs = np.nonzero((dog >= dil) & (dog > 0) & blobby)
-        peaks += [(float(dog[y, x]), int(x), int(y)) for y, x in zip(ys, xs)]
-    peaks.sort(key=lambda t: (-t[0], t[2], t[1]))
-    return peaks
+        found.append((dog[ys, xs], xs, ys))
+    strength, xs, ys = (np.concatenate(a) for a in zip(*found))
+    order = np.lexsort((xs, ys, -strength))   # stable: equal peaks of two scales in the order of the scales
+    return list(zip(strength[order].tolist(), xs[order].tolist(), ys[order].tolist()))
 
 
 def find_flat_blob(img: np.ndarray, noise: float, ground: float,
@@ -1023,11 +1027,11 @@ def flat_blob(img: np.ndarray, bx: int, by: int, noise: float, ground: float,
     if k < 5:
         return "a compact blob at the box edge"
     p = _patch(img, bx, by, k)
+    if float(p[k, k]) - ground < params.min_blob_snr * noise:   # the profile's value at radius 0
+        return "the brightest compact blob is too faint"
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
     rr = np.hypot(xx, yy)
     prof = np.array([p[(rr >= r - 0.5) & (rr < r + 0.5)].mean() for r in range(k + 1)])
-    if prof[0] - ground < params.min_blob_snr * noise:
-        return "the brightest compact blob is too faint"
     half = np.flatnonzero(prof - ground < 0.5 * (prof[0] - ground))
     if not half.size:
         return "a blob larger than 20 px"

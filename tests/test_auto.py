@@ -238,30 +238,6 @@ def test_a_small_zeiss_dot_close_to_its_notchs_walls_is_found():
         assert np.hypot(d.x - m.x, d.y - m.y) < 0.1
 
 
-def test_an_isolated_dot_is_answered_before_hough_searches_the_window(monkeypatch):
-    """Step 4 before hough's whole-window search: a Zeiss dot with its flat moat is answered without the search
-    (which only refused '+'-like places on it); a '+' still goes through hough's search and is found."""
-    from aerofid.detect import auto as auto_module
-    runs = []
-    real = auto_module._Context.run
-
-    def counting(self, name, window, **kw):
-        runs.append(name)
-        return real(self, name, window, **kw)
-
-    monkeypatch.setattr(auto_module._Context, "run", counting)
-    rng = np.random.default_rng(17)
-    sc = _scene("notch_dot", rng, size=22.0)
-    d = detect(sc.image)
-    assert d.found and d.rule == "isolated compact dot: symmetry + centroid" and "hough" not in runs
-    assert "hough" not in d.answers
-    runs.clear()
-    cross_scene = _scene("cross", rng)
-    cross = detect(cross_scene.image)
-    m = cross_scene.marks[0]
-    assert "hough" in runs and cross.found and np.hypot(cross.x - m.x, cross.y - m.y) < 0.1
-
-
 def test_the_result_is_typed_and_tells_how_it_decided():
     rng = np.random.default_rng(9)
     sc = _scene("ring_x_dot", rng, size=36)

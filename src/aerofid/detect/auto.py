@@ -47,10 +47,7 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    edge point) whose surroundings are flat (a moat of at least ``min_moat`` px) is isolated (everything
    beyond its moat, at most ``isolate_factor`` x its radius + 2 px, replaced by the ground level) and
    ``symmetry`` runs on it; its answer must agree with an intensity-weighted centroid of
-   the blob and pass step 3. This runs before ``hough``'s search of the whole window in step 1: a dot whose
-   flat moat is clear of any arm is answered without it (the search spent 130 ms of a notch dot's box on
-   '+' it refused); ``hough`` searches where there is no such dot, and step 4's answer stands where it finds
-   nothing.
+   the blob and pass step 3.
 
 **Score** (comparable across methods, in [0, 1]): with s_m the detectors' own scores, the group's evidence
 is ``1 - prod(1 - s_m)`` over its members (independent methods), times ``lone_factor`` for a lone answer,
@@ -418,13 +415,7 @@ def detect(window: np.ndarray, params: AutoParams = AutoParams(),
     ctx = _Context(img, noise, params, seed_params(params, methods))
     trace = _Trace(noise=noise)
     run_candidates(ctx, trace)
-    dot: AutoResult | str | None = None   # step 4, when it runs before hough's search
-    if _search_whole_window(ctx, trace):
-        dot = compact_dot(ctx, trace)
-        if isinstance(dot, AutoResult) and dot.found:
-            return dot
-        trace.answers["hough"] = ctx.run("hough", ctx.img)
-    groups = group_answers([d for m, d in trace.answers.items() if d.found and m in SEED_METHODS], params)
+    groups = group_answers([d for d in trace.answers.values() if d.found], params)
     trace.groups = groups
     why = disagreement(img, groups, noise, params)
     if why is not None:
@@ -432,9 +423,7 @@ def detect(window: np.ndarray, params: AutoParams = AutoParams(),
     if not groups:
         if params.mark == "panel":
             return trace.not_found(_reasons(trace.answers))
-        if dot is None:
-            dot = compact_dot(ctx, trace)
-        return dot if isinstance(dot, AutoResult) else trace.not_found(_reasons(trace.answers) + dot)
+        return compact_dot(ctx, trace)
     return _decide_group(ctx, trace, list(groups[0]))
 
 
@@ -457,20 +446,14 @@ def _decide_group(ctx: _Context, trace: _Trace, group: list[Detection]) -> AutoR
 
 
 def run_candidates(ctx: _Context, trace: _Trace) -> None:
-    """Step 1: run the whole-window methods into ``trace.answers`` (and measure the plain ground); ``hough``'s
-    search of the whole window, where they found nothing, is :func:`_search_whole_window`'s."""
+    """Step 1: run the whole-window methods into ``trace.answers`` (and measure the plain ground)."""
     p = ctx.params
     for m in ("hough", "symmetry") if p.mark == "panel" else ("circles", "symmetry"):
         trace.answers[m] = ctx.run(m, ctx.img)
     trace.plain_ground, trace.ground_level = plain_ground(ctx.img, ctx.noise, p)
-
-
-def _search_whole_window(ctx: _Context, trace: _Trace) -> bool:
-    """Step 1: does ``hough`` search the whole window? When ``circles`` and ``symmetry`` found nothing (a '+' they
-    miss), except with ``mark="auto"`` on busy ground (there it would only find texture)."""
-    p = ctx.params
     nothing = not any(d.found for d in trace.answers.values())
-    return nothing and "hough" not in trace.answers and (p.mark != "auto" or trace.plain_ground >= p.min_plain)
+    if nothing and "hough" not in trace.answers and (p.mark != "auto" or trace.plain_ground >= p.min_plain):
+        trace.answers["hough"] = ctx.run("hough", ctx.img)
 
 
 def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams()) -> tuple[float, float]:
@@ -939,34 +922,31 @@ def _crop(img: np.ndarray, x: float, y: float, half: int) -> tuple[np.ndarray, i
 
 
 def _reasons(answers: Mapping[str, Detection]) -> str:
-    """Why the whole-window methods found nothing (step 4's answers apart)."""
-    return "no method found a mark: " + "; ".join(f"{m}: {d.reason}" for m, d in answers.items()
-                                                  if not d.found and m in SEED_METHODS)
+    return "no method found a mark: " + "; ".join(f"{m}: {d.reason}" for m, d in answers.items() if not d.found)
 
 
 # --- step 4: a compact dot that no method found ----------------------------------------------------------
 
-def compact_dot(ctx: _Context, trace: _Trace) -> AutoResult | str:
-    """Step 4 of the module docstring (nothing was found by the whole-window methods): the dot's answer (found, or
-    refused by step 3), or why there is no isolated dot, as the end of a reason (``"; ..."``)."""
+def compact_dot(ctx: _Context, trace: _Trace) -> AutoResult:
+    """Step 4 of the module docstring (nothing was found by the whole-window methods)."""
     p, img, noise = ctx.params, ctx.img, ctx.noise
     if trace.plain_ground < p.min_plain:
-        return (f"; the ground is not plain (only {trace.plain_ground:.0%} of the box is within 4 noise sigma of its "
-                "median): no isolated dot is looked for")
+        return trace.not_found(_reasons(trace.answers) + f"; the ground is not plain (only {trace.plain_ground:.0%} "
+                               "of the box is within 4 noise sigma of its median): no isolated dot is looked for")
     blob = find_flat_blob(img, noise, trace.ground_level, p)
     if isinstance(blob, str):
-        return f"; {blob}"
+        return trace.not_found(_reasons(trace.answers) + f"; {blob}")
     bx, by, r_blob, iso = blob
     det = isolated_symmetry(ctx, trace, bx, by, iso)
     if not det.found:
-        return f"; isolated compact blob: {det.reason}"
+        return trace.not_found(_reasons(trace.answers) + f"; isolated compact blob: {det.reason}")
     centroid = blob_centroid(img, det, iso, r_blob)
     if centroid is None:
-        return ""
+        return trace.not_found(_reasons(trace.answers))
     trace.answers["centroid"] = centroid
     if not agree(det, centroid, p):
-        return (f"; isolated dot: symmetry ({det.x:.2f}, {det.y:.2f}) and centroid ({centroid.x:.2f}, "
-                f"{centroid.y:.2f}) disagree")
+        return trace.not_found(f"isolated dot: symmetry ({det.x:.2f}, {det.y:.2f}) and centroid "
+                               f"({centroid.x:.2f}, {centroid.y:.2f}) disagree")
     group = [det, centroid]
     trace.groups = [group]
     return conclude(ctx, trace, group, r_blob + 1.0, "isolated compact dot: symmetry + centroid",

@@ -402,3 +402,16 @@ def test_ring_percentiles_are_numpys_percentile_per_ring(n, pairs, percentile):
     for i in range(n):
         on = values[ring == i]
         assert ours[i] == pytest.approx(np.percentile(on, percentile) if on.size else 0.0, abs=1e-12)
+
+
+def test_a_cross_larger_than_half_the_box_beats_a_dust_speck():
+    """A '+' that ``circles`` and ``symmetry`` miss is ``hough``'s before step 4 looks for an isolated dot: a dust
+    speck with a flat moat must not be answered instead (the dot's uniqueness only counts structure up to half the
+    box across). Found in review of a reordering that ran step 4 first."""
+    sc = synth.mark_scene("cross", size=70, window=120, rng=np.random.default_rng(3), noise_sigma=0.02,
+                          angle_deg=20.0, blur_sigma=0.8, contrast=0.7)
+    speck = synth.blur(synth.coverage(sc.image.shape, (20.3, 98.6), synth.disc(2.5)), 0.8)
+    img = synth.paint(sc.image, speck, float(sc.image.max())).astype(np.float32)
+    d = detect(img)
+    m = sc.marks[0]
+    assert d.found and np.hypot(d.x - m.x, d.y - m.y) < 0.1, (d.x, d.y, d.reason)

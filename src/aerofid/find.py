@@ -169,9 +169,9 @@ class Measurer:
         return best
 
     def again(self, final: Located, half: float) -> Located:
-        """``final``'s mark measured on the window of half-size ``half`` centred on it: in its polarity, by the seed
-        method's :meth:`~aerofid.methods.MethodDetector.remeasure` from its centre where it has one, else by
-        :meth:`at`."""
+        """``final``'s mark measured on the window of half-size ``half`` centred on it: in ``final``'s polarity by the
+        seed method's :meth:`~aerofid.methods.MethodDetector.remeasure` from its centre where it has one, else by
+        :meth:`at` (a new measurement, every polarity it tries)."""
         if not (isinstance(self.detector, MethodDetector) and self.detector.remeasures):
             return self.at(final.x, final.y, half, final.candidate)
         box, samples = self._window(final.x, final.y, half)

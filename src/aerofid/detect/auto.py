@@ -1007,7 +1007,7 @@ def flat_blob(img: np.ndarray, bx: int, by: int, noise: float, ground: float,
     if k < 5:
         return "a compact blob at the box edge"
     p = _patch(img, bx, by, k)
-    if float(p[k, k]) - ground < params.min_blob_snr * noise:   # the profile's value at radius 0
+    if p[k, k] - ground < params.min_blob_snr * noise:   # the profile's value at radius 0, in the window's type
         return "the brightest compact blob is too faint"
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
     rr = np.hypot(xx, yy)

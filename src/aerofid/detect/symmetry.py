@@ -463,10 +463,11 @@ def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = D
     has no sigma (``nan``). Without ``point_refine`` the centre is eq. (15)'s, which only the full stages give:
     :func:`detect` then.
 
-    ``final``: this method's answer at (x, y) (any window's coordinates). Where stage 1 gives the kernel radius
-    ``final`` was refined with, the disc about the centre holds the same pixels: the refinement would stop where it
-    starts (within its convergence, 1e-4 px) and the checks repeat ``final``'s, so neither runs and the answer is
-    (x, y) with ``final``'s score.
+    ``final``: this method's own answer at (x, y) (a :class:`SymmetryResult`, any window's coordinates; an ``auto``
+    answer is not one, and the full refinement runs). Where stage 1 gives the kernel radius ``final`` was refined
+    with, the disc about the centre holds the same pixels: the refinement would stop where it starts (within its
+    convergence, 1e-4 px), so it does not run, nor do the final centre's checks (which ``final`` passed; here they
+    would differ only through this window's own noise estimate), and the answer is (x, y) with ``final``'s score.
 
     Examples
     --------

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
@@ -434,18 +435,7 @@ def detect(window: np.ndarray, params: SymmetryParams = DEFAULT) -> SymmetryResu
     >>> detect(np.full((60, 60), 0.5, np.float32)).reason
     'homogeneous window: no grey-level variation at all'
     """
-    p = params
-    img = np.asarray(window)
-    problem = _window_problem(img, p)
-    if problem is not None:
-        return SymmetryResult.not_found(METHOD, problem)
-    trace = _Trace()
-    try:
-        x, y, score = _run(img.astype(np.float32, copy=False), p, trace)
-    except Refused as f:
-        return SymmetryResult.not_found(METHOD, f.reason, **trace.fields())
-    return SymmetryResult(status=FOUND, x=x, y=y, score=score, sigma=float(0.5 * (trace.sigma_x + trace.sigma_y)),
-                          method=METHOD, **trace.fields())
+    return _answer(window, params, lambda img, t: _run(img, params, t))
 
 
 def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = DEFAULT,
@@ -479,29 +469,40 @@ def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = D
     >>> again.found, bool(np.hypot(again.x + 4 - d.x, again.y + 2 - d.y) < 0.05)
     (True, True)
     """
-    p = params
+    if not params.point_refine:
+        return detect(window, params)
+    return _answer(window, params, lambda img, t: _run_again(img, x, y, params, final, t))
+
+
+def _answer(window: np.ndarray, p: SymmetryParams,
+            stages: Callable[[np.ndarray, _Trace], tuple[float, float, float, float]]) -> SymmetryResult:
+    """The result of ``stages`` (x, y, score, sigma) on a usable window (float32), the trace's fields with it;
+    not found with the reason where the window is unusable or a stage refuses it."""
     img = np.asarray(window)
-    if not p.point_refine:
-        return detect(img, p)
     problem = _window_problem(img, p)
     if problem is not None:
         return SymmetryResult.not_found(METHOD, problem)
-    t = _Trace()
-    img = img.astype(np.float32, copy=False)
+    trace = _Trace()
     try:
-        noise, bounds, r = _area_stage(img, p, t)
-        t.aoi = aoi = search_range(bounds, r, p, img.shape)
-        t.centre_pixel = (int(round(x)), int(round(y)))
-        _check_in_range(*t.centre_pixel, aoi)
-        if isinstance(final, SymmetryResult) and final.found and final.radius == r:
-            return SymmetryResult(status=FOUND, x=float(x), y=float(y), score=final.score, sigma=float("nan"),
-                                  method=METHOD, **t.fields())
-        xs, ys = _refine(img, x, y, r, p, start="the known centre")
-        score = _verify_centre(img, xs, ys, r, noise, p, t)
+        x, y, score, sigma = stages(img.astype(np.float32, copy=False), trace)
     except Refused as f:
-        return SymmetryResult.not_found(METHOD, f.reason, **t.fields())
-    return SymmetryResult(status=FOUND, x=float(xs), y=float(ys), score=float(np.clip(score, 0.0, 1.0)),
-                          sigma=float("nan"), method=METHOD, **t.fields())
+        return SymmetryResult.not_found(METHOD, f.reason, **trace.fields())
+    return SymmetryResult(status=FOUND, x=x, y=y, score=score, sigma=sigma, method=METHOD, **trace.fields())
+
+
+def _run_again(img: np.ndarray, x: float, y: float, p: SymmetryParams, final: Detection | None,
+               t: _Trace) -> tuple[float, float, float, float]:
+    """:func:`remeasure`'s stages on a usable window; fills ``t``; returns (x, y, score, nan) or raises
+    :class:`Refused`."""
+    noise, bounds, r = _area_stage(img, p, t)
+    t.aoi = aoi = search_range(bounds, r, p, img.shape)
+    t.centre_pixel = (int(round(x)), int(round(y)))
+    _check_in_range(*t.centre_pixel, aoi)
+    if isinstance(final, SymmetryResult) and final.found and final.radius == r:
+        return float(x), float(y), final.score, float("nan")
+    xs, ys = _refine(img, x, y, r, p, start="the known centre")
+    score = _verify_centre(img, xs, ys, r, noise, p, t)
+    return float(xs), float(ys), float(np.clip(score, 0.0, 1.0)), float("nan")
 
 
 def _window_problem(img: np.ndarray, p: SymmetryParams) -> str | None:
@@ -519,8 +520,9 @@ def _window_problem(img: np.ndarray, p: SymmetryParams) -> str | None:
     return None
 
 
-def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, float]:
-    """The four stages on a usable window; fills ``t``; returns (x, y, score) or raises :class:`Refused`."""
+def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, float, float]:
+    """The four stages on a usable window; fills ``t``; returns (x, y, score, sigma) or raises :class:`Refused`
+    (sigma: the mean of ``sigma_x`` and ``sigma_y``)."""
     noise, bounds, r = _area_stage(img, p, t)
     t.log = i2 = simplified_log(img, p.log_inner, p.log_gap, p.log_outer)
     t.aoi = aoi = search_range(bounds, r, p, img.shape)
@@ -540,7 +542,7 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     t.sigma_x = float(np.hypot(np.sqrt(cov[0, 0]), xs - x15))
     t.sigma_y = float(np.hypot(np.sqrt(cov[1, 1]), ys - y15))
     t.cov_xy = float(cov[0, 1])
-    return float(xs), float(ys), float(np.clip(score, 0.0, 1.0))
+    return float(xs), float(ys), float(np.clip(score, 0.0, 1.0)), float(0.5 * (t.sigma_x + t.sigma_y))
 
 
 def _area_stage(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, FiducialArea, int]:

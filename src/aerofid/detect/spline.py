@@ -89,8 +89,8 @@ def grid_differences(coeffs: np.ndarray, x0: float, y0: float, shape: tuple[int,
     ny, nx = shape
     ix, iy = math.floor(x0), math.floor(y0)
     jx, jy = math.floor(x0 + 0.5), math.floor(y0 + 0.5)       # x + 1/2 starts at tap jx - 1, x - 1/2 at jx - 2
-    if min(ix - 1, iy - 1, jx - 2, jy - 2) < 0 or jx + nx + 2 > coeffs.shape[1] or jy + ny + 2 > coeffs.shape[0] or (
-            ix + nx + 2 > coeffs.shape[1] or iy + ny + 2 > coeffs.shape[0]):
+    if min(ix - 1, iy - 1, jx - 2, jy - 2) < 0 or max(ix, jx) + nx + 2 > coeffs.shape[1] or (
+            max(iy, jy) + ny + 2 > coeffs.shape[0]):
         return None
     wx, wy = bspline3_weights(x0 - ix), bspline3_weights(y0 - iy)
     hx, hy = bspline3_weights(x0 + 0.5 - jx), bspline3_weights(y0 + 0.5 - jy)

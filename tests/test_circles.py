@@ -196,6 +196,32 @@ def test_hough_circles_peaks_at_the_centre_of_a_known_radius():
     assert np.unravel_index(np.argmax(acc), acc.shape) == (17, 20)
 
 
+def _edge_points(x: np.ndarray, y: np.ndarray, angle: np.ndarray) -> circles.EdgePoints:
+    ones = np.ones_like(x)
+    return circles.EdgePoints(x, y, np.cos(angle), np.sin(angle), ones, np.rint(x).astype(int),
+                              np.rint(y).astype(int), np.zeros((1, 1), bool), 0.01)
+
+
+@given(n=st.integers(0, 60), h=st.integers(3, 40), w=st.integers(3, 40), r_min=st.floats(0.5, 10.0),
+       span=st.floats(0.0, 25.0), seed=st.integers(0, 2**31 - 1))
+@settings(max_examples=60, deadline=None)
+def test_centre_votes_are_each_points_votes_inside_the_window(n, h, w, r_min, span, seed):
+    """Every edge point votes 1/d for the pixel nearest each point at distance d = r_min .. r_max (0.5 px
+    steps) on its gradient line, both sides; votes that fall outside the window are dropped (edge points near
+    or beyond the window's edge included)."""
+    rng = np.random.default_rng(seed)
+    x, y = rng.uniform(-10, w + 10, n), rng.uniform(-10, h + 10, n)
+    ep = _edge_points(x, y, rng.uniform(0, 2 * np.pi, n))
+    expected = np.zeros((h, w))
+    d = np.arange(r_min, r_min + span + 0.5, 0.5)
+    for k in range(n):
+        for s in np.concatenate([-d, d]):
+            c, r = int(np.rint(x[k] + s * ep.nx[k])), int(np.rint(y[k] + s * ep.ny[k]))
+            if 0 <= r < h and 0 <= c < w:
+                expected[r, c] += 1.0 / abs(s)
+    got = circles.hough_centres(ep, r_min, r_min + span, (h, w))
+    np.testing.assert_allclose(got, expected / (2 * np.pi), rtol=1e-12, atol=1e-15)
+
 def test_de_hough_labels_points_by_circle_and_leaves_tangential_edges_out():
     rng = np.random.default_rng(12)
     x, y, lab = _circle_points(30.0, 30.0, (6.0, 12.0), 30, rng)

@@ -246,16 +246,29 @@ def hough_centres(ep: EdgePoints, r_min: float, r_max: float, shape: tuple[int, 
         return np.zeros(shape)
     d = np.arange(r_min, r_max + 0.5, 0.5)
     d = np.concatenate([-d[::-1], d])
-    acc = np.zeros(h * w)
+    # the accumulator has a border of one pixel: a vote that falls outside the window is clipped onto the border
+    # and dropped with it (cheaper than selecting the votes inside; each pixel's sum is the same)
+    acc = np.zeros((h + 2) * (w + 2))
     step = max(1, VOTES_PER_CHUNK // d.size)  # bounded memory: the votes of a few thousand edge points at a time
+    wt = 1.0 / np.abs(d)
     for i in range(0, ep.x.size, step):
         sl = slice(i, i + step)
-        cx = np.rint(ep.x[sl, None] + d[None, :] * ep.nx[sl, None]).astype(np.int64).ravel()
-        cy = np.rint(ep.y[sl, None] + d[None, :] * ep.ny[sl, None]).astype(np.int64).ravel()
-        wt = np.broadcast_to(1.0 / np.abs(d)[None, :], (cx.size // d.size, d.size)).ravel()
-        ok = (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
-        acc += np.bincount(cy[ok] * w + cx[ok], weights=wt[ok], minlength=h * w)
-    return acc.reshape(h, w) / (2 * np.pi)
+        cx, cy = _rounded_votes(ep.x[sl], ep.nx[sl], d, w), _rounded_votes(ep.y[sl], ep.ny[sl], d, h)
+        cy += 1.0   # the index in the bordered accumulator, in floating point (exact for these integers)
+        cy *= w + 2
+        cy += cx
+        cy += 1.0
+        votes = np.broadcast_to(wt, cy.shape).ravel()
+        acc += np.bincount(cy.astype(np.int64).ravel(), weights=votes, minlength=acc.size)
+    return acc.reshape(h + 2, w + 2)[1:-1, 1:-1] / (2 * np.pi)
+
+
+def _rounded_votes(c: np.ndarray, n: np.ndarray, d: np.ndarray, size: int) -> np.ndarray:
+    """The pixel coordinate (rounded, clipped to -1 .. ``size``) of the points ``c + d n``, a row per point."""
+    v = np.multiply.outer(n, d)
+    v += c[:, None]
+    np.rint(v, out=v)
+    return np.clip(v, -1, size, out=v)
 
 
 def _smooth(acc: np.ndarray, sigma: float = 1.0) -> np.ndarray:

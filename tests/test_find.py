@@ -6,13 +6,18 @@ cleanly without it.
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import aerofid
 from aerofid import synth
 from aerofid.detect.registry import METHODS
-from aerofid.detect.screen import Candidate, local_noise, merge_candidates, screen
+from aerofid.detect.screen import MERGE_SHARE, Candidate, local_noise, merge_candidates, screen
 from aerofid.find import Measurer, reduction_for, window_ladder, with_window_term
 from aerofid.io.array import open_image
 from aerofid.methods import AutoDetector, make_detector
@@ -61,6 +66,34 @@ def test_a_ring_and_its_centre_dot_are_one_candidate_with_both_radii():
                                Candidate(160, 100, 3.0, 30.0)], 10)
     assert len(merged) == 2
     assert (merged[0].radius, merged[0].inner, merged[0].x) == (24.0, 3.0, 102)
+
+
+def _merged_one_by_one(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:
+    """The rule of merge_candidates, candidate by candidate in plain Python (the reference)."""
+    kept: list[Candidate] = []
+    for c in sorted(found, key=lambda c: -c.strength):
+        for i, k in enumerate(kept):
+            reach = max(MERGE_SHARE * max(k.radius, c.radius), 0.5 * min(k.radius, c.radius))
+            if math.hypot(k.x - c.x, k.y - c.y) <= reach:
+                finer = c if c.radius < k.inner else k
+                kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius), inner=min(k.inner, c.inner))
+                break
+        else:
+            if len(kept) < max_candidates:
+                kept.append(c)
+    return tuple(kept)
+
+
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 150), max_candidates=st.integers(0, 40))
+@settings(max_examples=80, deadline=None)
+def test_merging_follows_the_rule_candidate_by_candidate(seed, n, max_candidates):
+    """Strongest first, each candidate merged into the first kept one within reach, else kept while there is room
+    (candidates on a coarse grid, so that distances equal to the reach occur)."""
+    rng = np.random.default_rng(seed)
+    found = [Candidate(float(x), float(y), float(r), float(s)) for x, y, r, s in
+             zip(rng.integers(0, 40, n) / 2, rng.integers(0, 40, n) / 2, rng.choice([1.5, 2, 3, 4.5, 6, 12, 24], n),
+                 rng.integers(0, 20, n))]
+    assert merge_candidates(found, max_candidates) == _merged_one_by_one(found, max_candidates)
 
 
 def test_reduction_keeps_the_screened_image_within_its_budget():

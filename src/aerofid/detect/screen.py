@@ -228,25 +228,28 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
     largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale."""
     ordered = sorted(found, key=lambda c: -c.strength)
     kept: list[Candidate] = []
-    xy = np.empty((min(len(ordered), max_candidates), 2))   # the kept ones' centres and radii, filled in order
-    radius = np.empty(len(xy))
+    # the kept ones' centres (as x + iy: |z - z_c| is the distance, np.hypot's), MERGE_SHARE x and half their
+    # radii, filled in order; a slot not yet filled is infinitely far
+    size = min(len(ordered), max_candidates)
+    z, share, half = np.full(size, complex(np.inf, np.inf)), np.zeros(size), np.zeros(size)
     for c in ordered:
-        n = len(kept)
-        d = np.hypot(xy[:n, 0] - c.x, xy[:n, 1] - c.y)
-        same = np.flatnonzero(d <= np.maximum(MERGE_SHARE * np.maximum(radius[:n], c.radius),
-                                              0.5 * np.minimum(radius[:n], c.radius)))
+        # MERGE_SHARE max(R, r) and min(R, r) / 2 as the max and min of the products (the same numbers: rounding
+        # is monotonic), so that the kept ones' products are computed once
+        reach = np.maximum(np.maximum(share, MERGE_SHARE * c.radius), np.minimum(half, 0.5 * c.radius))
+        same = np.flatnonzero(np.abs(z - complex(c.x, c.y)) <= reach)
         if same.size:
             i = int(same[0])
             k = kept[i]
             finer = c if c.radius < k.inner else k
             kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
                               inner=min(k.inner, c.inner))
-            xy[i] = (finer.x, finer.y)
-            radius[i] = kept[i].radius
-        elif n < max_candidates:
+        elif len(kept) < max_candidates:
+            i = len(kept)
             kept.append(c)
-            xy[n] = (c.x, c.y)
-            radius[n] = c.radius
+        else:
+            continue
+        z[i] = complex(kept[i].x, kept[i].y)
+        share[i], half[i] = MERGE_SHARE * kept[i].radius, 0.5 * kept[i].radius
     return tuple(kept)
 
 

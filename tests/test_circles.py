@@ -222,6 +222,7 @@ def test_centre_votes_are_each_points_votes_inside_the_window(n, h, w, r_min, sp
     got = circles.hough_centres(ep, r_min, r_min + span, (h, w))
     np.testing.assert_allclose(got, expected / (2 * np.pi), rtol=1e-12, atol=1e-15)
 
+
 def test_de_hough_labels_points_by_circle_and_leaves_tangential_edges_out():
     rng = np.random.default_rng(12)
     x, y, lab = _circle_points(30.0, 30.0, (6.0, 12.0), 30, rng)

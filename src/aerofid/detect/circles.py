@@ -253,13 +253,15 @@ def hough_centres(ep: EdgePoints, r_min: float, r_max: float, shape: tuple[int, 
     wt = 1.0 / np.abs(d)
     for i in range(0, ep.x.size, step):
         sl = slice(i, i + step)
-        cx, cy = _rounded_votes(ep.x[sl], ep.nx[sl], d, w), _rounded_votes(ep.y[sl], ep.ny[sl], d, h)
-        cy += 1.0   # the index in the bordered accumulator, in floating point (exact for these integers)
-        cy *= w + 2
-        cy += cx
-        cy += 1.0
-        votes = np.broadcast_to(wt, cy.shape).ravel()
-        acc += np.bincount(cy.astype(np.int64).ravel(), weights=votes, minlength=acc.size)
+        # the index in the bordered accumulator, (row + 1) (w + 2) + column + 1, in floating point (exact for these
+        # integers) and in place
+        index = _rounded_votes(ep.y[sl], ep.ny[sl], d, h)
+        index += 1.0
+        index *= w + 2
+        index += _rounded_votes(ep.x[sl], ep.nx[sl], d, w)
+        index += 1.0
+        votes = np.broadcast_to(wt, index.shape).ravel()
+        acc += np.bincount(index.astype(np.int64).ravel(), weights=votes, minlength=acc.size)
     return acc.reshape(h + 2, w + 2)[1:-1, 1:-1] / (2 * np.pi)
 
 

@@ -8,6 +8,7 @@ import math
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,8 @@ import pytest
 import aerofid
 from aerofid.formats.camera_file import write_camera
 from aerofid.frame.layout import layout_candidates, match_layout
+from aerofid.frame.nominal import extra_marks
+from aerofid.frame.report import frame_text
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import arrangement_matrix
@@ -204,6 +207,52 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     assert res.pixel_size_source == "tags"
     assert res.status == "ok", res.reasons
     assert res.orientation is not None and res.orientation.rms_px < 0.6
+    # the 4 midside marks the file does not list: where auto finds them in 120 px boxes (docs/benchmarks_rc20.md)
+    boxes = {"midside_top": (3167.29, 99.30), "midside_bottom": (3162.33, 5302.24),
+             "midside_left": (554.39, 2695.37), "midside_right": (5763.65, 2706.94)}
+    extra = {f.name: f for f in res.extra_marks}
+    assert sorted(extra) == sorted(boxes) and all(f.status == "found" for f in extra.values())
+    assert max(math.hypot(extra[n].x - x, extra[n].y - y) for n, (x, y) in boxes.items()) < 0.3
+    # the nominal +-110 mm on the axes is within 0.25 mm of each (their film mm: docs/benchmarks_rc20.md)
+    assert max(f.residual_px for f in extra.values()) < 0.25 / 0.0423
+
+
+def test_a_camera_file_of_the_corners_alone_gets_the_formats_midside_marks_found_too(tmp_path):
+    """A 23 cm camera file that lists only the 4 corners (as the real RC20's does): the frame is oriented on them
+    alone, and the 4 midside marks of the format are found at their true centres and reported beside the
+    fiducials (JSON, text), not used in the adjustment."""
+    corners = Camera("corners", CAMERA.fiducials[:4])
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(6), rotation_deg=90, mirrored=True)
+    truth = write_frame(spec, tmp_path / "frame.tif", "tiled")
+    res = aerofid.orient_frame(tmp_path / "frame.tif", corners, lie=truth.lie)
+    assert res.status == "ok", res.reasons
+    assert res.orientation is not None and len(res.orientation.fiducials) == 4
+    midsides = {"midside_bottom": "5", "midside_right": "6", "midside_top": "7", "midside_left": "8"}
+    got = {f.name: f for f in res.extra_marks}
+    assert sorted(got) == sorted(midsides) and all(f.status == "found" for f in got.values())
+    err = [math.hypot(got[n].x - truth.marks[k][0], got[n].y - truth.marks[k][1]) for n, k in midsides.items()]
+    assert max(err) < 0.1, err
+    # the synthetic camera's midsides lie within 0.03 mm of the nominal +-110 mm
+    assert max(f.residual_px for f in got.values()) < 0.05 / COARSE_MM
+    d = res.to_dict()
+    assert sorted(f["name"] for f in d["extra_marks"]) == sorted(midsides)
+    text = frame_text(res)
+    assert "not list" in text and "midside_left" in text
+    full = aerofid.orient_frame(tmp_path / "frame.tif", CAMERA)
+    assert full.extra_marks == ()                                   # every mark of the format is in the file
+
+
+def test_the_formats_other_marks_are_placed_by_the_files_own_origin_and_y_axis():
+    down = Camera("down", tuple(replace(f, x_mm=f.x_mm + 115.0, y_mm=115.0 - f.y_mm) for f in CAMERA.fiducials[:4]),
+                  y_axis="down")
+    got = extra_marks(down)
+    assert sorted(got) == ["midside_bottom", "midside_left", "midside_right", "midside_top"]
+    assert np.allclose(got["midside_top"], (115.0, 5.0), atol=0.03)          # y down: the top is near y = 0
+    assert np.allclose(got["midside_left"], (5.0, 115.0), atol=0.03)
+    wide = Camera("Jena LMK corners", tuple(replace(f, x_mm=f.x_mm * 1.04, y_mm=f.y_mm * 1.04)
+                                            for f in CAMERA.fiducials[:4]))  # +-110 mm: not the 23 cm layout
+    assert extra_marks(wide) == {}
+    assert extra_marks(CAMERA) == {}
 
 
 def _cli(*args, cwd):

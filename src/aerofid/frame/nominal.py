@@ -7,6 +7,8 @@ frame's rotation in the scanner estimated from a nominal layout, and the frame f
 
 from __future__ import annotations
 
+import numpy as np
+
 from aerofid.orientation.camera import Camera
 
 NOMINAL_LAYOUTS = {
@@ -19,6 +21,9 @@ and midside marks about 110 mm from the centre (Wild RC8 to RC30 and most 23 cm 
 layout search allows 3 % of scale and 2 mm, and a camera whose marks lie elsewhere gets those it finds)."""
 FORMAT_ALIASES = {"23cm": "23cm", "23": "23cm", "230mm": "23cm", "9in": "23cm", "9x9": "23cm"}
 """How a format may be named on the command line (spaces and case ignored)."""
+FORMAT_MATCH_MM = 3.0
+"""How far (film mm) each of a camera file's fiducials may lie from a mark of a format's nominal layout (placed
+by the translation that fits them best) for the file to be read as that format (:func:`extra_marks`)."""
 UNCALIBRATED = ("uncalibrated: no calibration certificate, only the {fmt} format: the marks are found in pixels "
                 "and the fiducial centre, pixel size and rotation are estimated from the format's nominal "
                 "layout; give the camera file for an interior orientation")
@@ -40,4 +45,50 @@ def nominal_camera(name: str) -> Camera | None:
                              "fiducials": {k: list(v) for k, v in NOMINAL_LAYOUTS[key].items()}})
 
 
-__all__ = ["NOMINAL_LAYOUTS", "UNCALIBRATED", "nominal_camera"]
+def extra_marks(camera: Camera) -> dict[str, tuple[float, float]]:
+    """The marks of the camera's film format that its file does not list, at their nominal positions in the
+    file's film coordinates (mm): a certificate often calibrates only the 4 corner marks of a camera that has 8
+    (the real Wild RC20 frame's ``MeasuresCamera.xml``). The format is the nominal layout
+    (:data:`NOMINAL_LAYOUTS`) on which every fiducial of the file lies within :data:`FORMAT_MATCH_MM` of a mark of
+    its own, the layout moved by the translation that fits them best (the file's origin may be a corner; its y
+    axis up or down) and not turned (certificates are drawn square to the film's edges); {} when no layout holds
+    them all, or it has no other marks.
+
+    >>> cam = Camera.from_dict({"name": "RC20", "fiducials": {"P1": [106.0, -106.0], "P2": [-106.0, -106.0],
+    ...                                                       "P3": [-106.0, 106.0], "P4": [106.0, 106.0]}})
+    >>> extra_marks(cam)["midside_top"]
+    (0.0, 110.0)
+    """
+    xy = camera.xy_mm
+    flip = np.array([1.0, 1.0 if camera.y_axis == "up" else -1.0])
+    for layout in NOMINAL_LAYOUTS.values():
+        nominal = np.array(list(layout.values())) * flip
+        fit = _layout_fit(xy, nominal)
+        if fit is not None:
+            shift, matched = fit
+            return {n: (float(p[0]), float(p[1])) for k, (n, p) in enumerate(zip(layout, nominal + shift, strict=True))
+                    if k not in matched}
+    return {}
+
+
+def _layout_fit(xy: np.ndarray, nominal: np.ndarray) -> tuple[np.ndarray, set[int]] | None:
+    """The translation that puts each point of ``xy`` within :data:`FORMAT_MATCH_MM` of its own mark of
+    ``nominal`` with the least sum of squares (tried from every pairing of the first point with a mark, each
+    point then taking its nearest mark), and the marks taken; None if there is none."""
+    if len(xy) > len(nominal):
+        return None
+    best: tuple[float, np.ndarray, set[int]] | None = None
+    for k in range(len(nominal)):
+        shift = xy[0] - nominal[k]
+        d = np.hypot(*(xy[:, None, :] - (nominal + shift)[None, :, :]).transpose(2, 0, 1))
+        nearest = d.argmin(axis=1)
+        if len(set(nearest.tolist())) < len(xy):
+            continue
+        shift = shift + (xy - (nominal[nearest] + shift)).mean(axis=0)
+        d = np.hypot(*(xy - (nominal[nearest] + shift)).T)
+        if d.max() <= FORMAT_MATCH_MM and (best is None or float(d @ d) < best[0]):
+            best = (float(d @ d), shift, set(nearest.tolist()))
+    return None if best is None else best[1:]
+
+
+__all__ = ["FORMAT_MATCH_MM", "NOMINAL_LAYOUTS", "UNCALIBRATED", "extra_marks", "nominal_camera"]

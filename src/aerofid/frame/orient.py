@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator
-from dataclasses import replace
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -45,10 +45,10 @@ from aerofid.find import (
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, can_end_early, layout_candidates
-from aerofid.frame.nominal import UNCALIBRATED, nominal_camera
+from aerofid.frame.nominal import UNCALIBRATED, extra_marks, nominal_camera
 from aerofid.frame.profile import METHODS, RollProfile, disagreements
-from aerofid.frame.result import DOUBTFUL, FAILED, OK, FrameOrientation
-from aerofid.frame.verdict import verdict
+from aerofid.frame.result import DOUBTFUL, FAILED, FOUND_MARK, MISSING_MARK, OK, FiducialFinding, FrameOrientation
+from aerofid.frame.verdict import adjusted_pixel_mm, verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import ReducedView, read_reduced_levels
@@ -89,6 +89,10 @@ the mark is there for ``auto`` to see a second mark; the cost of symmetry falls 
 COARSE_RADIUS = 16.0
 """The first mark's ``auto`` runs on the scan reduced (by a power of two) so that the marks' radius stays at least
 this many px (:func:`_coarse_first`): ``auto`` tries every method, and its cost grows with the window's area."""
+EXTRA_TOLERANCE_MM = 2.0
+"""How far (film mm) a mark the camera file does not list may lie from where the orientation puts its nominal
+position (:func:`measure_extra_marks`; the 23 cm layout's marks lie within a few tenths of a mm of it on the
+Wild cameras: the real RC20 frame's midside marks 0.1-0.2 mm)."""
 ALTERNATIVES = 3
 """Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
 the first whose frame is ok is taken."""
@@ -153,27 +157,68 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
                              else scan_pixel_size(source, cam, pixel_size_mm, profile))
         features, f = frame_features(source)
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
-        layouts = _layouts(source, features, f, fid_mm, cam.y_axis, size, first_complete=True)
         name = "" if source.path is None else os.path.basename(str(source.path))
         head = dict(image=name, camera=cam.name, width=source.width, height=source.height, features=len(features),
                     reduction=f)
-        if not layouts:
+        measurer = Measurer(source, detector, polarities, colour)
+        search = _Search(source, features, f, cam.y_axis, size, measurer, profile, nominal is not None)
+
+        def judged(layout: LayoutMatch, located: list[tuple[Located | None, str]]) -> FrameOrientation:
+            return _judged(cam, layout, located, model, head, size, size_source, lie, profile)
+
+        best = search.best(fid_mm, judged)
+        extras = {} if nominal is not None else extra_marks(cam)
+        if extras and (best is None or len(best.found) < len(fid_mm)):
+            # the format's other marks make the layout distinctive: 4 corners alone form a square that chance
+            # features form too, and a corner whose feature lies off its centre loses to them
+            n = len(fid_mm)
+            again = search.best(np.vstack([fid_mm, list(extras.values())]),
+                                lambda layout, located: judged(_first(layout, n), located[:n]))
+            if again is not None and (best is None or _standing(again) > _standing(best)):
+                best = again
+        if best is None:
             return _no_layout(head, len(fid_mm), size, size_source)
-        best: FrameOrientation | None = None
-        for layout in _attempts(source, features, f, fid_mm, cam.y_axis, size, layouts):
-            located = measure_marks(Measurer(source, detector, polarities, colour), layout, fid_mm, features,
-                                    profile)
-            res = _judged(cam, layout, located, model, head, size, size_source, lie, profile)
-            if best is None or _standing(res) > _standing(best):
-                best = res
-            if res.ok or (nominal is not None and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
-                break
-    assert best is not None
+        if extras and best.orientation is not None:
+            best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
     if nominal is not None:
         return _uncalibrated(best, str(camera))
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
     return best
+
+
+@dataclass(frozen=True)
+class _Search:
+    """Steps 2-4 on one frame's features (:meth:`best`)."""
+
+    source: ImageSource
+    features: tuple[Candidate, ...]
+    f: int
+    y_axis: str
+    size: float | None
+    measurer: Measurer
+    profile: RollProfile | None
+    nominal: bool
+
+    def best(self, fid_mm: np.ndarray, judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]],
+                                                         FrameOrientation]) -> FrameOrientation | None:
+        """The best frame (:func:`_standing`) of the layouts of ``fid_mm`` measured in turn (:func:`_attempts`)
+        until one is ok (a nominal layout's: once half its marks are found), each judged by ``judged``; None
+        when the features do not hold the layout."""
+        layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True)
+        best: FrameOrientation | None = None
+        for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts):
+            res = judged(layout, measure_marks(self.measurer, layout, fid_mm, self.features, self.profile))
+            if best is None or _standing(res) > _standing(best):
+                best = res
+            if res.ok or (self.nominal and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
+                break
+        return best
+
+
+def _first(layout: LayoutMatch, n: int) -> LayoutMatch:
+    """``layout`` of its first ``n`` fiducials (the camera file's, before the format's other marks)."""
+    return replace(layout, predicted=layout.predicted[:n], matched=layout.matched[:n])
 
 
 def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
@@ -331,6 +376,41 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             measurer = replace(measurer, polarities=(polarity,))
             other = opposite(polarity)
     return out
+
+
+def measure_extra_marks(measurer: Measurer, res: FrameOrientation,
+                        extras: dict[str, tuple[float, float]]) -> tuple[FiducialFinding, ...]:
+    """The marks of the film's format that the camera file does not list (``extras``: name -> nominal film mm,
+    :func:`aerofid.frame.nominal.extra_marks`), each measured like a later fiducial of :func:`measure_marks` (the
+    frame's method alone from its coarse answer, else :func:`measure_fiducial`) from where the frame's
+    orientation puts its nominal position, sized like the frame's marks, in their polarity first, within
+    :data:`EXTRA_TOLERANCE_MM` of it. They are not used in the adjustment (their positions are not calibrated): a
+    finding's ``predicted_x, predicted_y`` is the nominal position, ``residual_px`` the mark's distance from it."""
+    assert res.orientation is not None
+    marks: list[tuple[Located | None, str]] = [(f.located, "") for f in res.fiducials
+                                               if f.status == FOUND_MARK and f.located is not None]
+    done = list(range(len(marks)))
+    radius = _median_extent(marks, done)
+    name = _frame_method(marks, done)
+    other: Polarity | None = None
+    if len(measurer.polarities) > 1:
+        polarity = res.found[0].located.polarity  # type: ignore[union-attr]
+        measurer, other = replace(measurer, polarities=(polarity,)), opposite(polarity)
+    tolerance = max(EXTRA_TOLERANCE_MM / adjusted_pixel_mm(res.orientation), MIN_TOLERANCE_PX)
+    out = []
+    for mark, p in zip(extras, res.orientation.to_pixel(list(extras.values())), strict=True):
+        at = (float(p[0]), float(p[1]))
+        start = Candidate(at[0], at[1], radius, 0.0)
+        got = None if name is None else _by_method(measurer, name, _coarse(measurer, name, start), at, tolerance)
+        got, why = (got, "") if got is not None else measure_fiducial(measurer, start, at, tolerance, other)
+        if got is None:
+            out.append(FiducialFinding(mark, MISSING_MARK, None, None, None, None, *at, reason=why))
+            continue
+        d = got.detection
+        out.append(FiducialFinding(mark, FOUND_MARK, got.x, got.y, d.sigma_x, d.sigma_y, *at,
+                                   residual_px=math.hypot(got.x - at[0], got.y - at[1]), method=d.method,
+                                   located=got))
+    return tuple(out)
 
 
 def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> float:

@@ -37,14 +37,22 @@ def frame_text(res: FrameOrientation) -> str:
     lie = "-" if res.rotation_deg is None else f"rotation {res.rotation_deg} deg{' mirrored' if res.mirrored else ''}"
     L = [f"Frame {res.image or '(image)'} ({res.width} x {res.height}) with camera {res.camera!r}: {res.status}"]
     L += [f"  - {r}" for r in res.reasons]
+    w = max([10] + [len(f.name) for f in (*res.fiducials, *res.extra_marks)])
     L += [f"pixel size {size}; film lie {lie}; {res.features} features screened at 1/{res.reduction}", "",
-          f"{'fiducial':>10} {'x_px':>11} {'y_px':>11} {'sx_px':>7} {'sy_px':>7} {'resid_px':>8}  status"]
-    for f in res.fiducials:
-        L.append(f"{f.name:>10} {_n(f.x, '11.3f')} {_n(f.y, '11.3f')} {_n(f.sigma_x, '7.3f')} {_n(f.sigma_y, '7.3f')} "
-                 f"{_n(f.residual_px, '8.3f')}  {f.status}" + (f" ({f.reason})" if f.reason else ""))
+          f"{'fiducial':>{w}} {'x_px':>11} {'y_px':>11} {'sx_px':>7} {'sy_px':>7} {'resid_px':>8}  status"]
+    L += [_line(f, w) for f in res.fiducials]
+    if res.extra_marks:
+        L += ["", "Marks of the film's format that the camera file does not list (not used in the adjustment; "
+              "resid_px: distance from the nominal position):"]
+        L += [_line(f, w) for f in res.extra_marks]
     if res.orientation is not None:
         L += ["", to_text(res.orientation).rstrip("\n")]
     return "\n".join(L) + "\n"
+
+
+def _line(f: FiducialFinding, width: int) -> str:
+    return (f"{f.name:>{width}} {_n(f.x, '11.3f')} {_n(f.y, '11.3f')} {_n(f.sigma_x, '7.3f')} {_n(f.sigma_y, '7.3f')} "
+            f"{_n(f.residual_px, '8.3f')}  {f.status}" + (f" ({f.reason})" if f.reason else ""))
 
 
 def _n(v: float | None, fmt: str) -> str:
@@ -56,10 +64,13 @@ def frame_html(res: FrameOrientation, image: Any) -> str:
     e = html.escape
     with open_image(image) as source:
         thumb = _thumbnail(source, res)
-        crops = [_crop(source, f, res) for f in res.fiducials]
+        marks = (*res.fiducials, *res.extra_marks)
+        crops = [_crop(source, f, res) for f in marks]
+    extra = {f.name for f in res.extra_marks}
     figs = "\n".join(f'<figure><img src="data:image/png;base64,{c}" width="{CROP_SIDE}"><figcaption>{e(f.name)}: '
-                     f'{e(f.status)}{" " + e(f.reason) if f.reason else ""}</figcaption></figure>'
-                     for f, c in zip(res.fiducials, crops, strict=True) if c)
+                     f'{e(f.status)}{" " + e(f.reason) if f.reason else ""}'
+                     f'{" (not in the camera file: o is its nominal position)" if f.name in extra else ""}'
+                     '</figcaption></figure>' for f, c in zip(marks, crops, strict=True) if c)
     reasons = "".join(f"<li>{e(r)}</li>" for r in res.reasons)
     orientation = ("<p>No orientation.</p>" if res.orientation is None else
                    f"<h2>Residual vectors</h2>{residual_plot_svg(res.orientation)}")
@@ -98,7 +109,7 @@ def _bgr(samples: np.ndarray) -> np.ndarray:
 def _thumbnail(source: Any, res: FrameOrientation) -> str:
     f = reduction_for(source.width, source.height, THUMBNAIL_PIXELS)
     img = _bgr(source.read_reduced((0, 0, source.width, source.height), f))
-    for fid in res.fiducials:
+    for fid in (*res.fiducials, *res.extra_marks):
         x, y = (fid.x, fid.y) if fid.x is not None and fid.y is not None else (fid.predicted_x, fid.predicted_y)
         c = COLOURS.get(fid.status, (0, 140, 255))
         p = (int(round((x + 0.5) / f - 0.5)), int(round((y + 0.5) / f - 0.5)))

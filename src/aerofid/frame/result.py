@@ -80,6 +80,10 @@ class FrameOrientation:
     pixel_size_source: str
     features: int = 0
     reduction: int = 1
+    extra_marks: tuple[FiducialFinding, ...] = ()
+    """The marks of the film's format that the camera file does not list (the midside marks of a 23 cm camera
+    whose certificate calibrates its corners), found at their nominal positions by the orientation
+    (``predicted_x, predicted_y``; ``residual_px``: the mark's distance from it); not used in the adjustment."""
 
     @property
     def ok(self) -> bool:
@@ -96,7 +100,8 @@ class FrameOrientation:
                 "rotation_deg": self.rotation_deg, "mirrored": self.mirrored,
                 "pixel_size_mm": finite_or_none(self.pixel_size_mm), "pixel_size_source": self.pixel_size_source,
                 "screening": {"features": self.features, "reduction": self.reduction},
-                "orientation": None if self.orientation is None else self.orientation.to_dict()}
+                "orientation": None if self.orientation is None else self.orientation.to_dict(),
+                "extra_marks": [f.to_dict() for f in self.extra_marks]}
 
 
 __all__ = ["DOUBTFUL", "FAILED", "FOUND_MARK", "MISSING_MARK", "OK", "REJECTED_MARK", "FiducialFinding",

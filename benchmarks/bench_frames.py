@@ -58,6 +58,7 @@ from aerofid.orientation.adjustment import adjust  # noqa: E402
 from bench_peers import hipp_subpixel_template  # noqa: E402
 from bench_rc20 import MARKS as RC20_APPROX  # noqa: E402
 from bench_rc20 import REAL as RC20  # noqa: E402
+from bench_rc20 import SPANS_MM as RC20_SPANS_MM  # noqa: E402
 
 cv2.setNumThreads(1)
 
@@ -201,7 +202,9 @@ def orient(path: str, camera: str) -> dict:
     return {"time_s": t, "cpu_s": c, "maxrss_mb": maxrss_mb(), "status": res.status, "reasons": list(res.reasons),
             "lie": [res.rotation_deg, res.mirrored], "marks": marks,
             "statuses": {f.name: f.status for f in res.fiducials},
-            "pixel_size_mm": res.pixel_size_mm, "pixel_size_source": res.pixel_size_source}
+            "pixel_size_mm": res.pixel_size_mm, "pixel_size_source": res.pixel_size_source,
+            "extra_marks": {f.name: [f.x, f.y, f.residual_px, *res.orientation.to_mm([[f.x, f.y]])[0].tolist()]
+                            for f in res.extra_marks if f.status == "found" and res.orientation is not None}}
 
 
 def decode(path: str) -> dict:
@@ -335,9 +338,30 @@ def rc20(hipp: str | None, repeats: int, cache: Path) -> list[str]:
         fit = adjust(np.array([marks[n] for n in names]), cam.xy_mm, "affine")
         v = fit.v.reshape(-1, 2) / (25.4 / 600)
         lines.append(f"- {who}: {np.sqrt(np.mean(np.sum(v ** 2, axis=1))):.2f} px")
+    lines += rc20_midsides(results)
     if "aerofid" in results and "statuses" in results["aerofid"]:
         lines.append(f"\naerofid: {results['aerofid']['status']}, {results['aerofid']['statuses']}, "
                      f"reasons {results['aerofid']['reasons']}")
+    return lines
+
+
+def rc20_midsides(results: dict) -> list[str]:
+    """The RC20's midside marks, which its camera file does not list: where aerofid found them (its
+    ``extra_marks``, sought at the 23 cm format's nominal positions), their film mm by the corners' orientation,
+    and the spans between opposite ones against the camera's ``SzCaptMm`` (no one here measured the marks
+    themselves; hipp's midside template is cut at an approximate centre, so its midsides are not compared)."""
+    extra = results.get("aerofid", {}).get("extra_marks", {})
+    lines = ["", f"The 4 midside marks (not in MeasuresCamera.xml): aerofid found {len(extra)} of 4", "",
+             "| mark | x, y (px) | from the nominal position (px) | film x, y (mm) |", "|---|---|---|---|"]
+    for name, (x, y, nominal, x_mm, y_mm) in sorted(extra.items()):
+        lines.append(f"| {name} | {x:.2f}, {y:.2f} | {nominal:.2f} | {x_mm:+.3f}, {y_mm:+.3f} |")
+    if {"midside_left", "midside_right", "midside_top", "midside_bottom"} <= set(extra):
+        sx = extra["midside_right"][3] - extra["midside_left"][3]
+        sy = extra["midside_top"][4] - extra["midside_bottom"][4]
+        dx, dy = 1000 * (sx - RC20_SPANS_MM[0]), 1000 * (sy - RC20_SPANS_MM[1])
+        lines.append(f"\nSpans between opposite midsides: x {sx:.3f} mm, y {sy:.3f} mm; the camera's SzCaptMm "
+                     f"(MicMac-LocalChantierDescripteur.xml) {RC20_SPANS_MM[0]:.3f} x {RC20_SPANS_MM[1]:.3f} mm "
+                     f"(differences {dx:+.0f} and {dy:+.0f} um)")
     return lines
 
 

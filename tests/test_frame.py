@@ -18,7 +18,7 @@ import aerofid
 from aerofid.formats.camera_file import write_camera
 from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.frame.nominal import extra_marks
-from aerofid.frame.report import frame_text
+from aerofid.frame.report import frame_html, frame_text
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import arrangement_matrix
@@ -238,6 +238,8 @@ def test_a_camera_file_of_the_corners_alone_gets_the_formats_midside_marks_found
     assert sorted(f["name"] for f in d["extra_marks"]) == sorted(midsides)
     text = frame_text(res)
     assert "not list" in text and "midside_left" in text
+    page = frame_html(res, tmp_path / "frame.tif")
+    assert page.count("<figure>") == 8 and page.count("not in the camera file") == 4
     full = aerofid.orient_frame(tmp_path / "frame.tif", CAMERA)
     assert full.extra_marks == ()                                   # every mark of the format is in the file
 

@@ -165,6 +165,16 @@ def test_a_camera_whose_layout_is_not_on_the_scan_fails_with_the_reason():
     assert res.status != "ok" and res.reasons
 
 
+def test_a_scan_without_the_layout_fails_with_the_reason_whatever_the_camera_file():
+    """No features hold the layout (a blank scan): failed with the reason, for a file of 8 fiducials and for one of
+    the 4 corners (whose second search, with the format's other marks, finds no layout either)."""
+    blank = np.full((300, 300), 128, np.uint8)
+    for cam in (CAMERA, Camera("corners", CAMERA.fiducials[:4])):
+        for size in (0.8, None):
+            res = aerofid.orient_frame(blank, cam, pixel_size_mm=size)
+            assert res.status == "failed" and "were not found among" in res.reasons[0], res.reasons
+
+
 def test_bad_options_are_one_line_errors():
     image = np.zeros((64, 64), np.uint8)
     with pytest.raises(aerofid.AerofidInputError, match="pixel size"):
@@ -255,6 +265,8 @@ def test_the_formats_other_marks_are_placed_by_the_files_own_origin_and_y_axis()
                                             for f in CAMERA.fiducials[:4]))  # +-110 mm: not the 23 cm layout
     assert extra_marks(wide) == {}
     assert extra_marks(CAMERA) == {}
+    named = Camera("named", (replace(CAMERA.fiducials[0], name="midside_top"), *CAMERA.fiducials[1:4]))
+    assert sorted(extra_marks(named)) == ["midside_bottom", "midside_left", "midside_right", "midside_top (format)"]
 
 
 def _cli(*args, cwd):

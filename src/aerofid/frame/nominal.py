@@ -52,7 +52,8 @@ def extra_marks(camera: Camera) -> dict[str, tuple[float, float]]:
     (:data:`NOMINAL_LAYOUTS`) on which every fiducial of the file lies within :data:`FORMAT_MATCH_MM` of a mark of
     its own, the layout moved by the translation that fits them best (the file's origin may be a corner; its y
     axis up or down) and not turned (certificates are drawn square to the film's edges); {} when no layout holds
-    them all, or it has no other marks.
+    them all, or it has no other marks. A mark whose nominal name the file gives to another fiducial is named
+    ``"<name> (format)"``.
 
     >>> cam = Camera.from_dict({"name": "RC20", "fiducials": {"P1": [106.0, -106.0], "P2": [-106.0, -106.0],
     ...                                                       "P3": [-106.0, 106.0], "P4": [106.0, 106.0]}})
@@ -66,8 +67,8 @@ def extra_marks(camera: Camera) -> dict[str, tuple[float, float]]:
         fit = _layout_fit(xy, nominal)
         if fit is not None:
             shift, matched = fit
-            return {n: (float(p[0]), float(p[1])) for k, (n, p) in enumerate(zip(layout, nominal + shift, strict=True))
-                    if k not in matched}
+            return {(n if n not in camera.names else f"{n} (format)"): (float(p[0]), float(p[1]))
+                    for k, (n, p) in enumerate(zip(layout, nominal + shift, strict=True)) if k not in matched}
     return {}
 
 

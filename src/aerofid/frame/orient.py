@@ -206,6 +206,8 @@ class _Search:
         until one is ok (a nominal layout's: once half its marks are found), each judged by ``judged``; None
         when the features do not hold the layout."""
         layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True)
+        if not layouts:
+            return None
         best: FrameOrientation | None = None
         for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts):
             res = judged(layout, measure_marks(self.measurer, layout, fid_mm, self.features, self.profile))
@@ -394,7 +396,7 @@ def measure_extra_marks(measurer: Measurer, res: FrameOrientation,
     name = _frame_method(marks, done)
     other: Polarity | None = None
     if len(measurer.polarities) > 1:
-        polarity = res.found[0].located.polarity  # type: ignore[union-attr]
+        polarity = marks[0][0].polarity  # type: ignore[union-attr]
         measurer, other = replace(measurer, polarities=(polarity,)), opposite(polarity)
     tolerance = max(EXTRA_TOLERANCE_MM / adjusted_pixel_mm(res.orientation), MIN_TOLERANCE_PX)
     out = []

@@ -166,16 +166,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
         def judged(layout: LayoutMatch, located: list[tuple[Located | None, str]]) -> FrameOrientation:
             return _judged(cam, layout, located, model, head, size, size_source, lie, profile)
 
-        best = search.best(fid_mm, judged)
         extras = {} if nominal is not None else extra_marks(cam)
-        if extras and (best is None or len(best.found) < len(fid_mm)):
-            # the format's other marks make the layout distinctive: 4 corners alone form a square that chance
-            # features form too, and a corner whose feature lies off its centre loses to them
-            n = len(fid_mm)
-            again = search.best(np.vstack([fid_mm, list(extras.values())]),
-                                lambda layout, located: judged(_first(layout, n), located[:n]))
-            if again is not None and (best is None or _standing(again) > _standing(best)):
-                best = again
+        best = search.with_format_marks(fid_mm, extras, judged, search.best(fid_mm, judged))
         if best is None:
             return _no_layout(head, len(fid_mm), size, size_source)
         if extras and best.orientation is not None:
@@ -216,6 +208,21 @@ class _Search:
             if res.ok or (self.nominal and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
                 break
         return best
+
+
+    def with_format_marks(self, fid_mm: np.ndarray, extras: dict[str, tuple[float, float]],
+                          judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]], FrameOrientation],
+                          best: FrameOrientation | None) -> FrameOrientation | None:
+        """``best`` (the frame of the camera file's layout ``fid_mm``) or, when it leaves fiducials unfound, the
+        better of it and the frame whose layout has the format's other marks ``extras`` (name -> nominal film mm)
+        added, judged on the file's fiducials alone: those marks make the layout distinctive (4 corners alone form a
+        square that chance features form too, and a corner whose feature lies off its centre loses to them)."""
+        if not extras or (best is not None and len(best.found) >= len(fid_mm)):
+            return best
+        n = len(fid_mm)
+        again = self.best(np.vstack([fid_mm, list(extras.values())]),
+                          lambda layout, located: judged(_first(layout, n), located[:n]))
+        return again if again is not None and (best is None or _standing(again) > _standing(best)) else best
 
 
 def _first(layout: LayoutMatch, n: int) -> LayoutMatch:

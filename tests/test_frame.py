@@ -311,6 +311,18 @@ def test_a_frame_without_calibration_is_measured_on_the_formats_nominal_layout(t
     (tmp_path / "mm").mkdir()
     r = _cli("frame.tif", "--camera", "23cm", "--micmac", "mm", cwd=tmp_path)
     assert r.returncode == 2 and "names a format" in r.stderr
+    # no camera at all: the same as the 23 cm format, from the API and the command line
+    assert aerofid.orient_frame(tmp_path / "frame.tif") == res
+    r = _cli("frame.tif", "--json", cwd=tmp_path)
+    assert r.returncode == 1, r.stderr
+    d = json.loads(r.stdout)
+    assert d["status"] == "doubtful" and d["reasons"][0].startswith("uncalibrated")
+    assert [(f["x"], f["y"]) for f in d["fiducials"]] == [(f.x, f.y) for f in res.fiducials]
+    r = _cli("frame.tif", "--micmac", "mm", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.startswith("error: no --camera given")
+    assert not any((tmp_path / "mm").iterdir())
+    r = _cli("--measurements", "m.csv", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.startswith("error: --measurements needs the camera file")
 
 
 def test_the_frames_method_of_a_tie_does_not_depend_on_the_process():

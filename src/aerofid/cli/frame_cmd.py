@@ -16,7 +16,7 @@ from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.measurements import read_measurements
-from aerofid.frame.nominal import nominal_camera
+from aerofid.frame.nominal import DEFAULT_FORMAT, nominal_camera
 from aerofid.frame.orient import orient_frame
 from aerofid.frame.profile import learn_profile, read_profile
 from aerofid.frame.report import frame_html, frame_text
@@ -39,17 +39,19 @@ def parse_lie(text: str | None) -> tuple[int, bool] | None:
     return int(digits), mirrored
 
 
-def run_frame(image: str, camera_path: str, *, pixel_size: float | None, lie: str | None, model: str,
+def run_frame(image: str, camera_path: str | None, *, pixel_size: float | None, lie: str | None, model: str,
               as_json: bool, output: str | None, micmac_dir: str | None, profile_path: str | None = None,
               metashape: str | None = None) -> int:
     """Orient the whole frame ``image``; print, write the report, MicMac files and Metashape script; the exit
-    status."""
+    status. Without ``camera_path``: the :data:`~aerofid.frame.nominal.DEFAULT_FORMAT` format, uncalibrated."""
     check_outputs(output, micmac_dir, metashape)
     the_lie = parse_lie(lie)
+    given = camera_path
+    camera_path = camera_path or DEFAULT_FORMAT
     nominal = nominal_camera(camera_path)
     if nominal is not None and (micmac_dir is not None or profile_path is not None or metashape is not None):
-        raise AerofidInputError(f"--camera {camera_path!r} names a format, not a calibration: --micmac, --metashape "
-                                "and --profile need the camera file")
+        what = f"--camera {given!r} names a format, not a calibration" if given else "no --camera given"
+        raise AerofidInputError(f"{what}: --micmac, --metashape and --profile need the camera file")
     with Staging([p for p in (image, None if nominal else camera_path, profile_path) if p]) as staging:
         if output is not None:
             staging.plan(output, "report")

@@ -20,6 +20,7 @@ from aerofid.cli.output import flush_stdout
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.measurements import read_measurements_and_not_found
+from aerofid.frame.nominal import DEFAULT_FORMAT
 from aerofid.io.atomic import Staging
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import AmbiguousCorrespondenceError
@@ -31,8 +32,9 @@ from aerofid.orientation.result import InteriorOrientation
 
 @click.command()
 @click.argument("image", required=False)
-@click.option("--camera", "camera_path", required=True, metavar="CAMERA",
-              help="camera file: JSON/YAML certificate or MicMac MeasuresCamera.xml")
+@click.option("--camera", "camera_path", metavar="CAMERA",
+              help="camera file: JSON/YAML certificate or MicMac MeasuresCamera.xml; for a scan also a film format "
+                   f"alone (e.g. 23cm; without --camera: {DEFAULT_FORMAT}): marks found, orientation uncalibrated")
 @click.option("--measurements", "-m", "meas_path", metavar="FILE",
               help="fiducial pixel measurements: JSON (as aerofid locate --json writes it; marks it did not "
                    "find are left out), CSV (name,x,y) or MicMac MeasuresIm-*.xml")
@@ -60,7 +62,8 @@ from aerofid.orientation.result import InteriorOrientation
 def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_json, output, micmac_dir,
            metashape_path, pixel_size, lie, profile_path) -> int:
     """Interior orientation (pixel -> film mm) of a scan: from its measured fiducials (--measurements), or from
-    the scan itself (IMAGE alone: the fiducials found from the camera file's layout)."""
+    the scan itself (IMAGE alone: the fiducials found from the camera file's layout; without --camera on the
+    23 cm format's nominal layout, uncalibrated)."""
     if meas_path is None:
         if image:
             return run_frame(image, camera_path, pixel_size=pixel_size, lie=lie, model=model, as_json=as_json,
@@ -68,6 +71,9 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
                              metashape=metashape_path)
         raise AerofidInputError("give the scan (aerofid orient IMAGE --camera CAMERA) or --measurements FILE "
                                 "(fiducial pixel coordinates)")
+    if camera_path is None:
+        raise AerofidInputError("--measurements needs the camera file: --camera CAMERA (JSON/YAML certificate or "
+                                "MicMac MeasuresCamera.xml)")
     if pixel_size is not None or lie is not None or profile_path is not None:
         raise AerofidInputError("--pixel-size, --lie and --profile are for a whole frame (IMAGE without "
                                 "--measurements)")

@@ -21,6 +21,9 @@ and midside marks about 110 mm from the centre (Wild RC8 to RC30 and most 23 cm 
 layout search allows 3 % of scale and 2 mm, and a camera whose marks lie elsewhere gets those it finds)."""
 FORMAT_ALIASES = {"23cm": "23cm", "23": "23cm", "230mm": "23cm", "9in": "23cm", "9x9": "23cm"}
 """How a format may be named on the command line (spaces and case ignored)."""
+DEFAULT_FORMAT = "23cm"
+"""The format a scan is oriented on when no camera file is given (the aerial film format of nearly every mapping
+camera: Wild RC, Zeiss RMK, Fairchild)."""
 FORMAT_MATCH_MM = 3.0
 """How far (film mm) each of a camera file's fiducials may lie from a mark of a format's nominal layout (placed
 by the translation that fits them best) for the file to be read as that format (:func:`extra_marks`)."""
@@ -28,6 +31,12 @@ UNCALIBRATED = ("uncalibrated: no calibration certificate, only the {fmt} format
                 "and the fiducial centre, pixel size and rotation are estimated from the format's nominal "
                 "layout; give the camera file for an interior orientation")
 """The reason every uncalibrated frame carries."""
+
+
+def format_name(name: str) -> str | None:
+    """The film format that ``name`` names, as :data:`NOMINAL_LAYOUTS` keys it (``"9 in"`` -> ``"23cm"``); None
+    if it names none."""
+    return FORMAT_ALIASES.get(str(name).replace(" ", "").lower())
 
 
 def nominal_camera(name: str) -> Camera | None:
@@ -38,7 +47,7 @@ def nominal_camera(name: str) -> Camera | None:
     >>> nominal_camera("camera.json") is None
     True
     """
-    key = FORMAT_ALIASES.get(str(name).replace(" ", "").lower())
+    key = format_name(name)
     if key is None:
         return None
     return Camera.from_dict({"name": f"nominal {key} format (uncalibrated)",

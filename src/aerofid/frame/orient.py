@@ -45,7 +45,7 @@ from aerofid.find import (
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, can_end_early, layout_candidates
-from aerofid.frame.nominal import UNCALIBRATED, extra_marks, nominal_camera
+from aerofid.frame.nominal import DEFAULT_FORMAT, UNCALIBRATED, extra_marks, format_name, nominal_camera
 from aerofid.frame.profile import METHODS, RollProfile, disagreements
 from aerofid.frame.result import DOUBTFUL, FAILED, FOUND_MARK, MISSING_MARK, OK, FiducialFinding, FrameOrientation
 from aerofid.frame.verdict import adjusted_pixel_mm, verdict
@@ -98,7 +98,8 @@ ALTERNATIVES = 3
 the first whose frame is ok is taken."""
 
 
-def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camera | str | os.PathLike[str], *,
+def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
+                 camera: Camera | str | os.PathLike[str] | None = None, *,
                  pixel_size_mm: float | None = None, mark: str = "auto", method: str = "auto",
                  polarity: str = "auto", colour: str = "auto", model: str = "affine",
                  lie: tuple[int, bool] | None = None, profile: RollProfile | None = None) -> FrameOrientation:
@@ -108,11 +109,12 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     ----------
     image : path, ndarray or open raster
         The scan (any size: it is read reduced for the search and by windows for the marks).
-    camera : Camera, path or format
+    camera : Camera, path or format, optional
         The calibration certificate (:func:`aerofid.read_camera` reads JSON, YAML or MicMac XML); or the film
-        format alone (``"23cm"``): the marks are then found on its nominal layout
-        (:mod:`aerofid.frame.nominal`), the frame is doubtful and flagged uncalibrated, the pixel size, fiducial
-        centre (the orientation's ``mm_to_pixel`` of (0, 0)) and rotation are estimates.
+        format alone (``"23cm"``, the default: :data:`~aerofid.frame.nominal.DEFAULT_FORMAT`): the marks are then
+        found on its nominal layout (:mod:`aerofid.frame.nominal`), the frame is doubtful and flagged
+        uncalibrated, the pixel size, fiducial centre (the orientation's ``mm_to_pixel`` of (0, 0)) and rotation
+        are estimates.
     pixel_size_mm : float, optional
         The scan's pixel size; default: the file's resolution tags, else the camera file's ``pixel_size_um``,
         else estimated from the marks' layout.
@@ -147,7 +149,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
     >>> bool(max(math.hypot(f.x - truth[f.name].x, f.y - truth[f.name].y) for f in res.fiducials) < 0.1)
     True
     """
-    nominal = nominal_camera(str(camera)) if isinstance(camera, str) else None
+    camera = DEFAULT_FORMAT if camera is None else camera
+    fmt = format_name(camera) if isinstance(camera, str) else None
+    nominal = None if fmt is None else nominal_camera(fmt)
     cam = nominal or (camera if isinstance(camera, Camera) else read_camera(os.fspath(camera)))
     lie = _checked_options(cam, pixel_size_mm, lie, profile)
     detector, polarities = configure(method, mark, polarity, colour, {})
@@ -173,7 +177,7 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any, camera: Camer
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
     if nominal is not None:
-        return _uncalibrated(best, str(camera))
+        return _uncalibrated(best, str(fmt))
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
     return best
@@ -287,7 +291,7 @@ def _uncalibrated(res: FrameOrientation, fmt: str) -> FrameOrientation:
     that only a calibration gives a meaning to (the lie, the residuals, the pixel size) dropped."""
     kept = tuple(r for r in res.reasons if "found" in r or "marks used" in r)
     return replace(res, status=FAILED if res.status == FAILED else DOUBTFUL,
-                   reasons=(UNCALIBRATED.format(fmt=fmt.strip()), *kept))
+                   reasons=(UNCALIBRATED.format(fmt=fmt), *kept))
 
 
 def _reviewed(res: FrameOrientation, doubts: list[str]) -> FrameOrientation:

@@ -26,8 +26,10 @@ answers (imports excluded), its peak memory the process's ``ru_maxrss`` (imports
 Per frame kind: median time per frame, the largest peak memory, the error RMS of every found mark against
 its truth and the mean error (x, y: a systematic offset), the lie recovered, frames ok / doubtful / failed,
 and ``ok but wrong``: a frame reported ok with a mark further than :data:`WRONG` px from its truth or the
-wrong lie (it must be 0). The real RC20 frame (../shared/realdata, skipped when absent): the person's
-measurement of the four corners is the truth (:data:`RC20_PERSON`).
+wrong lie (it must be 0). A roll (:data:`ROLL`, tiled clean frames of one lie): a profile learnt from its first
+frame (``aerofid learn``), the others oriented with it and without it, median times. The real RC20 frame
+(../shared/realdata, skipped when absent): the person's measurement of the four corners is the truth
+(:data:`RC20_PERSON`).
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ import numpy as np  # noqa: E402
 import aerofid  # noqa: E402
 from aerofid import synth_frame  # noqa: E402
 from aerofid.formats.camera_file import read_camera  # noqa: E402
+from aerofid.frame.profile import learn_profile, read_profile  # noqa: E402
 from aerofid.io.raster import open_raster  # noqa: E402
 from aerofid.orientation.adjustment import adjust  # noqa: E402
 from bench_peers import hipp_subpixel_template  # noqa: E402
@@ -68,6 +71,10 @@ FRAMES = ([("tiled", "clean", lie) for lie in LIES]
           + [("striped", d, lie) for d, lie in (("clean", (270, True)), ("noisy", (0, False)))]
           + [("jpeg", d, lie) for d, lie in (("clean", (90, True)), ("noisy", (180, False)))])
 """(file kind, degradation, lie) of the full run: every lie on clean tiled TIFFs, each degradation twice."""
+ROLL = [("tiled", "clean", (90, True))] * 5
+"""A roll: frames of one lie (each film shifted and turned anew); a profile learnt from the first orients the rest."""
+ROLL_SEED = 100
+"""The roll's frames' seeds start here (the other frames' are their index)."""
 QUICK = [("tiled", "clean", (0, False)), ("tiled", "noisy", (90, True)), ("striped", "faded", (180, False)),
          ("jpeg", "jpeg", (270, True))]
 QUICK_SIZE = 2500
@@ -126,14 +133,15 @@ def source_hash() -> str:
     return hashlib.sha256(Path(synth_frame.__file__).read_bytes()).hexdigest()[:10]
 
 
-def make_frames(plan, size: int, cache: Path) -> tuple[list[Frame], list[dict]]:
-    """Every frame of ``plan`` written to ``cache`` (once), and the time and peak memory of writing each."""
+def make_frames(plan, size: int, cache: Path, first_seed: int = 0) -> tuple[list[Frame], list[dict]]:
+    """Every frame of ``plan`` written to ``cache`` (once; the i-th with seed ``first_seed + i``), and the time and
+    peak memory of writing each."""
     cache.mkdir(parents=True, exist_ok=True)
     cam = synth_frame.wild_rc10_camera()
     cam_path = cache / "wild_rc10_synthetic.json"
     cam_path.write_text(json.dumps(cam.to_dict()), encoding="utf-8")
     frames, costs = [], []
-    for i, (kind, deg, (rot, mir)) in enumerate(plan):
+    for i, (kind, deg, (rot, mir)) in enumerate(plan, first_seed):
         stem = f"{kind}_{deg}_{rot}{'m' if mir else ''}_{size}_{i}_{source_hash()}"
         path = cache / (stem + (".jpg" if kind == "jpeg" else ".tif"))
         truth_path = cache / (stem + ".json")
@@ -190,21 +198,30 @@ def worker(cmd: list[str]) -> dict:
     return json.loads(lines[-1])
 
 
-def orient(path: str, camera: str) -> dict:
-    """Worker: ``aerofid.orient_frame`` on one frame."""
+def orient(path: str, camera: str, profile: str = "") -> dict:
+    """Worker: ``aerofid.orient_frame`` on one frame (with a roll profile file if given)."""
     orient_frame = getattr(aerofid, "orient_frame", None)
     if orient_frame is None:
         return {"error": "aerofid.orient_frame is not there yet"}
+    roll = read_profile(profile) if profile else None
     t, c = time.perf_counter(), time.process_time()
-    res = orient_frame(path, camera)
+    res = orient_frame(path, camera, profile=roll)
     t, c = time.perf_counter() - t, time.process_time() - c
     marks = {f.name: [f.x, f.y] for f in res.fiducials if f.status == "found" and f.x is not None}
     return {"time_s": t, "cpu_s": c, "maxrss_mb": maxrss_mb(), "status": res.status, "reasons": list(res.reasons),
             "lie": [res.rotation_deg, res.mirrored], "marks": marks,
             "statuses": {f.name: f.status for f in res.fiducials},
             "pixel_size_mm": res.pixel_size_mm, "pixel_size_source": res.pixel_size_source,
+            "searched": res.searched,
             "extra_marks": {f.name: [f.x, f.y, f.residual_px, *res.orientation.to_mm([[f.x, f.y]])[0].tolist()]
                             for f in res.extra_marks if f.status == "found" and res.orientation is not None}}
+
+
+def learn(path: str, camera: str, out: str) -> dict:
+    """Worker: the roll profile learnt from one frame (``aerofid learn``), written to ``out``."""
+    res = aerofid.orient_frame(path, camera)
+    Path(out).write_text(json.dumps(learn_profile(res).to_dict()), encoding="utf-8")
+    return {"status": res.status}
 
 
 def decode(path: str) -> dict:
@@ -306,6 +323,30 @@ def synthetic_tables(results: dict, frames: list[Frame], decodes: dict) -> list[
     return out
 
 
+def roll(size: int, repeats: int, cache: Path) -> list[str]:
+    """A roll (:data:`ROLL`): a profile learnt from its first frame, the others oriented with it (measured where the
+    profile's frame had its marks) and without it (the whole frame screened), each a fresh process."""
+    frames, _ = make_frames(ROLL, size, cache, ROLL_SEED)
+    profile = cache / f"roll_{size}_{source_hash()}.json"
+    learnt = worker([sys.executable, __file__, "--worker", "learn", str(frames[0].path), str(frames[0].camera),
+                     str(profile)])
+    if "error" in learnt:
+        return [f"learning from {frames[0].path.name} failed: {learnt['error']}"]
+    out = ["| frames | how | searched | median time per frame (s) | error RMS (px) | ok / doubtful / failed "
+           "| ok but wrong |", "|---|---|---|---|---|---|---|"]
+    for how, extra in (("with the profile", [str(profile)]), ("without", [])):
+        runs = [run_repeats([sys.executable, __file__, "--worker", "orient", str(f.path), str(f.camera), *extra],
+                            repeats) for f in frames[1:]]
+        scores = [score(f.truth, o) for f, o in zip(frames[1:], runs, strict=True)]
+        errors = [e for sc in scores for e in sc["errors"]]
+        rms = np.sqrt(np.mean(np.sum(np.square(errors), axis=1))) if errors else float("nan")
+        counts = " / ".join(str(sum(o.get("status") == s for o in runs)) for s in ("ok", "doubtful", "failed"))
+        searched = ", ".join(sorted({str(o.get("searched", o.get("error"))) for o in runs}))
+        out.append(f"| {len(runs)} | {how} | {searched} | {np.median([o.get('time_s', np.nan) for o in runs]):.2f} "
+                   f"| {rms:.3f} | {counts} | {sum(sc['ok_wrong'] for sc in scores)} |")
+    return out
+
+
 def rc20(hipp: str | None, repeats: int, cache: Path) -> list[str]:
     """The real RC20 frame: both contenders against the person's corners, and the corners' affine residual."""
     if not RC20.exists():
@@ -404,7 +445,9 @@ def main() -> None:
     decodes = {f.path.name: run_repeats([sys.executable, __file__, "--worker", "decode", str(f.path)],
                                         args.repeats)["time_s"] for f in frames if f.kind == "jpeg"}
     parts = [f"## Synthetic frames, {args.size} x {args.size} px ({FILM_MM / args.size * 1000:.1f} um)", "",
-             *synthetic_tables(results, frames, decodes), "", "## The real RC20 frame", "",
+             *synthetic_tables(results, frames, decodes), "",
+             f"## A roll: {len(ROLL) - 1} frames oriented with the profile learnt from one more", "",
+             *roll(args.size, args.repeats, cache), "", "## The real RC20 frame", "",
              *rc20(args.hipp, args.repeats, cache)]
     if costs:
         parts += ["", "Writing the frames (synth_frame.write_frame, one process each, time / peak memory): "
@@ -417,7 +460,7 @@ def main() -> None:
         print(f"wrote {args.out}")
 
 
-WORKERS = {"generate": generate, "orient": orient, "decode": decode}
+WORKERS = {"generate": generate, "orient": orient, "learn": learn, "decode": decode}
 
 if __name__ == "__main__":
     if len(sys.argv) > 2 and sys.argv[1] == "--worker":

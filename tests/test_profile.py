@@ -10,11 +10,13 @@ import sys
 
 import numpy as np
 import pytest
+import tifffile
 
 import aerofid
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import write_camera
 from aerofid.frame.profile import RollProfile, read_profile
+from aerofid.frame.report import frame_text
 from aerofid.orientation.camera import Camera
 from aerofid.synth_frame import frame_spec, render_frame, wild_rc10_camera, write_frame
 
@@ -65,6 +67,34 @@ def test_a_profile_learnt_from_one_frame_orients_the_next_one(roll, learnt):
     assert sum(f.method == profile.method for f in res.fiducials) >= 6
 
 
+def test_the_next_frame_is_measured_in_the_roll_areas_without_screening(roll, learnt):
+    """The profile keeps where a.tif's fiducials lay; b.tif (its film shifted up to 6 mm and turned up to 1 degree
+    from a.tif's) is measured in the areas around them, nothing screened, at the marks the whole-frame search
+    finds; a profile without positions (an earlier aerofid's) searches the whole frame."""
+    folder, truths = roll
+    assert [n for n, _, _ in learnt.positions_px] == [f.name for f in CAMERA.fiducials]
+    assert RollProfile.from_dict(learnt.to_dict()) == learnt
+    res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt)
+    assert (res.status, res.searched, res.features) == ("ok", "roll areas", 0), res.reasons
+    old = {k: v for k, v in learnt.to_dict().items() if k != "positions_px"}
+    whole = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=RollProfile.from_dict(old))
+    assert (whole.status, whole.searched) == ("ok", "whole frame") and whole.features > 0
+    apart = [math.hypot(f.x - g.x, f.y - g.y) for f, g in zip(res.fiducials, whole.fiducials, strict=True)]
+    assert max(apart) < 0.01, apart
+    assert "(roll areas)" in frame_text(res) and res.to_dict()["screening"]["searched"] == "roll areas"
+
+
+def test_a_frame_whose_film_lies_beyond_the_roll_areas_is_searched_whole(roll, learnt):
+    """b.tif's scan widened by 500 px on the left: its film lies 250 px (20 mm) off the place the profile's
+    positions give it from the scan's centre, beyond ROLL_SHIFT_MM, and the whole frame is searched."""
+    folder, truths = roll
+    image = tifffile.imread(folder / "b.tif")
+    res = aerofid.orient_frame(np.pad(image, ((0, 0), (500, 0)), mode="edge"), CAMERA, profile=learnt)
+    assert (res.status, res.searched) == ("ok", "whole frame"), res.reasons
+    marks = truths["b.tif"].marks
+    assert max(math.hypot(f.x - 500 - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials) < 0.1
+
+
 def test_a_frame_that_disagrees_with_the_profile_is_flagged_for_review(roll, learnt):
     folder, _ = roll
     res = aerofid.orient_frame(folder / "c.tif", CAMERA, profile=learnt)
@@ -104,6 +134,9 @@ def test_learning_from_a_doubtful_frame_writes_nothing(tmp_path):
     ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": "big", '
      '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
      '"mark_radius_mm": 2}', "mistypes"),
+    ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
+     '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
+     '"mark_radius_mm": 2, "positions_px": {"1": [10.0]}}', "mistypes"),
 ])
 def test_a_bad_profile_is_one_line(tmp_path, text, message):
     (tmp_path / "roll.json").write_text(text)

@@ -373,6 +373,24 @@ def _refine(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, ro
     return LayoutMatch(pred, matched, A, rot, mir, pixel_mm, tol, turn)
 
 
+def layout_at(points: np.ndarray, fiducials_mm: np.ndarray, rotation_deg: int, mirrored: bool, y_axis: str,
+              tolerance_px: float) -> LayoutMatch:
+    """The layout whose fiducials lie at ``points`` (n x 2 px, in the camera's order; e.g. where a roll's profile
+    had them) in the lie ``(rotation_deg, mirrored)``, with no feature matched: ``tolerance_px`` says how far a
+    mark may lie from its point.
+
+    >>> m = layout_at(np.array([[100.0, 100.0], [300.0, 100.0], [300.0, 300.0]]),
+    ...               np.array([[-10.0, 10.0], [10.0, 10.0], [10.0, -10.0]]), 0, False, "up", 50.0)
+    >>> round(m.pixel_size_mm, 3), m.matched
+    (0.1, (None, None, None))
+    """
+    turn = np.linalg.inv(arrangement_matrix(rotation_deg, mirrored, y_axis))
+    A = _fit_turned(fiducials_mm, points, turn)
+    pixel_mm = 1.0 / math.sqrt(abs(np.linalg.det(A[:, :2])))
+    return LayoutMatch(np.asarray(points, float), (None,) * len(points), A, rotation_deg, mirrored, pixel_mm,
+                       tolerance_px, turn)
+
+
 def _nearest(features: np.ndarray, pred: np.ndarray, tol: float) -> tuple[int | None, ...]:
     """For each prediction the nearest feature within ``tol``, each feature taken once (nearest pairs first)."""
     d = np.hypot(*(pred[:, None, :] - features[None, :, :]).transpose(2, 0, 1))
@@ -427,5 +445,5 @@ def _apply(A: np.ndarray, mm: np.ndarray) -> np.ndarray:
     return np.c_[mm, np.ones(len(mm))] @ A.T
 
 
-__all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_candidates", "match_layout",
+__all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_at", "layout_candidates", "match_layout",
            "pixel_size_range", "can_end_early", "prior_order", "scale_grid"]

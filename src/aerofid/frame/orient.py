@@ -47,7 +47,18 @@ from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, can_end_early, layout_candidates
 from aerofid.frame.nominal import DEFAULT_FORMAT, UNCALIBRATED, extra_marks, format_name, nominal_camera
 from aerofid.frame.profile import METHODS, RollProfile, disagreements
-from aerofid.frame.result import DOUBTFUL, FAILED, FOUND_MARK, MISSING_MARK, OK, FiducialFinding, FrameOrientation
+from aerofid.frame.result import (
+    DOUBTFUL,
+    FAILED,
+    FOUND_MARK,
+    MISSING_MARK,
+    OK,
+    ROLL_AREAS,
+    WHOLE_FRAME,
+    FiducialFinding,
+    FrameOrientation,
+)
+from aerofid.frame.roll_areas import roll_layout
 from aerofid.frame.verdict import adjusted_pixel_mm, verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
@@ -159,21 +170,14 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         # a nominal layout's scale is not the scan's: the layout search finds it
         size, size_source = ((None, "estimated") if nominal is not None
                              else scan_pixel_size(source, cam, pixel_size_mm, profile))
-        features, f = frame_features(source)
-        fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
-        name = "" if source.path is None else os.path.basename(str(source.path))
-        head = dict(image=name, camera=cam.name, width=source.width, height=source.height, features=len(features),
-                    reduction=f)
         measurer = Measurer(source, detector, polarities, colour)
-        search = _Search(source, features, f, cam.y_axis, size, measurer, profile, nominal is not None)
-
-        def judged(layout: LayoutMatch, located: list[tuple[Located | None, str]]) -> FrameOrientation:
-            return _judged(cam, layout, located, model, head, size, size_source, lie, profile)
-
+        frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None)
         extras = {} if nominal is not None else extra_marks(cam)
-        best = search.with_format_marks(fid_mm, extras, judged, search.best(fid_mm, judged))
-        if best is None:
-            return _no_layout(head, len(fid_mm), size, size_source)
+        best = frame.in_roll_areas()
+        if best is None or not best.ok:
+            features, f = frame_features(source)
+            whole = frame.oriented(features, f, WHOLE_FRAME, extras)
+            best = whole if best is None or _standing(whole) > _standing(best) else best
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
     if nominal is not None:
@@ -181,6 +185,58 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
     return best
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """One scan, its camera and the options: the frame oriented on a set of features (:meth:`oriented`)."""
+
+    source: ImageSource
+    cam: Camera
+    measurer: Measurer
+    model: str
+    size: float | None
+    size_source: str
+    lie: tuple[int, bool] | None
+    profile: RollProfile | None
+    nominal: bool
+
+    def oriented(self, features: tuple[Candidate, ...], f: int, searched: str,
+                 extras: dict[str, tuple[float, float]]) -> FrameOrientation:
+        """Steps 2-4 on ``features`` screened at reduction ``f`` (``searched``: where), with the format's other
+        marks ``extras`` to fall back on (:meth:`_Search.with_format_marks`); failed when they hold no layout."""
+        cam = self.cam
+        fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
+        head = self.head(len(features), f, searched)
+        search = _Search(self.source, features, f, cam.y_axis, self.size, self.measurer, self.profile, self.nominal)
+
+        def judged(layout: LayoutMatch, located: list[tuple[Located | None, str]]) -> FrameOrientation:
+            return _judged(cam, layout, located, self.model, head, self.size, self.size_source, self.lie,
+                           self.profile)
+
+        best = search.with_format_marks(fid_mm, extras, judged, search.best(fid_mm, judged))
+        return _no_layout(head, len(fid_mm), self.size, self.size_source) if best is None else best
+
+    def in_roll_areas(self) -> FrameOrientation | None:
+        """The frame measured on the roll profile's layout (:mod:`aerofid.frame.roll_areas`), nothing screened;
+        None without a profile's positions or a pixel size."""
+        if self.profile is None or self.size is None:
+            return None
+        fid_mm = np.array([[d.x_mm, d.y_mm] for d in self.cam.fiducials])
+        layout = roll_layout(self.profile, [d.name for d in self.cam.fiducials], fid_mm, self.cam.y_axis,
+                             (self.source.width, self.source.height), self.size)
+        if layout is None:
+            return None
+        located = measure_marks(self.measurer, layout, fid_mm, (), self.profile, follow=True)
+        return _judged(self.cam, layout, located, self.model, self.head(0, 1, ROLL_AREAS), self.size,
+                       self.size_source, self.lie, self.profile)
+
+    def head(self, features: int, reduction: int, searched: str) -> dict[str, Any]:
+        """The :class:`FrameOrientation` fields that say what was oriented and how it was searched."""
+        source = self.source
+        return dict(image="" if source.path is None else os.path.basename(str(source.path)), camera=self.cam.name,
+                    width=source.width, height=source.height, features=features, reduction=reduction,
+                    searched=searched)
 
 
 @dataclass(frozen=True)
@@ -340,8 +396,8 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 
 
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
-                  features: tuple[Candidate, ...],
-                  profile: RollProfile | None = None) -> list[tuple[Located | None, str]]:
+                  features: tuple[Candidate, ...], profile: RollProfile | None = None,
+                  follow: bool = False) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
     strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at
     full resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is
@@ -350,7 +406,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction of a transformation
     fitted to them (:meth:`LayoutMatch.predict_from`; to a few px, :data:`REFINED_TOLERANCE_MM`). The
     adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the method and the marks'
-    size from the first mark on."""
+    size from the first mark on. With ``follow`` (a roll's layout, whose film may have moved: no features), the
+    predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean shift from theirs."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
@@ -371,7 +428,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             name = name or _frame_method(out, done)
             alone_tolerance = max(FRAME_METHOD_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
         else:
-            at = (float(layout.predicted[k][0]), float(layout.predicted[k][1]))
+            moved = [np.subtract(_xy(out[j][0]), layout.predicted[j]) for j in done] if follow else []
+            shift = np.mean(moved, axis=0) if moved else np.zeros(2)
+            at = (float(layout.predicted[k][0] + shift[0]), float(layout.predicted[k][1] + shift[1]))
             m = layout.matched[k]
             start = (Candidate(at[0], at[1], profile.mark_radius_px(layout.pixel_size_mm), 0.0) if profile is not None
                      else Candidate(at[0], at[1], _median_extent(out, done), 0.0) if done
@@ -379,7 +438,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
             tolerance = alone_tolerance = layout.tolerance_px
             name = name or (_frame_method(out, done) if done else None)
-        quick = (_by_method(measurer, name, _coarse(measurer, name, start), at, alone_tolerance)
+        reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
+        quick = (_by_method(measurer, name, _coarse(measurer, name, start, reach), at, alone_tolerance)
                  if name is not None and len(measurer.polarities) == 1 else None)
         if quick is None:
             quick = _coarse_first(measurer, start, at, tolerance)
@@ -424,6 +484,11 @@ def measure_extra_marks(measurer: Measurer, res: FrameOrientation,
                                    residual_px=math.hypot(got.x - at[0], got.y - at[1]), method=d.method,
                                    located=got))
     return tuple(out)
+
+
+def _xy(m: Located | None) -> tuple[float, float]:
+    assert m is not None
+    return m.x, m.y
 
 
 def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> float:
@@ -487,18 +552,19 @@ def _coarse_first(measurer: Measurer, start: Candidate, at: tuple[float, float],
                       at, tolerance)
 
 
-def _coarse(measurer: Measurer, name: str, start: Candidate) -> Candidate:
+def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0) -> Candidate:
     """Where a later mark is measured at full resolution: ``start`` (its prediction, sized like the marks) moved
     to the centre and extent the method ``name`` finds there on the scan reduced by :func:`_coarse_factor`, so
     that the full-resolution window is the re-centred one at once (:func:`_by_method`); ``start`` when the marks
-    are too small to reduce or the coarse measurement finds nothing."""
+    are too small to reduce or the coarse measurement finds nothing. ``reach``: how far (px) the mark may lie from
+    ``start``, added to the window's half-size."""
     f = _coarse_factor(start.radius)
     if f == 1:
         return start
     view = ReducedView(measurer.source, f)
     small = _reduced(start, view)
-    coarse = replace(measurer.alone(name), source=view).at(small.x, small.y,
-                                                                  recentred_half(small.radius, ALONE_WINDOW), small)
+    half = recentred_half(small.radius, ALONE_WINDOW) + reach / view.factor
+    coarse = replace(measurer.alone(name), source=view).at(small.x, small.y, half, small)
     return _full(coarse, view) if coarse.found else start
 
 

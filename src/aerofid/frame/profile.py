@@ -7,6 +7,8 @@ stores them from one frame oriented ok (:func:`learn_profile`); ``aerofid orient
 - takes the pixel size and the lie from it (a symmetric layout's lie is no longer open),
 - measures every mark by the learnt method alone from the first one on, on the window the learnt size gives
   (the frame's geometry checks it; ``auto`` is the fallback), and
+- searches the areas around where the learnt frame had its fiducials first (``positions_px``,
+  :mod:`aerofid.frame.roll_areas`), the whole frame only when that does not give an ok frame, and
 - flags a frame that disagrees with it for review (:func:`disagreements`): another lie, another pixel size,
   marks of another size or polarity, or marks the learnt method did not find.
 """
@@ -70,6 +72,10 @@ class RollProfile:
         The marks' median radius by that method's model (film mm).
     image : str
         The frame it was learnt from.
+    positions_px : tuple of (name, dx, dy)
+        Each fiducial's pixel position on the learnt scan, from the scan's centre ``((width - 1) / 2,
+        (height - 1) / 2)``: the mark found, else where the frame's orientation (or layout) put it. Empty in a profile
+        written without them (by an earlier aerofid): the whole frame is then searched.
     """
 
     camera: str
@@ -80,6 +86,7 @@ class RollProfile:
     method: str
     mark_radius_mm: float
     image: str = ""
+    positions_px: tuple[tuple[str, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         if (self.rotation_deg, self.mirrored) not in ARRANGEMENTS:
@@ -91,6 +98,8 @@ class RollProfile:
         for what, v in (("pixel_size_mm", self.pixel_size_mm), ("mark_radius_mm", self.mark_radius_mm)):
             if not (math.isfinite(v) and 0 < v < 50):
                 raise AerofidInputError(f"profile: {what} {v!r} must be a positive size in mm")
+        if not all(math.isfinite(dx) and math.isfinite(dy) for _, dx, dy in self.positions_px):
+            raise AerofidInputError("profile: positions_px must be finite pixel offsets")
 
     def mark_radius_px(self, pixel_size_mm: float) -> float:
         return self.mark_radius_mm / pixel_size_mm
@@ -106,7 +115,7 @@ class RollProfile:
                 "pixel_size_mm": self.pixel_size_mm, "lie": {"rotation_deg": self.rotation_deg,
                                                              "mirrored": self.mirrored},
                 "polarity": self.polarity, "method": self.method, "mark_radius_mm": self.mark_radius_mm,
-                "image": self.image}
+                "image": self.image, "positions_px": {k: [dx, dy] for k, dx, dy in self.positions_px}}
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "profile") -> RollProfile:
@@ -122,7 +131,7 @@ class RollProfile:
             return cls(camera=str(d["camera"]), pixel_size_mm=_number(d["pixel_size_mm"]),
                        rotation_deg=int(lie["rotation_deg"]), mirrored=_flag(lie["mirrored"]),
                        polarity=d["polarity"], method=str(d["method"]), mark_radius_mm=_number(d["mark_radius_mm"]),
-                       image=str(d.get("image", "")))
+                       image=str(d.get("image", "")), positions_px=_positions(d.get("positions_px", {})))
         except (KeyError, TypeError) as e:
             raise AerofidInputError(f"{source}: the profile lacks or mistypes {e}: learn it again") from None
         except AerofidInputError as e:
@@ -133,6 +142,13 @@ def _number(v: Any) -> float:
     if isinstance(v, bool) or not isinstance(v, int | float):
         raise TypeError(repr(v))
     return float(v)
+
+
+def _positions(d: Any) -> tuple[tuple[str, float, float], ...]:
+    """``positions_px`` as :meth:`RollProfile.to_dict` writes it: name -> [dx, dy]."""
+    if not isinstance(d, dict) or not all(isinstance(v, list) and len(v) == 2 for v in d.values()):
+        raise TypeError("positions_px")
+    return tuple((str(k), _number(v[0]), _number(v[1])) for k, v in d.items())
 
 
 def _flag(v: Any) -> bool:
@@ -161,10 +177,18 @@ def learn_profile(res: FrameOrientation, measured: Mapping[str, Sequence[float]]
     if not methods or res.rotation_deg is None or res.mirrored is None or res.orientation is None:
         raise AerofidInputError("cannot learn from this frame: its marks were not found by a seed method alone")
     size = _pixel_mm(res)
+    cx, cy = (res.width - 1) / 2, (res.height - 1) / 2
+    positions = []
+    for f in res.fiducials:
+        x, y = f.predicted_x, f.predicted_y
+        if f.status == FOUND_MARK and f.x is not None and f.y is not None:
+            x, y = f.x, f.y
+        positions.append((f.name, x - cx, y - cy))
     return RollProfile(camera=res.camera, pixel_size_mm=size, rotation_deg=res.rotation_deg,
                        mirrored=res.mirrored, polarity=Counter(m.polarity for m in found).most_common(1)[0][0],
                        method=Counter(methods).most_common(1)[0][0],
-                       mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image)
+                       mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image,
+                       positions_px=tuple(positions))
 
 
 def _check_measured(res: FrameOrientation, measured: Mapping[str, Sequence[float]]) -> None:

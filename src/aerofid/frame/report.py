@@ -38,7 +38,8 @@ def frame_text(res: FrameOrientation) -> str:
     L = [f"Frame {res.image or '(image)'} ({res.width} x {res.height}) with camera {res.camera!r}: {res.status}"]
     L += [f"  - {r}" for r in res.reasons]
     w = max([10] + [len(f.name) for f in (*res.fiducials, *res.extra_marks)])
-    L += [f"pixel size {size}; film lie {lie}; {res.features} features screened at 1/{res.reduction}", "",
+    L += [f"pixel size {size}; film lie {lie}; {res.features} features screened at 1/{res.reduction} ({res.searched})",
+          "",
           f"{'fiducial':>{w}} {'x_px':>11} {'y_px':>11} {'sx_px':>7} {'sy_px':>7} {'resid_px':>8}  status"]
     L += [_line(f, w) for f in res.fiducials]
     if res.extra_marks:

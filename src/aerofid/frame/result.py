@@ -16,6 +16,9 @@ REJECTED_MARK = "rejected"
 MISSING_MARK = "not_found"
 """No mark was found where the frame's geometry puts the fiducial."""
 
+WHOLE_FRAME, ROLL_AREAS = "whole frame", "roll areas"
+"""Where the frame's features were screened: the whole frame read reduced, or only the areas around where a roll
+profile's frame had its fiducials (:mod:`aerofid.frame.roll_areas`)."""
 OK, DOUBTFUL, FAILED = "ok", "doubtful", "failed"
 """A frame's verdict: the orientation can be used / should be looked at / there is none."""
 
@@ -64,6 +67,9 @@ class FrameOrientation:
     pixel_size_mm : float or None
         The pixel size the search assumed, and where it came from (``pixel_size_source``: "given", "tags",
         "camera" or "estimated" from the marks' layout).
+    features, reduction, searched : int, int, str
+        How many mark-like features the layout was sought among, the reduction they were screened at, and where:
+        :data:`WHOLE_FRAME` or :data:`ROLL_AREAS`.
     """
 
     image: str
@@ -80,6 +86,7 @@ class FrameOrientation:
     pixel_size_source: str
     features: int = 0
     reduction: int = 1
+    searched: str = WHOLE_FRAME
     extra_marks: tuple[FiducialFinding, ...] = ()
     """The marks of the film's format that the camera file does not list (the midside marks of a 23 cm camera
     whose certificate calibrates its corners), found at their nominal positions by the orientation
@@ -99,10 +106,10 @@ class FrameOrientation:
                 "fiducials": [f.to_dict() for f in self.fiducials],
                 "rotation_deg": self.rotation_deg, "mirrored": self.mirrored,
                 "pixel_size_mm": finite_or_none(self.pixel_size_mm), "pixel_size_source": self.pixel_size_source,
-                "screening": {"features": self.features, "reduction": self.reduction},
+                "screening": {"features": self.features, "reduction": self.reduction, "searched": self.searched},
                 "orientation": None if self.orientation is None else self.orientation.to_dict(),
                 "extra_marks": [f.to_dict() for f in self.extra_marks]}
 
 
-__all__ = ["DOUBTFUL", "FAILED", "FOUND_MARK", "MISSING_MARK", "OK", "REJECTED_MARK", "FiducialFinding",
-           "FrameOrientation"]
+__all__ = ["DOUBTFUL", "FAILED", "FOUND_MARK", "MISSING_MARK", "OK", "REJECTED_MARK", "ROLL_AREAS", "WHOLE_FRAME",
+           "FiducialFinding", "FrameOrientation"]

@@ -454,6 +454,24 @@ def _best_assignment_by_definition(px, Cp, lim):
     return next(a for c, a in solved if c <= least + 1e-9 * max(least, 1.0))
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 9), st.integers(0, 4), st.floats(0.0, 2.0))
+def test_the_assignment_is_optimal(seed, n, missing, spread):
+    """``_assignment`` costs what the Hungarian method's optimum costs, with distinct columns, whether each row's
+    nearest column is distinct (``spread`` small: rows near their own column) or not."""
+    import scipy.optimize
+
+    from aerofid.orientation.correspondence import _assignment
+
+    rng = np.random.default_rng(seed)
+    m = max(1, n - missing)
+    D = rng.uniform(0, 1, (m, n)) + (np.eye(m, n) * -spread if spread > 1 else 0)
+    rows, cols = _assignment(D)
+    best_rows, best_cols = scipy.optimize.linear_sum_assignment(D)
+    assert len(set(cols.tolist())) == m and sorted(rows.tolist()) == list(range(m))
+    assert D[rows, cols].sum() == pytest.approx(D[best_rows, best_cols].sum(), rel=1e-12)
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 10_000), st.integers(3, 8), st.integers(0, 4), st.floats(0.0, 3.0), st.booleans())
 def test_best_assignment_is_the_definitions(seed, n, missing, noise_px, symmetric):

@@ -183,11 +183,23 @@ def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, .
     for h in np.argsort(bound, kind="stable"):
         if bound[h] > least + TIE * max(least, 1.0):
             break
-        rows, cols = scipy.optimize.linear_sum_assignment(D[h])
+        rows, cols = _assignment(D[h])
         cost = float(D[h][rows, cols].sum())
         least = min(least, cost)
         solved.append((cost, int(order[h]), tuple(int(c) for c in cols[np.argsort(rows)])))
     return min((k, a) for c, k, a in solved if c <= least + TIE * max(least, 1.0))[1]
+
+
+def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The optimal assignment of the rows of ``D`` (m <= n) to distinct columns, as ``linear_sum_assignment``
+    gives it: each row's nearest column when those are distinct (their sum is the least any assignment can cost),
+    else the Hungarian method (scipy.optimize, loaded only then: a frame whose marks lie near their predictions
+    does not pay for its import)."""
+    cols = D.argmin(axis=1)
+    if len(np.unique(cols)) == len(cols):
+        return np.arange(len(cols)), cols
+    rows, cols = scipy.optimize.linear_sum_assignment(D)
+    return rows, cols
 
 
 def _pair_similarities(p1: np.ndarray, dm: np.ndarray, Cp: np.ndarray, j1: np.ndarray, j2: np.ndarray,

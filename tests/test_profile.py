@@ -7,6 +7,7 @@ import json
 import math
 import subprocess
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -81,7 +82,8 @@ def test_the_next_frame_is_measured_in_the_roll_areas_without_screening(roll, le
     assert (whole.status, whole.searched) == ("ok", "whole frame") and whole.features > 0
     apart = [math.hypot(f.x - g.x, f.y - g.y) for f, g in zip(res.fiducials, whole.fiducials, strict=True)]
     assert max(apart) < 0.01, apart
-    assert "(roll areas)" in frame_text(res) and res.to_dict()["screening"]["searched"] == "roll areas"
+    assert "marks sought in the roll areas" in frame_text(res)
+    assert res.to_dict()["screening"]["searched"] == "roll areas"
 
 
 def test_a_frame_whose_film_lies_beyond_the_roll_areas_is_searched_whole(roll, learnt):
@@ -93,6 +95,28 @@ def test_a_frame_whose_film_lies_beyond_the_roll_areas_is_searched_whole(roll, l
     assert (res.status, res.searched) == ("ok", "whole frame"), res.reasons
     marks = truths["b.tif"].marks
     assert max(math.hypot(f.x - 500 - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials) < 0.1
+
+
+@pytest.mark.parametrize("moved", ["off the scan", "all at one place", "far away"])
+def test_positions_that_do_not_fit_the_scan_leave_the_whole_frame_to_search(roll, learnt, moved):
+    """Positions learnt on a scan whose film lay 2000 px to the right (some now predicted off this scan), a
+    profile edited to put every fiducial at one place or 1e300 px away: no error, the whole frame searched, ok."""
+    folder, truths = roll
+    positions = {"off the scan": tuple((n, dx + 2000.0, dy) for n, dx, dy in learnt.positions_px),
+                 "all at one place": tuple((n, 5.0, 5.0) for n, _, _ in learnt.positions_px),
+                 "far away": tuple((n, dx * 1e300, dy) for n, dx, dy in learnt.positions_px)}[moved]
+    res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=replace(learnt, positions_px=positions))
+    assert (res.status, res.searched) == ("ok", "whole frame"), res.reasons
+    marks = truths["b.tif"].marks
+    assert max(math.hypot(f.x - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials) < 0.1
+
+
+def test_a_wrong_pixel_size_with_a_profile_gives_an_answer_not_an_error(roll, learnt):
+    """--pixel-size twice the scan's: the profile's positions are predicted twice as far from the centre (off the
+    scan): the frame is judged (not ok, with the reasons), never an exception."""
+    folder, _ = roll
+    res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt, pixel_size_mm=2 * COARSE_MM)
+    assert res.status in ("doubtful", "failed") and res.reasons
 
 
 def test_a_frame_that_disagrees_with_the_profile_is_flagged_for_review(roll, learnt):

@@ -69,7 +69,7 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
             return run_frame(image, camera_path, pixel_size=pixel_size, lie=lie, model=model, as_json=as_json,
                              output=output, micmac_dir=micmac_dir, profile_path=profile_path,
                              metashape=metashape_path)
-        raise AerofidInputError("give the scan (aerofid orient IMAGE --camera CAMERA) or --measurements FILE "
+        raise AerofidInputError("give the scan (aerofid orient IMAGE [--camera CAMERA]) or --measurements FILE "
                                 "(fiducial pixel coordinates)")
     if camera_path is None:
         raise AerofidInputError("--measurements needs the camera file: --camera CAMERA (JSON/YAML certificate or "

@@ -386,7 +386,8 @@ def layout_at(points: np.ndarray, fiducials_mm: np.ndarray, rotation_deg: int, m
     """
     turn = np.linalg.inv(arrangement_matrix(rotation_deg, mirrored, y_axis))
     A = _fit_turned(fiducials_mm, points, turn)
-    pixel_mm = 1.0 / math.sqrt(abs(np.linalg.det(A[:, :2])))
+    det = abs(float(np.linalg.det(A[:, :2])))
+    pixel_mm = 1.0 / math.sqrt(det) if det > 0 else math.inf
     return LayoutMatch(np.asarray(points, float), (None,) * len(points), A, rotation_deg, mirrored, pixel_mm,
                        tolerance_px, turn)
 

@@ -104,6 +104,8 @@ EXTRA_TOLERANCE_MM = 2.0
 """How far (film mm) a mark the camera file does not list may lie from where the orientation puts its nominal
 position (:func:`measure_extra_marks`; the 23 cm layout's marks lie within a few tenths of a mm of it on the
 Wild cameras: the real RC20 frame's midside marks 0.1-0.2 mm)."""
+REVIEW = "review: "
+"""How the reasons start that say where a frame disagrees with its roll's profile."""
 ALTERNATIVES = 3
 """Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
 the first whose frame is ok is taken."""
@@ -174,10 +176,12 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None)
         extras = {} if nominal is not None else extra_marks(cam)
         best = frame.in_roll_areas()
-        if best is None or not best.ok:
+        if best is None or not _settled(best):
             features, f = frame_features(source)
             whole = frame.oriented(features, f, WHOLE_FRAME, extras)
-            best = whole if best is None or _standing(whole) > _standing(best) else best
+            if whole is None and best is None:
+                return _no_layout(frame.head(len(features), f, WHOLE_FRAME), len(cam.fiducials), size, size_source)
+            best = _better(best, whole)
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
     if nominal is not None:
@@ -202,9 +206,9 @@ class _Frame:
     nominal: bool
 
     def oriented(self, features: tuple[Candidate, ...], f: int, searched: str,
-                 extras: dict[str, tuple[float, float]]) -> FrameOrientation:
+                 extras: dict[str, tuple[float, float]]) -> FrameOrientation | None:
         """Steps 2-4 on ``features`` screened at reduction ``f`` (``searched``: where), with the format's other
-        marks ``extras`` to fall back on (:meth:`_Search.with_format_marks`); failed when they hold no layout."""
+        marks ``extras`` to fall back on (:meth:`_Search.with_format_marks`); None when they hold no layout."""
         cam = self.cam
         fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
         head = self.head(len(features), f, searched)
@@ -214,8 +218,7 @@ class _Frame:
             return _judged(cam, layout, located, self.model, head, self.size, self.size_source, self.lie,
                            self.profile)
 
-        best = search.with_format_marks(fid_mm, extras, judged, search.best(fid_mm, judged))
-        return _no_layout(head, len(fid_mm), self.size, self.size_source) if best is None else best
+        return search.with_format_marks(fid_mm, extras, judged, search.best(fid_mm, judged))
 
     def in_roll_areas(self) -> FrameOrientation | None:
         """The frame measured on the roll profile's layout (:mod:`aerofid.frame.roll_areas`), nothing screened;
@@ -354,7 +357,22 @@ def _reviewed(res: FrameOrientation, doubts: list[str]) -> FrameOrientation:
     """``res`` doubtful for review when it disagrees with the roll's profile (``doubts``)."""
     if not doubts:
         return res
-    return replace(res, status=DOUBTFUL, reasons=(*res.reasons, *(f"review: {d}" for d in doubts)))
+    return replace(res, status=DOUBTFUL, reasons=(*res.reasons, *(f"{REVIEW}{d}" for d in doubts)))
+
+
+def _settled(res: FrameOrientation) -> bool:
+    """Whether a frame measured in the roll's areas needs no whole-frame search: every fiducial found, and ok but
+    for the roll's review (another lie or pixel size, which a second search would not change)."""
+    return (all(f.status != MISSING_MARK for f in res.fiducials)
+            and (res.ok or (res.orientation is not None and all(r.startswith(REVIEW) for r in res.reasons))))
+
+
+def _better(first: FrameOrientation | None, second: FrameOrientation | None) -> FrameOrientation:
+    """The better (:func:`_standing`) of two answers, the first of a tie; at least one is given."""
+    if first is None or (second is not None and _standing(second) > _standing(first)):
+        assert second is not None
+        return second
+    return first
 
 
 def _standing(res: FrameOrientation) -> tuple[int, int]:
@@ -438,6 +456,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
             tolerance = alone_tolerance = layout.tolerance_px
             name = name or (_frame_method(out, done) if done else None)
+        if outside := _outside(measurer, at):
+            out[k] = (None, outside)
+            continue
         reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
         quick = (_by_method(measurer, name, _coarse(measurer, name, start, reach), at, alone_tolerance)
                  if name is not None and len(measurer.polarities) == 1 else None)
@@ -474,7 +495,8 @@ def measure_extra_marks(measurer: Measurer, res: FrameOrientation,
     for mark, p in zip(extras, res.orientation.to_pixel(list(extras.values())), strict=True):
         at = (float(p[0]), float(p[1]))
         start = Candidate(at[0], at[1], radius, 0.0)
-        got = None if name is None else _by_method(measurer, name, _coarse(measurer, name, start), at, tolerance)
+        got = (None if name is None or _outside(measurer, at)
+               else _by_method(measurer, name, _coarse(measurer, name, start), at, tolerance))
         got, why = (got, "") if got is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if got is None:
             out.append(FiducialFinding(mark, MISSING_MARK, None, None, None, None, *at, reason=why))
@@ -557,9 +579,9 @@ def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0)
     to the centre and extent the method ``name`` finds there on the scan reduced by :func:`_coarse_factor`, so
     that the full-resolution window is the re-centred one at once (:func:`_by_method`); ``start`` when the marks
     are too small to reduce or the coarse measurement finds nothing. ``reach``: how far (px) the mark may lie from
-    ``start``, added to the window's half-size."""
+    ``start``, added to the window's half-size (then marks too small to reduce are sought so too, unreduced)."""
     f = _coarse_factor(start.radius)
-    if f == 1:
+    if f == 1 and reach <= 0:
         return start
     view = ReducedView(measurer.source, f)
     small = _reduced(start, view)
@@ -599,8 +621,9 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
     """One fiducial: the mark measured from ``start`` (a feature, or the prediction sized like the marks), else in
     ``other_polarity`` (a ring and cross on film is a mark in both: each loses some windows), else the mark
     nearest the prediction ``at`` in its area searched like a region, within ``tolerance`` px."""
-    if not in_box(at[0], at[1], (0, 0, measurer.source.width, measurer.source.height)):
-        return None, f"the predicted ({at[0]:.0f}, {at[1]:.0f}) lies outside the scan"
+    outside = _outside(measurer, at)
+    if outside:
+        return None, outside
     got = measurer.candidate(start)
     if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
         return got, ""
@@ -617,6 +640,13 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
     why = got.detection.reason or "no mark"
     return None, (f"no mark within {tolerance:.0f} px of the predicted ({at[0]:.0f}, {at[1]:.0f}) in the area "
                   f"{area[0]},{area[1]},{area[2]},{area[3]} (at the prediction: {why})")
+
+
+def _outside(measurer: Measurer, at: tuple[float, float]) -> str:
+    """Why no mark is sought at ``at``: it lies outside the scan; "" when it lies inside."""
+    if in_box(at[0], at[1], (0, 0, measurer.source.width, measurer.source.height)):
+        return ""
+    return f"the predicted ({at[0]:.0f}, {at[1]:.0f}) lies outside the scan"
 
 
 def _nearest_mark(measurer: Measurer, area: Box, at: tuple[float, float], tolerance: float,

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from aerofid.find import reduction_for
-from aerofid.frame.result import FOUND_MARK, MISSING_MARK, FiducialFinding, FrameOrientation
+from aerofid.frame.result import FOUND_MARK, MISSING_MARK, ROLL_AREAS, FiducialFinding, FrameOrientation
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
 from aerofid.orientation.report import residual_plot_svg, to_text
@@ -38,8 +38,9 @@ def frame_text(res: FrameOrientation) -> str:
     L = [f"Frame {res.image or '(image)'} ({res.width} x {res.height}) with camera {res.camera!r}: {res.status}"]
     L += [f"  - {r}" for r in res.reasons]
     w = max([10] + [len(f.name) for f in (*res.fiducials, *res.extra_marks)])
-    L += [f"pixel size {size}; film lie {lie}; {res.features} features screened at 1/{res.reduction} ({res.searched})",
-          "",
+    searched = (f"{res.features} features screened at 1/{res.reduction} ({res.searched})" if res.searched != ROLL_AREAS
+                else "marks sought in the roll areas (where the profile's frame had them; nothing screened)")
+    L += [f"pixel size {size}; film lie {lie}; {searched}", "",
           f"{'fiducial':>{w}} {'x_px':>11} {'y_px':>11} {'sx_px':>7} {'sy_px':>7} {'resid_px':>8}  status"]
     L += [_line(f, w) for f in res.fiducials]
     if res.extra_marks:

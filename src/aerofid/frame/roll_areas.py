@@ -26,20 +26,30 @@ ROLL_SHIFT_MM = 10.0
 found in its area (the synthetic frames of the tests: up to 3 mm of shift per axis and 0.5 degree of turn each)."""
 
 
+LAYOUT_AGREEMENT = 0.05
+"""How far (relative) the pixel size of the profile's positions fitted to the camera's layout may differ from the
+scan's: positions that do not fit the camera file (edited by hand, or of another camera of the same name) are not
+used."""
+
+
 def roll_layout(profile: RollProfile, names: Sequence[str], fiducials_mm: np.ndarray, y_axis: str,
                 scan_size: tuple[int, int], pixel_size_mm: float) -> LayoutMatch | None:
     """The profile's layout on this scan: the fiducials ``names`` (their film mm ``fiducials_mm``) at the profile's
     positions from the scan's centre, scaled by the profile's pixel size over this scan's, in the profile's lie,
     each to be found within :data:`ROLL_SHIFT_MM`; None when the profile lacks a position for one of them (a
-    profile written without positions, or learnt with another camera file's names)."""
+    profile written without positions, or learnt with another camera file's names), or its positions do not fit
+    the camera's layout (:data:`LAYOUT_AGREEMENT`)."""
     known = {name: (dx, dy) for name, dx, dy in profile.positions_px}
     if not names or any(n not in known for n in names):
         return None
     scale = profile.pixel_size_mm / pixel_size_mm
     centre = np.array([(scan_size[0] - 1) / 2, (scan_size[1] - 1) / 2])
     points = centre + scale * np.array([known[n] for n in names], dtype=float)
-    return layout_at(points, fiducials_mm, profile.rotation_deg, profile.mirrored, y_axis,
-                     ROLL_SHIFT_MM / pixel_size_mm)
+    if not np.isfinite(points).all() or np.ptp(points, axis=0).min() <= 0:
+        return None
+    layout = layout_at(points, fiducials_mm, profile.rotation_deg, profile.mirrored, y_axis,
+                       ROLL_SHIFT_MM / pixel_size_mm)
+    return layout if abs(layout.pixel_size_mm / pixel_size_mm - 1) <= LAYOUT_AGREEMENT else None
 
 
-__all__ = ["ROLL_SHIFT_MM", "roll_layout"]
+__all__ = ["LAYOUT_AGREEMENT", "ROLL_SHIFT_MM", "roll_layout"]

@@ -18,6 +18,7 @@ import aerofid
 from aerofid.formats.camera_file import write_camera
 from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.frame.nominal import extra_marks
+from aerofid.frame.profile import learn_profile
 from aerofid.frame.report import frame_html, frame_text
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
@@ -225,6 +226,11 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     assert max(math.hypot(extra[n].x - x, extra[n].y - y) for n, (x, y) in boxes.items()) < 0.3
     # the nominal +-110 mm on the axes is within 0.25 mm of each (their film mm: docs/benchmarks_rc20.md)
     assert max(f.residual_px for f in extra.values()) < 0.25 / 0.0423
+    # a roll profile learnt from it finds the same marks where they lay, nothing screened
+    again = aerofid.orient_frame(RC20 / "15BCC02013_114.jpg", RC20 / "MeasuresCamera.xml", profile=learn_profile(res))
+    assert (again.status, again.searched) == ("ok", "roll areas"), again.reasons
+    pairs = [*zip(res.fiducials, again.fiducials, strict=True), *zip(res.extra_marks, again.extra_marks, strict=True)]
+    assert max(math.hypot(f.x - g.x, f.y - g.y) for f, g in pairs) < 0.01
 
 
 def test_a_camera_file_of_the_corners_alone_gets_the_formats_midside_marks_found_too(tmp_path):

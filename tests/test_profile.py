@@ -71,17 +71,24 @@ def test_a_profile_learnt_from_one_frame_orients_the_next_one(roll, learnt):
 def test_the_next_frame_is_measured_in_the_roll_areas_without_screening(roll, learnt):
     """The profile keeps where a.tif's fiducials lay; b.tif (its film shifted up to 6 mm and turned up to 1 degree
     from a.tif's) is measured in the areas around them, nothing screened, at the marks the whole-frame search
-    finds; a profile without positions (an earlier aerofid's) searches the whole frame."""
+    finds, each mark's window sized by its own learnt radius; a profile without positions (an earlier aerofid's)
+    searches the whole frame."""
     folder, truths = roll
     assert [n for n, _, _ in learnt.positions_px] == [f.name for f in CAMERA.fiducials]
+    radii = dict(learnt.mark_radii_mm)
+    assert sorted(radii) == sorted(f.name for f in CAMERA.fiducials)
+    assert learnt.mark_radius_mm == pytest.approx(float(np.median(list(radii.values()))))
     assert RollProfile.from_dict(learnt.to_dict()) == learnt
     res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt)
     assert (res.status, res.searched, res.features) == ("ok", "roll areas", 0), res.reasons
     old = {k: v for k, v in learnt.to_dict().items() if k != "positions_px"}
     whole = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=RollProfile.from_dict(old))
     assert (whole.status, whole.searched) == ("ok", "whole frame") and whole.features > 0
+    # each mark's window sized by its own learnt radius (the whole frame's: the marks' median): within 0.05 px
     apart = [math.hypot(f.x - g.x, f.y - g.y) for f, g in zip(res.fiducials, whole.fiducials, strict=True)]
-    assert max(apart) < 0.01, apart
+    assert max(apart) < 0.05, apart
+    marks = truths["b.tif"].marks
+    assert max(math.hypot(f.x - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials) < 0.1
     assert "marks sought in the roll areas" in frame_text(res)
     assert res.to_dict()["screening"]["searched"] == "roll areas"
 
@@ -161,6 +168,9 @@ def test_learning_from_a_doubtful_frame_writes_nothing(tmp_path):
     ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
      '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
      '"mark_radius_mm": 2, "positions_px": {"1": [10.0]}}', "mistypes"),
+    ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
+     '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
+     '"mark_radius_mm": 2, "mark_radii_mm": {"1": -2.0}}', "positive sizes"),
 ])
 def test_a_bad_profile_is_one_line(tmp_path, text, message):
     (tmp_path / "roll.json").write_text(text)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -230,7 +230,8 @@ class _Frame:
                              (self.source.width, self.source.height), self.size)
         if layout is None:
             return None
-        located = measure_marks(self.measurer, layout, fid_mm, (), self.profile, follow=True)
+        radii = self.profile.radii_px([d.name for d in self.cam.fiducials], self.size)
+        located = measure_marks(self.measurer, layout, fid_mm, (), self.profile, follow=True, radii=radii)
         return _judged(self.cam, layout, located, self.model, self.head(0, 1, ROLL_AREAS), self.size,
                        self.size_source, self.lie, self.profile)
 
@@ -415,7 +416,7 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
                   features: tuple[Candidate, ...], profile: RollProfile | None = None,
-                  follow: bool = False) -> list[tuple[Located | None, str]]:
+                  follow: bool = False, radii: Sequence[float] | None = None) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
     strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at
     full resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is
@@ -425,7 +426,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     fitted to them (:meth:`LayoutMatch.predict_from`; to a few px, :data:`REFINED_TOLERANCE_MM`). The
     adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the method and the marks'
     size from the first mark on. With ``follow`` (a roll's layout, whose film may have moved: no features), the
-    predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean shift from theirs."""
+    predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean shift from theirs; ``radii``
+    (px, per fiducial: a roll's learnt sizes) size each mark's window."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
@@ -441,7 +443,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             found = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
             p = layout.predict_from(fiducials_mm, done, found)[k]
             at = (float(p[0]), float(p[1]))
-            start = Candidate(at[0], at[1], _median_extent(out, done), 0.0)
+            start = Candidate(at[0], at[1], radii[k] if radii is not None else _median_extent(out, done), 0.0)
             tolerance = max(REFINED_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
             name = name or _frame_method(out, done)
             alone_tolerance = max(FRAME_METHOD_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
@@ -450,7 +452,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             shift = np.mean(moved, axis=0) if moved else np.zeros(2)
             at = (float(layout.predicted[k][0] + shift[0]), float(layout.predicted[k][1] + shift[1]))
             m = layout.matched[k]
-            start = (Candidate(at[0], at[1], profile.mark_radius_px(layout.pixel_size_mm), 0.0) if profile is not None
+            start = (Candidate(at[0], at[1], radii[k], 0.0) if radii is not None
+                     else Candidate(at[0], at[1], profile.mark_radius_px(layout.pixel_size_mm), 0.0)
+                     if profile is not None
                      else Candidate(at[0], at[1], _median_extent(out, done), 0.0) if done
                      else _first_window(features[m]) if m is not None
                      else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))

@@ -76,6 +76,9 @@ class RollProfile:
         Each fiducial's pixel position on the learnt scan, from the scan's centre ``((width - 1) / 2,
         (height - 1) / 2)``: the mark found, else where the frame's orientation (or layout) put it. Empty in a profile
         written without them (by an earlier aerofid): the whole frame is then searched.
+    mark_radii_mm : tuple of (name, radius)
+        Each found mark's radius (film mm) by its method's model: a camera's marks differ (the Wild cameras' corner
+        and midside marks), and each is measured on the window its own size gives in the roll's areas.
     """
 
     camera: str
@@ -87,6 +90,7 @@ class RollProfile:
     mark_radius_mm: float
     image: str = ""
     positions_px: tuple[tuple[str, float, float], ...] = ()
+    mark_radii_mm: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         if (self.rotation_deg, self.mirrored) not in ARRANGEMENTS:
@@ -100,9 +104,16 @@ class RollProfile:
                 raise AerofidInputError(f"profile: {what} {v!r} must be a positive size in mm")
         if not all(math.isfinite(dx) and math.isfinite(dy) for _, dx, dy in self.positions_px):
             raise AerofidInputError("profile: positions_px must be finite pixel offsets")
+        if not all(math.isfinite(r) and 0 < r < 50 for _, r in self.mark_radii_mm):
+            raise AerofidInputError("profile: mark_radii_mm must be positive sizes in mm")
 
     def mark_radius_px(self, pixel_size_mm: float) -> float:
         return self.mark_radius_mm / pixel_size_mm
+
+    def radii_px(self, names: Sequence[str], pixel_size_mm: float) -> list[float]:
+        """Each fiducial's learnt mark radius (px), the marks' median where the learnt frame did not find it."""
+        own = dict(self.mark_radii_mm)
+        return [own.get(n, self.mark_radius_mm) / pixel_size_mm for n in names]
 
     def check_camera(self, camera_name: str) -> None:
         """Refuse (one line) a camera other than the one the profile was learnt with."""
@@ -115,7 +126,8 @@ class RollProfile:
                 "pixel_size_mm": self.pixel_size_mm, "lie": {"rotation_deg": self.rotation_deg,
                                                              "mirrored": self.mirrored},
                 "polarity": self.polarity, "method": self.method, "mark_radius_mm": self.mark_radius_mm,
-                "image": self.image, "positions_px": {k: [dx, dy] for k, dx, dy in self.positions_px}}
+                "image": self.image, "positions_px": {k: [dx, dy] for k, dx, dy in self.positions_px},
+                "mark_radii_mm": dict(self.mark_radii_mm)}
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "profile") -> RollProfile:
@@ -131,7 +143,8 @@ class RollProfile:
             return cls(camera=str(d["camera"]), pixel_size_mm=_number(d["pixel_size_mm"]),
                        rotation_deg=int(lie["rotation_deg"]), mirrored=_flag(lie["mirrored"]),
                        polarity=d["polarity"], method=str(d["method"]), mark_radius_mm=_number(d["mark_radius_mm"]),
-                       image=str(d.get("image", "")), positions_px=_positions(d.get("positions_px", {})))
+                       image=str(d.get("image", "")), positions_px=_positions(d.get("positions_px", {})),
+                       mark_radii_mm=_radii(d.get("mark_radii_mm", {})))
         except (KeyError, TypeError) as e:
             raise AerofidInputError(f"{source}: the profile lacks or mistypes {e}: learn it again") from None
         except AerofidInputError as e:
@@ -149,6 +162,13 @@ def _positions(d: Any) -> tuple[tuple[str, float, float], ...]:
     if not isinstance(d, dict) or not all(isinstance(v, list) and len(v) == 2 for v in d.values()):
         raise TypeError("positions_px")
     return tuple((str(k), _number(v[0]), _number(v[1])) for k, v in d.items())
+
+
+def _radii(d: Any) -> tuple[tuple[str, float], ...]:
+    """``mark_radii_mm`` as :meth:`RollProfile.to_dict` writes it: name -> radius."""
+    if not isinstance(d, dict):
+        raise TypeError("mark_radii_mm")
+    return tuple((str(k), _number(v)) for k, v in d.items())
 
 
 def _flag(v: Any) -> bool:
@@ -188,7 +208,9 @@ def learn_profile(res: FrameOrientation, measured: Mapping[str, Sequence[float]]
                        mirrored=res.mirrored, polarity=Counter(m.polarity for m in found).most_common(1)[0][0],
                        method=Counter(methods).most_common(1)[0][0],
                        mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image,
-                       positions_px=tuple(positions))
+                       positions_px=tuple(positions),
+                       mark_radii_mm=tuple((f.name, f.located.extent * size) for f in res.fiducials
+                                           if f.status == FOUND_MARK and f.located is not None))
 
 
 def _check_measured(res: FrameOrientation, measured: Mapping[str, Sequence[float]]) -> None:

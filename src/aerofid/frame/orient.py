@@ -178,10 +178,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         best = frame.in_roll_areas()
         if best is None or not _settled(best):
             features, f = frame_features(source)
-            whole = frame.oriented(features, f, WHOLE_FRAME, extras)
-            if whole is None and best is None:
+            best = _better(best, frame.oriented(features, f, WHOLE_FRAME, extras))
+            if best is None:
                 return _no_layout(frame.head(len(features), f, WHOLE_FRAME), len(cam.fiducials), size, size_source)
-            best = _better(best, whole)
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
     if nominal is not None:
@@ -210,7 +209,7 @@ class _Frame:
         """Steps 2-4 on ``features`` screened at reduction ``f`` (``searched``: where), with the format's other
         marks ``extras`` to fall back on (:meth:`_Search.with_format_marks`); None when they hold no layout."""
         cam = self.cam
-        fid_mm = np.array([[d.x_mm, d.y_mm] for d in cam.fiducials])
+        fid_mm = cam.xy_mm
         head = self.head(len(features), f, searched)
         search = _Search(self.source, features, f, cam.y_axis, self.size, self.measurer, self.profile, self.nominal)
 
@@ -225,13 +224,11 @@ class _Frame:
         None without a profile's positions or a pixel size."""
         if self.profile is None or self.size is None:
             return None
-        fid_mm = np.array([[d.x_mm, d.y_mm] for d in self.cam.fiducials])
-        layout = roll_layout(self.profile, [d.name for d in self.cam.fiducials], fid_mm, self.cam.y_axis,
-                             (self.source.width, self.source.height), self.size)
+        layout = roll_layout(self.profile, self.cam, (self.source.width, self.source.height), self.size)
         if layout is None:
             return None
-        radii = self.profile.radii_px([d.name for d in self.cam.fiducials], self.size)
-        located = measure_marks(self.measurer, layout, fid_mm, (), self.profile, follow=True, radii=radii)
+        radii = self.profile.radii_px(self.cam.names, self.size)
+        located = measure_marks(self.measurer, layout, self.cam.xy_mm, (), self.profile, follow=True, radii=radii)
         return _judged(self.cam, layout, located, self.model, self.head(0, 1, ROLL_AREAS), self.size,
                        self.size_source, self.lie, self.profile)
 
@@ -273,7 +270,6 @@ class _Search:
                 break
         return best
 
-
     def with_format_marks(self, fid_mm: np.ndarray, extras: dict[str, tuple[float, float]],
                           judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]], FrameOrientation],
                           best: FrameOrientation | None) -> FrameOrientation | None:
@@ -286,7 +282,7 @@ class _Search:
         n = len(fid_mm)
         again = self.best(np.vstack([fid_mm, list(extras.values())]),
                           lambda layout, located: judged(_first(layout, n), located[:n]))
-        return again if again is not None and (best is None or _standing(again) > _standing(best)) else best
+        return _better(best, again)
 
 
 def _first(layout: LayoutMatch, n: int) -> LayoutMatch:
@@ -368,10 +364,9 @@ def _settled(res: FrameOrientation) -> bool:
             and (res.ok or (res.orientation is not None and all(r.startswith(REVIEW) for r in res.reasons))))
 
 
-def _better(first: FrameOrientation | None, second: FrameOrientation | None) -> FrameOrientation:
-    """The better (:func:`_standing`) of two answers, the first of a tie; at least one is given."""
+def _better(first: FrameOrientation | None, second: FrameOrientation | None) -> FrameOrientation | None:
+    """The better (:func:`_standing`) of two answers (None: no answer), the first of a tie."""
     if first is None or (second is not None and _standing(second) > _standing(first)):
-        assert second is not None
         return second
     return first
 
@@ -440,7 +435,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
         done = [j for j in range(n) if out[j][0] is not None]
         name = profile.method if profile is not None else None
         if len(done) >= MIN_REFIT:
-            found = np.array([[out[j][0].x, out[j][0].y] for j in done])  # type: ignore[union-attr]
+            found = np.array([_xy(out[j][0]) for j in done])
             p = layout.predict_from(fiducials_mm, done, found)[k]
             at = (float(p[0]), float(p[1]))
             start = Candidate(at[0], at[1], radii[k] if radii is not None else _median_extent(out, done), 0.0)

@@ -14,12 +14,11 @@ frame placed farther off, or one that is not ok this way, is searched whole
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from aerofid.frame.layout import LayoutMatch, layout_at
 from aerofid.frame.profile import RollProfile
+from aerofid.orientation.camera import Camera
 
 ROLL_SHIFT_MM = 10.0
 """How far (film mm) a fiducial of a frame of the roll may lie from where the profile's frame had it and still be
@@ -32,14 +31,15 @@ scan's: positions that do not fit the camera file (edited by hand, or of another
 used."""
 
 
-def roll_layout(profile: RollProfile, names: Sequence[str], fiducials_mm: np.ndarray, y_axis: str,
-                scan_size: tuple[int, int], pixel_size_mm: float) -> LayoutMatch | None:
-    """The profile's layout on this scan: the fiducials ``names`` (their film mm ``fiducials_mm``) at the profile's
-    positions from the scan's centre, scaled by the profile's pixel size over this scan's, in the profile's lie,
-    each to be found within :data:`ROLL_SHIFT_MM`; None when the profile lacks a position for one of them (a
-    profile written without positions, or learnt with another camera file's names), or its positions do not fit
-    the camera's layout (:data:`LAYOUT_AGREEMENT`)."""
+def roll_layout(profile: RollProfile, camera: Camera, scan_size: tuple[int, int],
+                pixel_size_mm: float) -> LayoutMatch | None:
+    """The profile's layout on this scan: the ``camera``'s fiducials at the profile's positions from the scan's
+    centre, scaled by the profile's pixel size over this scan's, in the profile's lie, each to be found within
+    :data:`ROLL_SHIFT_MM`; None when the profile lacks a position for one of them (a profile written without
+    positions, or learnt with another camera file's names), or its positions do not fit the camera's layout
+    (:data:`LAYOUT_AGREEMENT`)."""
     known = {name: (dx, dy) for name, dx, dy in profile.positions_px}
+    names = camera.names
     if not names or any(n not in known for n in names):
         return None
     scale = profile.pixel_size_mm / pixel_size_mm
@@ -47,7 +47,7 @@ def roll_layout(profile: RollProfile, names: Sequence[str], fiducials_mm: np.nda
     points = centre + scale * np.array([known[n] for n in names], dtype=float)
     if not np.isfinite(points).all() or np.ptp(points, axis=0).min() <= 0:
         return None
-    layout = layout_at(points, fiducials_mm, profile.rotation_deg, profile.mirrored, y_axis,
+    layout = layout_at(points, camera.xy_mm, profile.rotation_deg, profile.mirrored, camera.y_axis,
                        ROLL_SHIFT_MM / pixel_size_mm)
     return layout if abs(layout.pixel_size_mm / pixel_size_mm - 1) <= LAYOUT_AGREEMENT else None
 

@@ -8,7 +8,7 @@ stores them from one frame oriented ok (:func:`learn_profile`); ``aerofid orient
 - measures every mark by the learnt method alone from the first one on, on the window the learnt size gives
   (the frame's geometry checks it; ``auto`` is the fallback), and
 - searches the areas around where the learnt frame had its fiducials first (``positions_px``,
-  :mod:`aerofid.frame.roll_areas`), the whole frame only when that does not give an ok frame, and
+  :mod:`aerofid.frame.roll_areas`), the whole frame too unless that finds every fiducial and an ok frame, and
 - flags a frame that disagrees with it for review (:func:`disagreements`): another lie, another pixel size,
   marks of another size or polarity, or marks the learnt method did not find.
 """

@@ -198,8 +198,7 @@ def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     cols = D.argmin(axis=1)
     if len(np.unique(cols)) == len(cols):
         return np.arange(len(cols)), cols
-    rows, cols = scipy.optimize.linear_sum_assignment(D)
-    return rows, cols
+    return scipy.optimize.linear_sum_assignment(D)
 
 
 def _pair_similarities(p1: np.ndarray, dm: np.ndarray, Cp: np.ndarray, j1: np.ndarray, j2: np.ndarray,

@@ -57,6 +57,8 @@ SETTLED = 0.15
 half-size it was measured on."""
 LADDER_STEP = 0.75
 """Ratio of successive window sizes tried on one candidate."""
+CONFIRMED = 1e-9
+"""A remeasured centre within this many px of the answer is that answer (:meth:`Measurer.recentre`)."""
 WINDOW_TERM_SIZES = (LADDER_STEP, 1 / LADDER_STEP)
 """Half-sizes of the two windows of the window term, relative to the final re-centred window's: one step of the
 ladder smaller and larger (on the real RC20 marks the centre moves by 0.15-0.3 px between these sizes; windows
@@ -180,6 +182,12 @@ class Measurer:
         det = det.shifted(box[0], box[1])
         return Located(det, final.polarity, box, grey, final.candidate)
 
+    def grey(self, x: float, y: float, half: float, polarity: Polarity) -> tuple[Box, np.ndarray]:
+        """The window :meth:`at` reads at (x, y) with half-size ``half``, and its grey levels, the mark bright for
+        ``polarity``."""
+        box, samples = self._window(x, y, half)
+        return box, self._grey(samples, polarity)
+
     def _window(self, x: float, y: float, half: float) -> tuple[Box, np.ndarray]:
         """The window of half-size ``half`` (within :data:`MIN_HALF`, :data:`MAX_HALF`) centred on the pixel nearest
         (x, y), clipped to the image, and its samples."""
@@ -214,6 +222,9 @@ class Measurer:
         (:meth:`window_term`)."""
         half = recentred_half(got.extent, window)
         for _ in range(RECENTRE_ROUNDS):
+            confirmed = self._confirmed(got, half)
+            if confirmed is not None:
+                return self.window_term(confirmed, half)
             again = self.at(got.x, got.y, half, c)
             if not again.found:
                 return again
@@ -222,6 +233,19 @@ class Measurer:
             if abs(half - seen) <= SETTLED * seen:
                 break
         return self.window_term(got, half)
+
+    def _confirmed(self, got: Located, half: float) -> Located | None:
+        """``got`` on the window of half-size ``half`` centred on it, where the seed method's
+        :meth:`~aerofid.methods.MethodDetector.remeasure` from its centre gives back that centre (the method's
+        stage 1 finds the kernel it was measured with, so the disc about the centre holds the same pixels:
+        :func:`aerofid.detect.symmetry.remeasure`): what measuring it anew there gives, within 1e-3 px, at the cost of
+        stage 1. None where the detector does not remeasure or the centre moves."""
+        if not (isinstance(self.detector, MethodDetector) and self.detector.remeasures):
+            return None
+        again = self.again(got, half)
+        if again.found and math.hypot(again.x - got.x, again.y - got.y) <= CONFIRMED:
+            return replace(got, box=again.box, window=again.window)
+        return None
 
     def alone(self, method: str) -> Measurer:
         """This measurer with ``auto``'s member ``method`` alone as its detector (itself when its detector is not

@@ -16,6 +16,7 @@ import tifffile
 import aerofid
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import write_camera
+from aerofid.frame import orient
 from aerofid.frame.profile import RollProfile, read_profile
 from aerofid.frame.report import frame_text
 from aerofid.orientation.camera import Camera
@@ -78,6 +79,7 @@ def test_the_next_frame_is_measured_in_the_roll_areas_without_screening(roll, le
     radii = dict(learnt.mark_radii_mm)
     assert sorted(radii) == sorted(f.name for f in CAMERA.fiducials)
     assert learnt.mark_radius_mm == pytest.approx(float(np.median(list(radii.values()))))
+    assert sorted(n for n, _ in learnt.mark_templates) == sorted(radii)
     assert RollProfile.from_dict(learnt.to_dict()) == learnt
     res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt)
     assert (res.status, res.searched, res.features) == ("ok", "roll areas", 0), res.reasons
@@ -91,6 +93,36 @@ def test_the_next_frame_is_measured_in_the_roll_areas_without_screening(roll, le
     assert max(math.hypot(f.x - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials) < 0.1
     assert "marks sought in the roll areas" in frame_text(res)
     assert res.to_dict()["screening"]["searched"] == "roll areas"
+
+
+def test_the_first_marks_are_sought_where_their_templates_correlate(roll, learnt, monkeypatch):
+    """b.tif's first marks are sought where their learnt templates correlate best (above 0.9); templates that
+    correlate nowhere (another mark's look, here noise), or none (an earlier profile), leave the search to the
+    method: the same marks, the same centres."""
+    folder, truths = roll
+    marks = truths["b.tif"].marks
+    places = []
+    real = orient.match_template
+
+    def recorded(area, template):
+        got = real(area, template)
+        places.append(got)
+        return got
+
+    monkeypatch.setattr(orient, "match_template", recorded)
+    res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt)
+    monkeypatch.undo()
+    assert (res.status, res.searched) == ("ok", "roll areas"), res.reasons
+    assert places and all(p is not None and p[2] > 0.9 for p in places), places
+    rng = np.random.default_rng(0)
+    noise = tuple((n, replace(t, levels=rng.integers(0, 256, len(t.levels), np.uint8).tobytes()))
+                  for n, t in learnt.mark_templates)
+    for templates in (noise, ()):
+        again = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=replace(learnt, mark_templates=templates))
+        assert (again.status, again.searched) == ("ok", "roll areas"), again.reasons
+        apart = [math.hypot(f.x - g.x, f.y - g.y) for f, g in zip(res.fiducials, again.fiducials, strict=True)]
+        assert max(apart) < 0.01, apart
+    assert max(math.hypot(f.x - marks[f.name][0], f.y - marks[f.name][1]) for f in res.fiducials) < 0.1
 
 
 def test_a_frame_whose_film_lies_beyond_the_roll_areas_is_searched_whole(roll, learnt):
@@ -171,6 +203,13 @@ def test_learning_from_a_doubtful_frame_writes_nothing(tmp_path):
     ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
      '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
      '"mark_radius_mm": 2, "mark_radii_mm": {"1": -2.0}}', "positive sizes"),
+    ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
+     '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
+     '"mark_radius_mm": 2, "mark_templates": {"1": [1, 2]}}', "mistypes"),
+    ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
+     '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
+     '"mark_radius_mm": 2, "mark_templates": {"1": {"factor": 1, "shape": [3, 3], "centre": [1, 1], '
+     '"levels": "AAAA"}}}', "roll.json: template of 3 levels does not fill its shape"),
 ])
 def test_a_bad_profile_is_one_line(tmp_path, text, message):
     (tmp_path / "roll.json").write_text(text)

@@ -59,6 +59,7 @@ from aerofid.frame.result import (
     FrameOrientation,
 )
 from aerofid.frame.roll_areas import roll_layout
+from aerofid.frame.templates import MarkTemplate, match_template, reduction_keeping
 from aerofid.frame.verdict import adjusted_pixel_mm, verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
@@ -228,7 +229,8 @@ class _Frame:
         if layout is None:
             return None
         radii = self.profile.radii_px(self.cam.names, self.size)
-        located = measure_marks(self.measurer, layout, self.cam.xy_mm, (), self.profile, follow=True, radii=radii)
+        located = measure_marks(self.measurer, layout, self.cam.xy_mm, (), self.profile, follow=True, radii=radii,
+                                templates=self.profile.templates_for(self.cam.names))
         return _judged(self.cam, layout, located, self.model, self.head(0, 1, ROLL_AREAS), self.size,
                        self.size_source, self.lie, self.profile)
 
@@ -411,18 +413,23 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
 
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
                   features: tuple[Candidate, ...], profile: RollProfile | None = None,
-                  follow: bool = False, radii: Sequence[float] | None = None) -> list[tuple[Located | None, str]]:
+                  follow: bool = False, radii: Sequence[float] | None = None,
+                  templates: Sequence[MarkTemplate | None] = ()) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
     strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at
     full resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is
-    measured first by the method that found most of the marks so far, alone (:func:`_by_method`, from its coarse
-    answer, :func:`_coarse`), on a window sized by their extent, then, if that fails, like the first: within the
-    layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction of a transformation
-    fitted to them (:meth:`LayoutMatch.predict_from`; to a few px, :data:`REFINED_TOLERANCE_MM`). The
-    adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the method and the marks'
-    size from the first mark on. With ``follow`` (a roll's layout, whose film may have moved: no features), the
-    predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean shift from theirs; ``radii``
-    (px, per fiducial: a roll's learnt sizes) size each mark's window."""
+    measured first by the method that found most of the marks so far, alone (:func:`_by_method`), on a window sized by
+    their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks are found, then from the
+    refined prediction (within 3 px of the mark on the synthetic frames of ``benchmarks/bench_frames.py``, from
+    where the method settles at the cost of its stage 1: :meth:`aerofid.find.Measurer.recentre`); if that fails,
+    like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
+    of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
+    :data:`REFINED_TOLERANCE_MM`). The adjustment's blunder tests check them all. A roll ``profile`` gives the
+    polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film
+    may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
+    shift from theirs, and each is sought first where its learnt template correlates best within the layout's
+    tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per fiducial: a roll's
+    learnt sizes) size each mark's window."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
@@ -459,8 +466,11 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             out[k] = (None, outside)
             continue
         reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
-        quick = (_by_method(measurer, name, _coarse(measurer, name, start, reach), at, alone_tolerance)
-                 if name is not None and len(measurer.polarities) == 1 else None)
+        quick = None
+        if name is not None and len(measurer.polarities) == 1:
+            template = templates[k] if templates and reach > 0 else None
+            near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
+            quick = _by_method(measurer, name, near, at, alone_tolerance)
         if quick is None:
             quick = _coarse_first(measurer, start, at, tolerance)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
@@ -573,12 +583,17 @@ def _coarse_first(measurer: Measurer, start: Candidate, at: tuple[float, float],
                       at, tolerance)
 
 
-def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0) -> Candidate:
+def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0,
+            template: MarkTemplate | None = None) -> Candidate:
     """Where a later mark is measured at full resolution: ``start`` (its prediction, sized like the marks) moved
     to the centre and extent the method ``name`` finds there on the scan reduced by :func:`_coarse_factor`, so
     that the full-resolution window is the re-centred one at once (:func:`_by_method`); ``start`` when the marks
     are too small to reduce or the coarse measurement finds nothing. ``reach``: how far (px) the mark may lie from
-    ``start``, added to the window's half-size (then marks too small to reduce are sought so too, unreduced)."""
+    ``start``, added to the window's half-size (then marks too small to reduce are sought so too, unreduced); there
+    the mark's learnt ``template`` is tried first (:func:`_matched`)."""
+    matched = _matched(measurer, template, start, reach) if template is not None else None
+    if matched is not None:
+        return matched
     f = _coarse_factor(start.radius)
     if f == 1 and reach <= 0:
         return start
@@ -589,9 +604,24 @@ def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0)
     return _full(coarse, view) if coarse.found else start
 
 
+def _matched(measurer: Measurer, template: MarkTemplate, start: Candidate, reach: float) -> Candidate | None:
+    """``start`` moved to where the mark's ``template`` correlates best within ``reach`` px of it, on the scan
+    reduced by the template's factor, in the measurer's (first) polarity
+    (:func:`aerofid.frame.templates.match_template`); None where nothing there correlates enough."""
+    view = ReducedView(measurer.source, template.factor)
+    small = _reduced(start, view)
+    half = max(template.shape) / 2 + reach / view.factor
+    box, grey = replace(measurer, source=view).grey(small.x, small.y, half, measurer.polarities[0])
+    found = match_template(grey, template)
+    if found is None:
+        return None
+    x, y = view.to_full(box[0] + found[0], box[1] + found[1])
+    return Candidate(x, y, start.radius, 0.0)
+
+
 def _coarse_factor(radius: float) -> int:
     """The power of two that reduces marks of ``radius`` px to at least :data:`COARSE_RADIUS` px (1: none)."""
-    return 2 ** max(0, math.floor(math.log2(radius / COARSE_RADIUS))) if radius > 0 else 1
+    return reduction_keeping(radius, COARSE_RADIUS)
 
 
 def _reduced(c: Candidate, view: ReducedView) -> Candidate:

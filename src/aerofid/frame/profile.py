@@ -8,7 +8,8 @@ stores them from one frame oriented ok (:func:`learn_profile`); ``aerofid orient
 - measures every mark by the learnt method alone from the first one on, on the window the learnt size gives
   (the frame's geometry checks it; ``auto`` is the fallback), and
 - searches the areas around where the learnt frame had its fiducials first (``positions_px``,
-  :mod:`aerofid.frame.roll_areas`), the whole frame too unless that finds every fiducial and an ok frame, and
+  :mod:`aerofid.frame.roll_areas`; the first marks where their learnt templates correlate best,
+  :mod:`aerofid.frame.templates`), the whole frame too unless that finds every fiducial and an ok frame, and
 - flags a frame that disagrees with it for review (:func:`disagreements`): another lie, another pixel size,
   marks of another size or polarity, or marks the learnt method did not find.
 """
@@ -19,7 +20,7 @@ import math
 import os
 from collections import Counter
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -28,6 +29,7 @@ from aerofid.conventions import POLARITIES, Polarity, opposite
 from aerofid.errors import AerofidInputError
 from aerofid.formats.text import load_json
 from aerofid.frame.result import FOUND_MARK, FrameOrientation
+from aerofid.frame.templates import MarkTemplate, cut_template
 from aerofid.frame.verdict import adjusted_pixel_mm
 from aerofid.io.files import read_text_input
 from aerofid.orientation.correspondence import ARRANGEMENTS
@@ -79,6 +81,9 @@ class RollProfile:
     mark_radii_mm : tuple of (name, radius)
         Each found mark's radius (film mm) by its method's model: a camera's marks differ (the Wild cameras' corner
         and midside marks), and each is measured on the window its own size gives in the roll's areas.
+    mark_templates : tuple of (name, MarkTemplate)
+        Each found mark as the learnt frame showed it, reduced (:mod:`aerofid.frame.templates`): where the first
+        marks are sought in the roll's areas. Empty in a profile written without them.
     """
 
     camera: str
@@ -91,6 +96,7 @@ class RollProfile:
     image: str = ""
     positions_px: tuple[tuple[str, float, float], ...] = ()
     mark_radii_mm: tuple[tuple[str, float], ...] = ()
+    mark_templates: tuple[tuple[str, MarkTemplate], ...] = field(default=(), repr=False)
 
     def __post_init__(self) -> None:
         if (self.rotation_deg, self.mirrored) not in ARRANGEMENTS:
@@ -115,6 +121,11 @@ class RollProfile:
         own = dict(self.mark_radii_mm)
         return [own.get(n, self.mark_radius_mm) / pixel_size_mm for n in names]
 
+    def templates_for(self, names: Sequence[str]) -> list[MarkTemplate | None]:
+        """Each fiducial's learnt template (None where the learnt frame gave none)."""
+        own = dict(self.mark_templates)
+        return [own.get(n) for n in names]
+
     def check_camera(self, camera_name: str) -> None:
         """Refuse (one line) a camera other than the one the profile was learnt with."""
         if self.camera != camera_name:
@@ -127,7 +138,8 @@ class RollProfile:
                                                              "mirrored": self.mirrored},
                 "polarity": self.polarity, "method": self.method, "mark_radius_mm": self.mark_radius_mm,
                 "image": self.image, "positions_px": {k: [dx, dy] for k, dx, dy in self.positions_px},
-                "mark_radii_mm": dict(self.mark_radii_mm)}
+                "mark_radii_mm": dict(self.mark_radii_mm),
+                "mark_templates": {k: t.to_dict() for k, t in self.mark_templates}}
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "profile") -> RollProfile:
@@ -144,7 +156,8 @@ class RollProfile:
                        rotation_deg=int(lie["rotation_deg"]), mirrored=_flag(lie["mirrored"]),
                        polarity=d["polarity"], method=str(d["method"]), mark_radius_mm=_number(d["mark_radius_mm"]),
                        image=str(d.get("image", "")), positions_px=_positions(d.get("positions_px", {})),
-                       mark_radii_mm=_radii(d.get("mark_radii_mm", {})))
+                       mark_radii_mm=_radii(d.get("mark_radii_mm", {})),
+                       mark_templates=_templates(d.get("mark_templates", {})))
         except (KeyError, TypeError) as e:
             raise AerofidInputError(f"{source}: the profile lacks or mistypes {e}: learn it again") from None
         except AerofidInputError as e:
@@ -169,6 +182,13 @@ def _radii(d: Any) -> tuple[tuple[str, float], ...]:
     if not isinstance(d, dict):
         raise TypeError("mark_radii_mm")
     return tuple((str(k), _number(v)) for k, v in d.items())
+
+
+def _templates(d: Any) -> tuple[tuple[str, MarkTemplate], ...]:
+    """``mark_templates`` as :meth:`RollProfile.to_dict` writes it: name -> template."""
+    if not isinstance(d, dict):
+        raise TypeError("mark_templates")
+    return tuple((str(k), MarkTemplate.from_dict(v)) for k, v in d.items())
 
 
 def _flag(v: Any) -> bool:
@@ -210,7 +230,20 @@ def learn_profile(res: FrameOrientation, measured: Mapping[str, Sequence[float]]
                        mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image,
                        positions_px=tuple(positions),
                        mark_radii_mm=tuple((f.name, f.located.extent * size) for f in res.fiducials
-                                           if f.status == FOUND_MARK and f.located is not None))
+                                           if f.status == FOUND_MARK and f.located is not None),
+                       mark_templates=_learnt_templates(res))
+
+
+def _learnt_templates(res: FrameOrientation) -> tuple[tuple[str, MarkTemplate], ...]:
+    """The templates of the frame's found marks, cut from the windows they were measured on."""
+    out = []
+    for f in res.fiducials:
+        m = f.located
+        if f.status == FOUND_MARK and m is not None:
+            t = cut_template(m.window, m.box, m.x, m.y, m.extent)
+            if t is not None:
+                out.append((f.name, t))
+    return tuple(out)
 
 
 def _check_measured(res: FrameOrientation, measured: Mapping[str, Sequence[float]]) -> None:

@@ -1,0 +1,152 @@
+"""A roll's mark templates: each fiducial's mark as the learnt frame showed it, reduced, so that the roll's other
+frames find it again fast where the film may have moved (issue 12: the profile stores "what this roll's marks look
+like" and is used "to search smaller areas").
+
+The seed methods measure a mark on a window drawn round it. Cho & Kim's symmetry (seed 002) looks for the centre
+within such a window and refuses one in which the mark may lie anywhere: on a frame of the roll the first fiducials
+may lie up to :data:`aerofid.frame.roll_areas.ROLL_SHIFT_MM` from where the learnt frame had them, five radii of a
+Wild mark at 21 um, and on such an area it fails about as often as it finds the mark. Where the learnt frame's mark
+correlates best (normalised cross-correlation, :func:`match_template`) over that area of the scan reduced by the
+template's factor is where the method measures the mark at full resolution, on its usual window. The template
+says only where to look, to a reduced pixel or two; the centre is the method's, as on the learnt frame, and the
+frame's geometry checks the marks found. A template that finds nothing as alike as :data:`MIN_CORRELATION` (a
+frame of another lie, a mark damaged) leaves the search to the method.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from aerofid.errors import AerofidInputError
+
+TEMPLATE_RADIUS = 16.0
+"""A template is reduced by the power of two that keeps the mark's radius at least this many px
+(:func:`reduction_keeping`): the correlation then sees the mark's rings and arms, at a sixteenth of the pixels of an
+11000^2 scan's Wild marks (94 px)."""
+TEMPLATE_REACH = 1.5
+"""A template holds the learnt frame's pixels within this many mark radii of the centre (the method's own window,
+:data:`aerofid.frame.orient.ALONE_WINDOW`, is as wide)."""
+MIN_CORRELATION = 0.5
+"""Least correlation at which a template's best place is taken as the mark: the synthetic frames' marks correlate
+at 0.9 and more across a roll; aerial texture and the film's edge stay below 0.4."""
+MAX_TEMPLATE_SIDE = 256
+"""Largest side (px) of a stored template."""
+
+
+def reduction_keeping(radius: float, least: float) -> int:
+    """The largest power of two that reduces marks of ``radius`` px to no fewer than ``least`` px (1: none).
+
+    Examples
+    --------
+    >>> reduction_keeping(94.0, 16.0), reduction_keeping(40.0, 16.0), reduction_keeping(10.0, 16.0)
+    (4, 2, 1)
+    """
+    return 2 ** max(0, math.floor(math.log2(radius / least))) if radius > 0 else 1
+
+
+@dataclass(frozen=True)
+class MarkTemplate:
+    """One fiducial's mark on the learnt frame, reduced by ``factor`` (block means on the grid of
+    :class:`aerofid.io.reduce.ReducedView`), the mark bright, as 8-bit levels (``levels``: ``shape`` row-major;
+    the correlation does not depend on the levels' scale). ``centre``: the mark's centre in template pixels
+    (x = column, y = row)."""
+
+    factor: int
+    shape: tuple[int, int]
+    centre: tuple[float, float]
+    levels: bytes
+
+    def __post_init__(self) -> None:
+        h, w = self.shape
+        if self.factor < 1 or self.factor & (self.factor - 1):
+            raise AerofidInputError(f"template factor {self.factor!r} must be a power of two")
+        if not (3 <= h <= MAX_TEMPLATE_SIDE and 3 <= w <= MAX_TEMPLATE_SIDE) or len(self.levels) != h * w:
+            raise AerofidInputError(f"template of {len(self.levels)} levels does not fill its shape {self.shape}")
+        if not (0 <= self.centre[0] <= w - 1 and 0 <= self.centre[1] <= h - 1):
+            raise AerofidInputError(f"template centre {self.centre} lies outside its shape {self.shape}")
+
+    @property
+    def image(self) -> np.ndarray:
+        """The template as float32 grey levels."""
+        return np.frombuffer(self.levels, np.uint8).reshape(self.shape).astype(np.float32)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"factor": self.factor, "shape": list(self.shape), "centre": list(self.centre),
+                "levels": base64.b64encode(self.levels).decode("ascii")}
+
+    @classmethod
+    def from_dict(cls, d: Any) -> MarkTemplate:
+        """The template :meth:`to_dict` wrote (TypeError or :class:`AerofidInputError` when it is not one)."""
+        if not isinstance(d, dict):
+            raise TypeError("mark_templates")
+        try:
+            levels = base64.b64decode(str(d["levels"]), validate=True)
+        except binascii.Error:
+            raise AerofidInputError("a mark template's levels are not base64") from None
+        shape, centre = d["shape"], d["centre"]
+        if not (isinstance(shape, list) and len(shape) == 2 and isinstance(centre, list) and len(centre) == 2):
+            raise TypeError("mark_templates")
+        factor = d["factor"]
+        if isinstance(factor, bool) or not isinstance(factor, int):
+            raise TypeError("mark_templates")
+        return cls(factor, (int(shape[0]), int(shape[1])), (float(centre[0]), float(centre[1])), levels)
+
+
+def cut_template(window: np.ndarray, box: tuple[int, int, int, int], x: float, y: float,
+                 radius: float) -> MarkTemplate | None:
+    """The template of the mark centred at (x, y) (full px) of ``radius`` px on ``window`` (grey, the mark bright,
+    the image's pixels ``box``): the window's pixels within :data:`TEMPLATE_REACH` radii of the centre, reduced by
+    :func:`reduction_keeping` in whole blocks of the reduced scan's grid. None where the window does not hold the
+    mark's own disc (a mark cut by the scan's edge) or the mark has no contrast."""
+    f = reduction_keeping(radius, TEMPLATE_RADIUS)
+    reach = TEMPLATE_REACH * radius
+    x0, y0 = max(box[0], math.floor(x - reach)), max(box[1], math.floor(y - reach))
+    x1, y1 = min(box[2], math.ceil(x + reach) + 1), min(box[3], math.ceil(y + reach) + 1)
+    bx0, by0 = -(-x0 // f), -(-y0 // f)                    # whole blocks of the grid within the window
+    bx1, by1 = x1 // f, y1 // f
+    if min(x - bx0 * f, y - by0 * f, bx1 * f - 1 - x, by1 * f - 1 - y) < radius:
+        return None
+    part = np.asarray(window, np.float64)[by0 * f - box[1]:by1 * f - box[1], bx0 * f - box[0]:bx1 * f - box[0]]
+    reduced = part.reshape(by1 - by0, f, bx1 - bx0, f).mean(axis=(1, 3))
+    lo, hi = float(reduced.min()), float(reduced.max())
+    if not hi > lo or max(reduced.shape) > MAX_TEMPLATE_SIDE:
+        return None
+    levels = np.round((reduced - lo) / (hi - lo) * 255).astype(np.uint8)
+    centre = ((x - (f - 1) / 2) / f - bx0, (y - (f - 1) / 2) / f - by0)
+    return MarkTemplate(f, (int(levels.shape[0]), int(levels.shape[1])), centre, levels.tobytes())
+
+
+def match_template(area: np.ndarray, template: MarkTemplate) -> tuple[float, float, float] | None:
+    """Where in ``area`` (grey, the mark bright, reduced by the template's factor) the template's mark lies (x, y in
+    ``area``'s pixels: the best correlation's place, to a tenth of a pixel by a parabola through its neighbours)
+    and that correlation; None where the area cannot hold the template or nothing correlates
+    :data:`MIN_CORRELATION`."""
+    img = template.image
+    if area.shape[0] < img.shape[0] or area.shape[1] < img.shape[1]:
+        return None
+    score = cv2.matchTemplate(np.asarray(area, np.float32), img, cv2.TM_CCOEFF_NORMED)
+    j, i = np.unravel_index(int(np.argmax(score)), score.shape)
+    best = float(score[j, i])
+    if not best >= MIN_CORRELATION:
+        return None
+    dx = _vertex(score[j, i - 1:i + 2]) if 0 < i < score.shape[1] - 1 else 0.0
+    dy = _vertex(score[j - 1:j + 2, i]) if 0 < j < score.shape[0] - 1 else 0.0
+    return i + dx + template.centre[0], j + dy + template.centre[1], best
+
+
+def _vertex(three: np.ndarray) -> float:
+    """The vertex of the parabola through three samples at -1, 0, 1 (within half a sample of the middle one)."""
+    a, b, c = (float(v) for v in three)
+    den = a - 2 * b + c
+    return float(np.clip(0.5 * (a - c) / den, -0.5, 0.5)) if den < 0 else 0.0
+
+
+__all__ = ["MIN_CORRELATION", "MarkTemplate", "TEMPLATE_RADIUS", "TEMPLATE_REACH", "cut_template", "match_template",
+           "reduction_keeping"]

@@ -18,7 +18,7 @@ import aerofid
 from aerofid import synth
 from aerofid.detect.registry import METHODS
 from aerofid.detect.screen import MERGE_SHARE, Candidate, local_noise, merge_candidates, screen
-from aerofid.find import Measurer, reduction_for, window_ladder, with_window_term
+from aerofid.find import Measurer, recentred_half, reduction_for, window_ladder, with_window_term
 from aerofid.io.array import open_image
 from aerofid.methods import AutoDetector, make_detector
 
@@ -398,3 +398,20 @@ def test_again_with_auto_is_a_whole_measurement():
         final = m.at(100.0, 100.0, 83.0)
         again, full = m.again(final, 60.0), m.at(final.x, final.y, 60.0)
         assert again.found and (again.x, again.y, again.detection.method) == (full.x, full.y, full.detection.method)
+
+
+@pytest.mark.parametrize(("style", "offset"), [("ring_x_dot", (2, -1)), ("cross", (-3, 2)), ("dot", (1, 3))])
+def test_a_centre_the_method_gives_back_on_the_recentred_window_is_the_new_measurement(style, offset):
+    """``Measurer.confirms``: symmetry's answer on a window a few px off the mark, remeasured on the window centred
+    on it, comes back: measuring anew there gives the same centre within 1e-3 px; ``auto`` (no remeasure of its
+    own) never confirms."""
+    sc = _scene(style, (150.3, 149.6), size=36.0, seed=5, noise_sigma=0.02, blur_sigma=0.8)
+    with open_image(sc.image) as source:
+        m = Measurer(source, make_detector("symmetry", "auto", {}), ("bright",))
+        first = m.at(150.0 + offset[0], 150.0 + offset[1], recentred_half(18.0, (1.5, 8.0)))
+        assert first.found
+        half = recentred_half(first.extent, (1.5, 8.0))
+        assert m.confirms(first, half)
+        anew = m.at(first.x, first.y, half)
+        assert anew.found and math.hypot(anew.x - first.x, anew.y - first.y) < 1e-3
+        assert not Measurer(source, make_detector("auto", "auto", {}), ("bright",)).confirms(first, half)

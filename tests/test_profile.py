@@ -114,9 +114,23 @@ def test_the_first_marks_are_sought_where_their_templates_correlate(roll, learnt
     monkeypatch.undo()
     assert (res.status, res.searched) == ("ok", "roll areas"), res.reasons
     assert places and all(p is not None and p[2] > 0.9 for p in places), places
+    # where the templates placed the first marks: within a pixel of each
+    starts = []
+    real_matched = orient._matched
+    monkeypatch.setattr(orient, "_matched", lambda *a: starts.append(got := real_matched(*a)) or got)
+    aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt)
+    monkeypatch.undo()
+    assert len(starts) == len(places)
+    near = [min(math.hypot(c.x - x, c.y - y) for x, y in marks.values()) for c in starts]
+    assert max(near) < 1.0, near
     rng = np.random.default_rng(0)
     noise = tuple((n, replace(t, levels=rng.integers(0, 256, len(t.levels), np.uint8).tobytes()))
                   for n, t in learnt.mark_templates)
+    nowhere = []
+    monkeypatch.setattr(orient, "match_template", lambda area, t: nowhere.append(real(area, t)) or nowhere[-1])
+    aerofid.orient_frame(folder / "b.tif", CAMERA, profile=replace(learnt, mark_templates=noise))
+    monkeypatch.undo()
+    assert nowhere and all(p is None for p in nowhere)
     for templates in (noise, ()):
         again = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=replace(learnt, mark_templates=templates))
         assert (again.status, again.searched) == ("ok", "roll areas"), again.reasons
@@ -205,11 +219,15 @@ def test_learning_from_a_doubtful_frame_writes_nothing(tmp_path):
      '"mark_radius_mm": 2, "mark_radii_mm": {"1": -2.0}}', "positive sizes"),
     ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
      '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
-     '"mark_radius_mm": 2, "mark_templates": {"1": [1, 2]}}', "mistypes"),
+     '"mark_radius_mm": 2, "mark_templates": {"1": [1, 2]}}', "roll.json: a mark template must hold"),
     ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
      '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
      '"mark_radius_mm": 2, "mark_templates": {"1": {"factor": 1, "shape": [3, 3], "centre": [1, 1], '
-     '"levels": "AAAA"}}}', "roll.json: template of 3 levels does not fill its shape"),
+     '"levels": "AAAA"}}}', "roll.json: template levels do not fill its shape"),
+    ('{"format": "aerofid-roll-profile", "version": 1, "camera": "c", "pixel_size_mm": 0.02, '
+     '"lie": {"rotation_deg": 0, "mirrored": false}, "polarity": "bright", "method": "symmetry", '
+     '"mark_radius_mm": 2, "mark_templates": {"1": {"factor": 1, "shape": ["a", 3], "centre": [1, 1], '
+     '"levels": "AAAA"}}}', "roll.json: template shape"),
 ])
 def test_a_bad_profile_is_one_line(tmp_path, text, message):
     (tmp_path / "roll.json").write_text(text)

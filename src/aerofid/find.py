@@ -58,7 +58,7 @@ half-size it was measured on."""
 LADDER_STEP = 0.75
 """Ratio of successive window sizes tried on one candidate."""
 CONFIRMED = 1e-9
-"""A remeasured centre within this many px of the answer is that answer (:meth:`Measurer.recentre`)."""
+"""A remeasured centre within this many px of the answer gives it back (:meth:`Measurer.confirms`)."""
 WINDOW_TERM_SIZES = (LADDER_STEP, 1 / LADDER_STEP)
 """Half-sizes of the two windows of the window term, relative to the final re-centred window's: one step of the
 ladder smaller and larger (on the real RC20 marks the centre moves by 0.15-0.3 px between these sizes; windows
@@ -176,8 +176,7 @@ class Measurer:
         :meth:`at` (a new measurement, every polarity it tries)."""
         if not (isinstance(self.detector, MethodDetector) and self.detector.remeasures):
             return self.at(final.x, final.y, half, final.candidate)
-        box, samples = self._window(final.x, final.y, half)
-        grey = self._grey(samples, final.polarity)
+        box, grey = self.grey(final.x, final.y, half, final.polarity)
         det = self.detector.remeasure(grey, final.x - box[0], final.y - box[1], final.detection)
         det = det.shifted(box[0], box[1])
         return Located(det, final.polarity, box, grey, final.candidate)
@@ -222,9 +221,6 @@ class Measurer:
         (:meth:`window_term`)."""
         half = recentred_half(got.extent, window)
         for _ in range(RECENTRE_ROUNDS):
-            confirmed = self._confirmed(got, half)
-            if confirmed is not None:
-                return self.window_term(confirmed, half)
             again = self.at(got.x, got.y, half, c)
             if not again.found:
                 return again
@@ -234,18 +230,19 @@ class Measurer:
                 break
         return self.window_term(got, half)
 
-    def _confirmed(self, got: Located, half: float) -> Located | None:
-        """``got`` on the window of half-size ``half`` centred on it, where the seed method's
-        :meth:`~aerofid.methods.MethodDetector.remeasure` from its centre gives back that centre (the method's
-        stage 1 finds the kernel it was measured with, so the disc about the centre holds the same pixels:
-        :func:`aerofid.detect.symmetry.remeasure`): what measuring it anew there gives, within 1e-3 px, at the cost of
-        stage 1. None where the detector does not remeasure or the centre moves."""
+    def confirms(self, got: Located, half: float) -> bool:
+        """Whether the seed method's :meth:`~aerofid.methods.MethodDetector.remeasure` on the window of half-size
+        ``half`` centred on ``got`` gives back its centre (symmetry: stage 1 finds the kernel the centre was measured
+        with, so the disc about it holds the same pixels, :func:`aerofid.detect.symmetry.remeasure`), at the cost of
+        that stage 1. A new measurement there then gives the centre within 1e-3 px, or, rarely, refuses the mark
+        (its search ends on the range's limit: 1 of 188 faint crosses beside aerial texture in a review of session
+        17), so the frames' search, whose geometry checks every mark, takes it as re-centred
+        (:func:`aerofid.frame.orient._alone`), and the search of a box does not. False where the detector does not
+        remeasure."""
         if not (isinstance(self.detector, MethodDetector) and self.detector.remeasures):
-            return None
+            return False
         again = self.again(got, half)
-        if again.found and math.hypot(again.x - got.x, again.y - got.y) <= CONFIRMED:
-            return replace(got, box=again.box, window=again.window)
-        return None
+        return again.found and math.hypot(again.x - got.x, again.y - got.y) <= CONFIRMED
 
     def alone(self, method: str) -> Measurer:
         """This measurer with ``auto``'s member ``method`` alone as its detector (itself when its detector is not

@@ -27,18 +27,18 @@ __all__ = ["EDGE_PAD", "NEAR_REACH", "bspline3_weights", "cubic_coefficients", "
 POLE = math.sqrt(3.0) - 2.0
 """The pole of the cubic B-spline's inverse filter."""
 PREFILTER_REACH = 15
-"""The inverse filter is truncated beyond this many px: the taps left out sum to 3.3e-9 in absolute value per
+"""The inverse filter is truncated beyond this many px: the taps left out sum to t = 3.3e-9 in absolute value per
 axis, and the filter's taps to 3 (they alternate in sign), so the coefficients differ from the untruncated
-filter's by at most 2e-8 of the image's largest grey level: below the resolution of a measuring window's float32
-grey levels (6e-8 on [0, 1]) and far below a 16-bit scan's quantisation step (1.5e-5). Truncated at 27 px (to
-float64's resolution) the filter took twice as long."""
+filter's by at most 6 t - t^2 = 2.005e-8 of the image's largest grey level: below the resolution of a measuring
+window's float32 grey levels (6e-8 on [0, 1]) and far below a 16-bit scan's quantisation step (1.5e-5). Truncated
+at 27 px (to float64's resolution) the filter took twice as long."""
 _K = np.arange(-PREFILTER_REACH, PREFILTER_REACH + 1)
 PREFILTER = (-6.0 * POLE / (1.0 - POLE * POLE)) * POLE ** np.abs(_K)
 """The truncated impulse response of the inverse filter (its taps sum to 1)."""
 NEAR_REACH = PREFILTER_REACH + 4
 """Values of the spline within r px of a point need the image within r + this many px of it (:func:`near`): the
 spline's support (2 px), rounding, and the inverse filter's reach, beyond which where the image is cut changes
-the coefficients by at most 2e-8 of its grey levels. A measuring window is often several times larger."""
+the coefficients by at most 2.005e-8 of its grey levels. A measuring window is often several times larger."""
 
 EDGE_PAD = 12
 """Edge pixels repeated around an image before its cubic spline coefficients are computed, as
@@ -126,7 +126,7 @@ def cubic_coefficients(img: np.ndarray) -> np.ndarray:
 
 def cubic_prefilter(img: np.ndarray) -> np.ndarray:
     """Cubic B-spline coefficients of ``img`` (float64), mirrored at its edges (module docstring): equal to
-    ``scipy.ndimage.spline_filter(img, order=3, mode="mirror")`` within 2e-8 of the image's
+    ``scipy.ndimage.spline_filter(img, order=3, mode="mirror")`` within 2.005e-8 of the image's
     largest grey level (:data:`PREFILTER_REACH`).
 
     Examples

@@ -421,7 +421,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     measured first by the method that found most of the marks so far, alone (:func:`_by_method`), on a window sized by
     their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks are found, then from the
     refined prediction (within 3 px of the mark on the synthetic frames of ``benchmarks/bench_frames.py``, from
-    where the method settles at the cost of its stage 1: :meth:`aerofid.find.Measurer.recentre`); if that fails,
+    where the method settles at the cost of its stage 1: :func:`_alone`); if that fails,
     like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
     :data:`REFINED_TOLERANCE_MM`). The adjustment's blunder tests check them all. A roll ``profile`` gives the
@@ -555,13 +555,17 @@ def _alone(alone: Measurer, start: Candidate, at: tuple[float, float], tolerance
            window: tuple[float, float]) -> Located | None:
     """:func:`_by_method` on one window law. A first answer on the pixel its window is centred on, whose extent
     sizes the window within :data:`aerofid.find.SETTLED`, is already the re-centred answer (the round is not
-    repeated)."""
+    repeated); so is one that the method's remeasure on the re-centred window gives back
+    (:meth:`aerofid.find.Measurer.confirms`: within 3 px of the mark, as the refined predictions are, the first
+    window gives the centre the re-centred one does)."""
     half = recentred_half(start.radius, window)
     got = alone.at(start.x, start.y, half, start)
     if not got.found or math.hypot(got.x - at[0], got.y - at[1]) > tolerance:
         return None
     settled = (round(got.x), round(got.y)) == (round(start.x), round(start.y)) and (
         abs(recentred_half(got.extent, window) - half) <= SETTLED * half)
+    if not settled and alone.confirms(got, recentred_half(got.extent, window)):
+        settled, half = True, recentred_half(got.extent, window)
     got = alone.window_term(got, half) if settled else alone.recentre(got, start, window)
     return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
 

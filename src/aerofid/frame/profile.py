@@ -224,22 +224,24 @@ def learn_profile(res: FrameOrientation, measured: Mapping[str, Sequence[float]]
         if f.status == FOUND_MARK and f.x is not None and f.y is not None:
             x, y = f.x, f.y
         positions.append((f.name, x - cx, y - cy))
+    polarity = Counter(m.polarity for m in found).most_common(1)[0][0]
     return RollProfile(camera=res.camera, pixel_size_mm=size, rotation_deg=res.rotation_deg,
-                       mirrored=res.mirrored, polarity=Counter(m.polarity for m in found).most_common(1)[0][0],
+                       mirrored=res.mirrored, polarity=polarity,
                        method=Counter(methods).most_common(1)[0][0],
                        mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image,
                        positions_px=tuple(positions),
                        mark_radii_mm=tuple((f.name, f.located.extent * size) for f in res.fiducials
                                            if f.status == FOUND_MARK and f.located is not None),
-                       mark_templates=_learnt_templates(res))
+                       mark_templates=_learnt_templates(res, polarity))
 
 
-def _learnt_templates(res: FrameOrientation) -> tuple[tuple[str, MarkTemplate], ...]:
-    """The templates of the frame's found marks, cut from the windows they were measured on."""
+def _learnt_templates(res: FrameOrientation, polarity: Polarity) -> tuple[tuple[str, MarkTemplate], ...]:
+    """The templates of the frame's marks found in the roll's ``polarity`` (the one they are sought in), cut from
+    the windows they were measured on."""
     out = []
     for f in res.fiducials:
         m = f.located
-        if f.status == FOUND_MARK and m is not None:
+        if f.status == FOUND_MARK and m is not None and m.polarity == polarity:
             t = cut_template(m.window, m.box, m.x, m.y, m.extent)
             if t is not None:
                 out.append((f.name, t))

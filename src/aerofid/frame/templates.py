@@ -24,6 +24,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from aerofid.detect.params import is_int, number_in
 from aerofid.errors import AerofidInputError
 
 TEMPLATE_RADIUS = 16.0
@@ -38,6 +39,8 @@ MIN_CORRELATION = 0.5
 at 0.9 and more across a roll; aerial texture and the film's edge stay below 0.4."""
 MAX_TEMPLATE_SIDE = 256
 """Largest side (px) of a stored template."""
+MAX_FACTOR = 64
+"""Largest reduction of a stored template (a mark of 1000 px radius at 16)."""
 
 
 def reduction_keeping(radius: float, least: float) -> int:
@@ -64,13 +67,18 @@ class MarkTemplate:
     levels: bytes
 
     def __post_init__(self) -> None:
+        if not (is_int(self.factor) and 1 <= self.factor <= MAX_FACTOR and not self.factor & (self.factor - 1)):
+            raise AerofidInputError(f"a template's factor must be a power of two up to {MAX_FACTOR}")
+        if not (len(self.shape) == 2 and all(is_int(n) and 3 <= n <= MAX_TEMPLATE_SIDE for n in self.shape)):
+            raise AerofidInputError(f"template shape {self.shape!r} must be two whole numbers of 3 to "
+                                    f"{MAX_TEMPLATE_SIDE} px")
         h, w = self.shape
-        if self.factor < 1 or self.factor & (self.factor - 1):
-            raise AerofidInputError(f"template factor {self.factor!r} must be a power of two")
-        if not (3 <= h <= MAX_TEMPLATE_SIDE and 3 <= w <= MAX_TEMPLATE_SIDE) or len(self.levels) != h * w:
-            raise AerofidInputError(f"template of {len(self.levels)} levels does not fill its shape {self.shape}")
-        if not (0 <= self.centre[0] <= w - 1 and 0 <= self.centre[1] <= h - 1):
-            raise AerofidInputError(f"template centre {self.centre} lies outside its shape {self.shape}")
+        if not isinstance(self.levels, bytes) or len(self.levels) != h * w:
+            raise AerofidInputError(f"template levels do not fill its shape {self.shape}")
+        if len(set(self.levels)) < 2:
+            raise AerofidInputError("a template without contrast (one level) finds no mark")
+        if not (len(self.centre) == 2 and number_in(self.centre[0], 0, w - 1) and number_in(self.centre[1], 0, h - 1)):
+            raise AerofidInputError(f"template centre {self.centre!r} must lie inside its shape {self.shape}")
 
     @property
     def image(self) -> np.ndarray:
@@ -83,20 +91,17 @@ class MarkTemplate:
 
     @classmethod
     def from_dict(cls, d: Any) -> MarkTemplate:
-        """The template :meth:`to_dict` wrote (TypeError or :class:`AerofidInputError` when it is not one)."""
-        if not isinstance(d, dict):
-            raise TypeError("mark_templates")
+        """The template :meth:`to_dict` wrote; anything else is an :class:`AerofidInputError` saying what."""
+        if not (isinstance(d, dict) and {"factor", "shape", "centre", "levels"} <= d.keys()):
+            raise AerofidInputError("a mark template must hold factor, shape, centre and levels")
+        shape, centre, text = d["shape"], d["centre"], d["levels"]
+        if not (isinstance(shape, list) and isinstance(centre, list) and isinstance(text, str)):
+            raise AerofidInputError("a mark template's shape and centre must be lists, its levels base64 text")
         try:
-            levels = base64.b64decode(str(d["levels"]), validate=True)
-        except binascii.Error:
+            levels = base64.b64decode(text.encode("ascii"), validate=True)
+        except (binascii.Error, UnicodeEncodeError):
             raise AerofidInputError("a mark template's levels are not base64") from None
-        shape, centre = d["shape"], d["centre"]
-        if not (isinstance(shape, list) and len(shape) == 2 and isinstance(centre, list) and len(centre) == 2):
-            raise TypeError("mark_templates")
-        factor = d["factor"]
-        if isinstance(factor, bool) or not isinstance(factor, int):
-            raise TypeError("mark_templates")
-        return cls(factor, (int(shape[0]), int(shape[1])), (float(centre[0]), float(centre[1])), levels)
+        return cls(d["factor"], tuple(shape), tuple(centre), levels)
 
 
 def cut_template(window: np.ndarray, box: tuple[int, int, int, int], x: float, y: float,
@@ -120,7 +125,8 @@ def cut_template(window: np.ndarray, box: tuple[int, int, int, int], x: float, y
         return None
     levels = np.round((reduced - lo) / (hi - lo) * 255).astype(np.uint8)
     centre = ((x - (f - 1) / 2) / f - bx0, (y - (f - 1) / 2) / f - by0)
-    return MarkTemplate(f, (int(levels.shape[0]), int(levels.shape[1])), centre, levels.tobytes())
+    return MarkTemplate(f, (int(levels.shape[0]), int(levels.shape[1])), (float(centre[0]), float(centre[1])),
+                        levels.tobytes())
 
 
 def match_template(area: np.ndarray, template: MarkTemplate) -> tuple[float, float, float] | None:

@@ -174,12 +174,18 @@ class Measurer:
         """``final``'s mark measured on the window of half-size ``half`` centred on it: in ``final``'s polarity by the
         seed method's :meth:`~aerofid.methods.MethodDetector.remeasure` from its centre where it has one, else by
         :meth:`at` (a new measurement, every polarity it tries)."""
-        if not (isinstance(self.detector, MethodDetector) and self.detector.remeasures):
+        method = self._remeasurer()
+        if method is None:
             return self.at(final.x, final.y, half, final.candidate)
         box, grey = self.grey(final.x, final.y, half, final.polarity)
-        det = self.detector.remeasure(grey, final.x - box[0], final.y - box[1], final.detection)
+        det = method.remeasure(grey, final.x - box[0], final.y - box[1], final.detection)
         det = det.shifted(box[0], box[1])
         return Located(det, final.polarity, box, grey, final.candidate)
+
+    def _remeasurer(self) -> MethodDetector | None:
+        """The detector, where it is a seed method that measures a known mark again from its centre; else None."""
+        d = self.detector
+        return d if isinstance(d, MethodDetector) and d.remeasures else None
 
     def grey(self, x: float, y: float, half: float, polarity: Polarity) -> tuple[Box, np.ndarray]:
         """The window :meth:`at` reads at (x, y) with half-size ``half``, and its grey levels, the mark bright for
@@ -239,7 +245,7 @@ class Measurer:
         17), so the frames' search, whose geometry checks every mark, takes it as re-centred
         (:func:`aerofid.frame.orient._alone`), and the search of a box does not. False where the detector does not
         remeasure."""
-        if not (isinstance(self.detector, MethodDetector) and self.detector.remeasures):
+        if self._remeasurer() is None:
             return False
         again = self.again(got, half)
         return again.found and math.hypot(again.x - got.x, again.y - got.y) <= CONFIRMED

@@ -562,10 +562,10 @@ def _alone(alone: Measurer, start: Candidate, at: tuple[float, float], tolerance
     got = alone.at(start.x, start.y, half, start)
     if not got.found or math.hypot(got.x - at[0], got.y - at[1]) > tolerance:
         return None
-    settled = (round(got.x), round(got.y)) == (round(start.x), round(start.y)) and (
-        abs(recentred_half(got.extent, window) - half) <= SETTLED * half)
-    if not settled and alone.confirms(got, recentred_half(got.extent, window)):
-        settled, half = True, recentred_half(got.extent, window)
+    own = recentred_half(got.extent, window)
+    settled = (round(got.x), round(got.y)) == (round(start.x), round(start.y)) and abs(own - half) <= SETTLED * half
+    if not settled and alone.confirms(got, own):
+        settled, half = True, own
     got = alone.window_term(got, half) if settled else alone.recentre(got, start, window)
     return got if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance else None
 

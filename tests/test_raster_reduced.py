@@ -4,6 +4,7 @@ decode whole (:mod:`aerofid.io.jpeg`) and arrays read like scans (:mod:`aerofid.
 from __future__ import annotations
 
 import os
+import time
 import tracemalloc
 import zlib
 
@@ -403,6 +404,78 @@ def test_the_reduced_decode_respects_the_budget(tmp_path, monkeypatch):
         assert raster.read_reduced((0, 0, 400, 400), 8).shape == (50, 50, 3)
         with pytest.raises(AerofidInputError, match="reducing by 4"):
             raster.read_reduced((0, 0, 400, 400), 4)
+
+
+@pytest.mark.parametrize("factor", [2, 8, 16])
+def test_a_jpeg_overview_is_the_reduced_decode_and_does_not_wait_for_the_whole(jpeg_pair, monkeypatch, factor):
+    """``read_overview`` of a JPEG decoded in the background: libjpeg's reduced decode, the same as a huge JPEG's
+    reduced read (close to the block mean), taken while the whole decode has not finished."""
+    whole, huge = jpeg_pair
+    box = (16, 64, 808, 520)
+    expected = huge.read_reduced(box, factor)
+    monkeypatch.setattr(jpeg, "decoded", lambda *args: pytest.fail("the overview waited for the whole decode"))
+    with open_raster(whole.path) as raster:
+        got = raster.read_overview(box, factor)
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_an_overview_is_the_exact_reduced_read_elsewhere(jpeg_pair, layout_files):
+    """An odd factor of a JPEG, and every TIFF, is read exactly (``read_reduced``)."""
+    whole, _ = jpeg_pair
+    np.testing.assert_array_equal(whole.read_overview((0, 0, 808, 600), 3), whole.read_reduced((0, 0, 808, 600), 3))
+    for path, _ in layout_files.values():
+        with open_raster(path) as raster:
+            box = (0, 0, raster.width, raster.height)
+            factors = (3,) if raster.format == "jpeg" else (3, 4)
+            for factor in factors:
+                np.testing.assert_array_equal(raster.read_overview(box, factor), raster.read_reduced(box, factor))
+
+
+def test_a_jpeg_is_decoded_in_the_background_once(tmp_path, monkeypatch):
+    """Opening a JPEG does not wait for its decode; its windows do, and two opens share one decode."""
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(3, (600, 808)))
+    jpeg.decoding.cache_clear()
+    calls = []
+    decode = jpeg._decode_with_cv2
+    monkeypatch.setattr(jpeg, "_decode_with_cv2", lambda p: calls.append(p) or decode(p))
+    with open_raster(path) as first, open_raster(path) as second:
+        assert (first.width, first.height, first.bands, first.dtype) == (808, 600, 3, np.uint8)
+        np.testing.assert_array_equal(first.read_window((0, 0, 808, 600)), cv2.imread(str(path))[:, :, ::-1])
+        np.testing.assert_array_equal(second.read_window((5, 6, 70, 80)), first.read_window((5, 6, 70, 80)))
+    assert calls == [path.resolve()]
+
+
+def test_a_jpeg_that_decodes_to_another_size_than_its_header_is_one_line(tmp_path, monkeypatch):
+    """The header gave the raster its size; a decode of another size is refused when a window is read."""
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
+    jpeg.decoding.cache_clear()
+    monkeypatch.setattr(jpeg, "_decode_with_cv2", lambda p: np.zeros((56, 80, 1), np.uint8))
+    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+        raster.read_window((0, 0, 8, 8))
+    assert_one_line_error(excinfo, "declares 80 x 64", "decodes to 80 x 56", "re-export")
+    jpeg.decoding.cache_clear()
+
+
+def test_a_forked_child_decodes_on_its_own(tmp_path):
+    """A child forked after the parent's decode thread started (a test runner, a process pool) gets its own."""
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
+    other = write_cv2(tmp_path / "other.jpg", smooth_image(1, (48, 40)))
+    with open_raster(path) as raster:
+        raster.read_window((0, 0, 8, 8))                    # the parent's worker thread is running
+    pid = os.fork()
+    if pid == 0:                                            # pragma: no cover (the child)
+        try:
+            with open_raster(other) as r:
+                os._exit(0 if r.read_window((0, 0, 40, 48)).shape == (48, 40) else 1)
+        finally:
+            os._exit(2)
+    deadline = time.monotonic() + 60
+    while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    if done[0] == 0:
+        os.kill(pid, 9)
+        os.waitpid(pid, 0)
+    assert done[0] == pid and os.waitstatus_to_exitcode(done[1]) == 0
 
 
 def test_real_rc20_jpeg_reduced_decode_is_close_to_the_block_mean(monkeypatch):

@@ -5,7 +5,8 @@ The automatic interior orientation of seeds 002 (section 2: "fiducial areas" pre
 and any mark style:
 
 1. **Features** (:func:`frame_features`): the whole frame, read reduced to at most :data:`FRAME_PIXELS`
-   (never the full-resolution image of a tiled TIFF), is screened for mark-like structure
+   (never the full-resolution image of a tiled TIFF; a JPEG's from libjpeg's reduced decode while the whole decode
+   runs in the background), is screened for mark-like structure
    (:mod:`aerofid.detect.screen`); the :data:`FEATURES` strongest are kept.
 2. **Layout** (:mod:`aerofid.frame.layout`): the camera's fiducial layout is found among them at the scan's
    pixel size (given, from the file's resolution tags, from the camera file, or estimated by the layout itself);
@@ -406,7 +407,7 @@ def scan_pixel_size(source: ImageSource, cam: Camera, given: float | None,
 def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
     """Step 1: the :data:`FEATURES` strongest mark-like features of the whole frame, and the reduction."""
     f = reduction_for(source.width, source.height, FRAME_PIXELS)
-    reduced, step = read_reduced_levels(source, (0, 0, source.width, source.height), f)
+    reduced, step = read_reduced_levels(source, (0, 0, source.width, source.height), f, overview=True)
     grey = reduced.mean(axis=2) if reduced.ndim == 3 else reduced
     return screen(grey, scale=f, min_radius=2.0, max_candidates=FEATURES, noise_floor=step / f), f
 

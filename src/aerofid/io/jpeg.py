@@ -3,10 +3,12 @@ libjpeg's reduced decode for a JPEG that does not.
 
 OpenCV cannot decode a window of a JPEG or PNG, so :class:`~aerofid.io.raster.Raster` decodes one whole, once,
 when its decoded samples fit the decode budget (:func:`decode_budget`). The size is read from the header first (the JPEG
-start-of-frame segment, the PNG ``IHDR`` chunk), so nothing is decoded to learn it. A larger JPEG is never
-decoded whole: :class:`HugeJpegReader` answers ``read_reduced`` with libjpeg's decode at 1/2, 1/4 or 1/8 scale
-(``cv2.IMREAD_REDUCED_*``) followed by block means of the rest of the factor, and refuses full-resolution
-windows. A larger PNG is refused (PNG has no reduced decode).
+start-of-frame segment, the PNG ``IHDR`` chunk), so nothing is decoded to learn it. An 8-bit grey or RGB JPEG is
+decoded in the background (:func:`decoding`, one worker thread): the raster opens at once, and its first window waits
+for the decode, while a whole frame's first look (``Raster.read_overview``) is taken from libjpeg's reduced decode in
+the meantime, on the other core. A larger JPEG is never decoded whole: :class:`HugeJpegReader` answers
+``read_reduced`` with libjpeg's decode at 1/2, 1/4 or 1/8 scale (``cv2.IMREAD_REDUCED_*``) followed by block means of
+the rest of the factor, and refuses full-resolution windows. A larger PNG is refused (PNG has no reduced decode).
 
 libjpeg's reduced decode is not an exact block mean: it scales the inverse DCT of each 8 x 8 block (at 1/8 it
 keeps only the DC coefficient, the block's mean before colour conversion and chroma upsampling), so it
@@ -17,7 +19,9 @@ are weighed by area from the reduced pixels.
 from __future__ import annotations
 
 import functools
+import os
 from collections.abc import Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import BinaryIO, NamedTuple
 
@@ -35,7 +39,10 @@ __all__ = [
     "ImageHeader",
     "decode_whole",
     "decode_budget",
+    "decoded",
+    "decodes_in_background",
     "decodes_whole",
+    "decoding",
     "header_segments",
     "read_header",
 ]
@@ -186,12 +193,57 @@ def _decode_with_cv2(path: Path) -> np.ndarray:
     return image
 
 
-@functools.lru_cache(maxsize=DECODED_CACHE)
-def decode_whole(path: str, mtime_ns: int, size: int) -> np.ndarray:
-    """Decode a whole JPEG or PNG as ``(rows, columns, samples)`` in RGB(A) order, cached by path, modification
-    time and size (so locating several marks in one file decodes it once); the array is read-only."""
-    image = _decode_with_cv2(Path(path))
+def decodes_in_background(header: ImageHeader, kind: str) -> bool:
+    """Whether :class:`~aerofid.io.raster.Raster` decodes the file in the background (:func:`decoding`): an 8-bit
+    grey or RGB JPEG, whose decode has the header's size and samples (a PNG's or a CMYK JPEG's decoded samples are
+    learnt from the decode itself)."""
+    return kind == "jpeg" and header.itemsize == 1 and header.samples in (1, 3)
+
+
+@functools.lru_cache(maxsize=1)
+def _decoder() -> ThreadPoolExecutor:
+    """The one worker thread that decodes files in the background (made on first need)."""
+    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="aerofid-decode")
+
+
+def _read_only(path: Path) -> np.ndarray:
+    image = _decode_with_cv2(path)
     image.setflags(write=False)
+    return image
+
+
+@functools.lru_cache(maxsize=DECODED_CACHE)
+def decoding(path: str, mtime_ns: int, size: int) -> Future[np.ndarray]:
+    """The whole decode of a JPEG or PNG as ``(rows, columns, samples)`` in RGB(A) order, read-only, started in the
+    background (cv2 releases the GIL while it decodes) and cached by path, modification time and size (so locating
+    several marks in one file decodes it once). Its result raises :class:`AerofidInputError` for a file that cannot
+    be decoded."""
+    return _decoder().submit(_read_only, Path(path))
+
+
+def _forget_decodes() -> None:
+    """In a forked child: the parent's worker thread is not there, so its queue and pending decodes are dropped."""
+    _decoder.cache_clear()
+    decoding.cache_clear()
+
+
+os.register_at_fork(after_in_child=_forget_decodes)
+
+
+def decode_whole(path: str, mtime_ns: int, size: int) -> np.ndarray:
+    """The whole decode of :func:`decoding`, waited for."""
+    return decoding(path, mtime_ns, size).result()
+
+
+def decoded(pending: Future[np.ndarray], header: ImageHeader, path: Path) -> np.ndarray:
+    """The background decode ``pending`` of the file at ``path`` once done; it must have the size and samples
+    ``header`` declared (the raster was opened with them)."""
+    image = pending.result()
+    if image.shape != (header.height, header.width, header.samples):
+        raise AerofidInputError(
+            f"cannot decode {path}: its header declares {header.width} x {header.height} px of {header.samples} "
+            f"samples but it decodes to {image.shape[1]} x {image.shape[0]} px of {image.shape[2]}; re-export the scan"
+        )
     return image
 
 

@@ -34,6 +34,7 @@ import operator
 import os
 import reprlib
 from collections.abc import Callable, Sequence
+from concurrent.futures import Future
 from pathlib import Path
 
 import numpy as np
@@ -338,6 +339,7 @@ class Raster:
         self.format = _file_format(self.path)
         self._tif: tifffile.TiffFile | None = None
         self._reader: _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader | None = None
+        self._overview: jpeg.HugeJpegReader | None = None
         self._invert = False
         if self.format == "tiff":
             self._open_tiff()
@@ -351,7 +353,11 @@ class Raster:
         self.tiled = False
         if jpeg.decodes_whole(header):
             st = self.path.stat()
-            image = jpeg.decode_whole(str(self.path.resolve()), st.st_mtime_ns, st.st_size)
+            key = (str(self.path.resolve()), st.st_mtime_ns, st.st_size)
+            if jpeg.decodes_in_background(header, self.format):
+                self._open_decoding(header, jpeg.decoding(*key))
+                return
+            image = jpeg.decode_whole(*key)
             self.height, self.width, samples = image.shape
             self.bands = _bands_for_samples(samples, self.path)
             self.dtype = _check_dtype(image.dtype, self.path)
@@ -368,6 +374,15 @@ class Raster:
         self.bands = _bands_for_samples(header.samples, self.path)
         self.dtype = np.dtype(np.uint8)
         self._reader = jpeg.HugeJpegReader(self.path, header, self.bands)
+
+    def _open_decoding(self, header: jpeg.ImageHeader, pending: Future[np.ndarray]) -> None:
+        """A JPEG being decoded whole in the background (:func:`aerofid.io.jpeg.decoding`): its size from the header,
+        windows once the decode is done, and :meth:`read_overview` from libjpeg's reduced decode meanwhile."""
+        self.width, self.height = header.width, header.height
+        self.bands = _bands_for_samples(header.samples, self.path)
+        self.dtype = np.dtype(np.uint8)
+        self._reader = _ArrayReader(lambda: jpeg.decoded(pending, header, self.path))
+        self._overview = jpeg.HugeJpegReader(self.path, header, self.bands)
 
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""
@@ -534,11 +549,26 @@ class Raster:
                                    self.bands, itemsize=self.dtype.itemsize, row_step=step)
         return out[:, :, 0] if self.bands == 1 else out
 
+    def read_overview(self, box: Sequence[int], factor: int) -> np.ndarray:
+        """A window reduced by ``factor`` for a first look at a whole frame: :meth:`read_reduced`, except for a JPEG
+        decoded in the background, where an even ``factor`` is read from libjpeg's reduced decode
+        (:class:`~aerofid.io.jpeg.HugeJpegReader`: close to the block means, not exact) without waiting for the
+        whole decode."""
+        if self._overview is None or factor % 2:
+            return self.read_reduced(box, factor)
+        self._open_reader()
+        window_box = _window_box(box, self.width, self.height)
+        out = self._overview.read_reduced(window_box, check_factor(factor))
+        return out[:, :, 0] if self.bands == 1 else out
+
     def close(self) -> None:
         """Release the file and any cached image; later reads raise :class:`AerofidInputError`."""
         if self._reader is not None:
             self._reader.close()
         self._reader = None
+        if self._overview is not None:
+            self._overview.close()
+            self._overview = None
         if self._tif is not None:
             self._tif.close()
             self._tif = None

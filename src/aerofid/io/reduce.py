@@ -314,10 +314,14 @@ class ReducedView:
         return (x - (f - 1) / 2) / f, (y - (f - 1) / 2) / f
 
 
-def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int) -> tuple[np.ndarray, float]:
+def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int,
+                        overview: bool = False) -> tuple[np.ndarray, float]:
     """``box`` of ``source`` reduced by ``f`` as float32 grey levels on [0, 1] (integer samples divided by their
-    type's maximum), and one quantisation step of the samples on that scale (1e-4 for float samples)."""
-    reduced = source.read_reduced(box, f)
+    type's maximum), and one quantisation step of the samples on that scale (1e-4 for float samples). With
+    ``overview``, read by the source's ``read_overview`` where it has one (a JPEG's reduced decode:
+    :meth:`aerofid.io.raster.Raster.read_overview`)."""
+    read = getattr(source, "read_overview", source.read_reduced) if overview else source.read_reduced
+    reduced = read(box, f)
     if source.dtype.kind not in "ui":
         return reduced.astype(np.float32), 1e-4
     step = 1.0 / float(np.iinfo(source.dtype).max)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from hypothesis import strategies as st
 
 import aerofid
 from aerofid import synth
+from aerofid.detect import screen as screen_module
 from aerofid.detect.registry import METHODS
 from aerofid.detect.screen import MERGE_SHARE, Candidate, local_noise, merge_candidates, screen
 from aerofid.find import Measurer, recentred_half, reduction_for, window_ladder, with_window_term
@@ -84,16 +86,19 @@ def _merged_one_by_one(found: list[Candidate], max_candidates: int) -> tuple[Can
     return tuple(kept)
 
 
-@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 150), max_candidates=st.integers(0, 40))
-@settings(max_examples=80, deadline=None)
-def test_merging_follows_the_rule_candidate_by_candidate(seed, n, max_candidates):
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 150), max_candidates=st.integers(0, 40),
+       batch=st.sampled_from([1, 2, 7, 64]))
+@settings(max_examples=120, deadline=None)
+def test_merging_follows_the_rule_candidate_by_candidate(seed, n, max_candidates, batch):
     """Strongest first, each candidate merged into the first kept one within reach, else kept while there is room
-    (candidates on a coarse grid, so that distances equal to the reach occur)."""
+    (candidates on a coarse grid, so that distances equal to the reach occur), whatever the batches the reaches
+    are computed in."""
     rng = np.random.default_rng(seed)
     found = [Candidate(float(x), float(y), float(r), float(s)) for x, y, r, s in
              zip(rng.integers(0, 40, n) / 2, rng.integers(0, 40, n) / 2, rng.choice([1.5, 2, 3, 4.5, 6, 12, 24], n),
                  rng.integers(0, 20, n))]
-    assert merge_candidates(found, max_candidates) == _merged_one_by_one(found, max_candidates)
+    with mock.patch.object(screen_module, "MERGE_BATCH", batch):
+        assert merge_candidates(found, max_candidates) == _merged_one_by_one(found, max_candidates)
 
 
 def test_reduction_keeps_the_screened_image_within_its_budget():

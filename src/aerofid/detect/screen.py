@@ -46,6 +46,8 @@ MEDIAN_MAX_DIFFERENCE = 1.0518 * np.sqrt(2.0)
 median t of the larger of two half-normals solves (2 Phi(t) - 1)^2 = 1/2, t = 1.0518."""
 MERGE_SHARE = 0.25
 """Two candidates closer than this share of the larger radius are one structure (module docstring)."""
+MERGE_BATCH = 64
+"""Candidates whose reach to every kept one :func:`merge_candidates` computes at once."""
 MIN_LEVEL_SIDE = 2 * RADII[-1] + 3
 """A pyramid level smaller than this on either side is not screened."""
 
@@ -163,10 +165,12 @@ def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RAD
     for r, m in zip(radii, maps, strict=True):
         peak = m == cv2.dilate(m, disc_kernel(r).astype(np.uint8))
         ys, xs = np.nonzero(peak & (m >= min_strength))
-        order = np.argsort(-m[ys, xs], kind="stable")[:limit]
-        for x, y in zip(xs[order], ys[order], strict=True):
-            found.append(Candidate(x=(x + 0.5) * scale - 0.5, y=(y + 0.5) * scale - 0.5, radius=r * scale,
-                                   strength=float(m[y, x])))
+        strength = m[ys, xs]
+        order = np.argsort(-strength, kind="stable")[:limit]
+        radius = r * scale
+        found.extend(Candidate(x=x, y=y, radius=radius, strength=v, inner=radius) for x, y, v in zip(
+            ((xs[order] + 0.5) * scale - 0.5).tolist(), ((ys[order] + 0.5) * scale - 0.5).tolist(),
+            strength[order].astype(np.float64).tolist(), strict=True))
     return found
 
 
@@ -225,32 +229,53 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
     when its centre lies within :data:`MERGE_SHARE` of the larger radius of a stronger one's (a ring and its
     centre dot) or within half the smaller radius (two scales of one blob; not a mark beside the centre of a
     pair of marks, which is itself symmetric): it is merged into the stronger one, which keeps the
-    largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale."""
+    largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale.
+
+    The rule is sequential (a merge moves a kept one, and a kept one that was not there could take the next), but
+    which kept ones each candidate reaches is computed :data:`MERGE_BATCH` candidates at a time against all kept
+    ones, and only the one kept candidate that a merge or an addition changed is tested again for the rest of
+    the batch: the same decisions, with the same arithmetic, as one candidate after another."""
     ordered = sorted(found, key=lambda c: -c.strength)
     kept: list[Candidate] = []
     # the kept ones' centres (as x + iy: |z - z_c| is the distance, np.hypot's), MERGE_SHARE x and half their
     # radii, filled in order; a slot not yet filled is infinitely far
     size = min(len(ordered), max_candidates)
     z, share, half = np.full(size, complex(np.inf, np.inf)), np.zeros(size), np.zeros(size)
-    for c in ordered:
+    for b0 in range(0, len(ordered), MERGE_BATCH):
+        batch = ordered[b0:b0 + MERGE_BATCH]
+        zc = np.array([complex(c.x, c.y) for c in batch])
         # MERGE_SHARE max(R, r) and min(R, r) / 2 as the max and min of the products (the same numbers: rounding
         # is monotonic), so that the kept ones' products are computed once
-        reach = np.maximum(np.maximum(share, MERGE_SHARE * c.radius), np.minimum(half, 0.5 * c.radius))
-        same = np.flatnonzero(np.abs(z - complex(c.x, c.y)) <= reach)
-        if same.size:
-            i = int(same[0])
-            k = kept[i]
-            finer = c if c.radius < k.inner else k
-            kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
-                              inner=min(k.inner, c.inner))
-        elif len(kept) < max_candidates:
-            i = len(kept)
-            kept.append(c)
-        else:
-            continue
-        z[i] = complex(kept[i].x, kept[i].y)
-        share[i], half[i] = MERGE_SHARE * kept[i].radius, 0.5 * kept[i].radius
+        a, h = MERGE_SHARE * np.array([c.radius for c in batch]), 0.5 * np.array([c.radius for c in batch])
+        n = len(kept)
+        hits = np.zeros((len(batch), size), bool)
+        hits[:, :n] = _reaches(z[:n], share[:n], half[:n], zc[:, None], a[:, None], h[:, None])
+        counts = hits.sum(axis=1)
+        for b, c in enumerate(batch):
+            if counts[b]:
+                i = int(np.argmax(hits[b]))                 # the first kept one within reach
+                k = kept[i]
+                finer = c if c.radius < k.inner else k
+                kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
+                                  inner=min(k.inner, c.inner))
+            elif len(kept) < max_candidates:
+                i = len(kept)
+                kept.append(c)
+            else:
+                continue
+            z[i] = complex(kept[i].x, kept[i].y)
+            share[i], half[i] = MERGE_SHARE * kept[i].radius, 0.5 * kept[i].radius
+            now = _reaches(z[i], share[i], half[i], zc[b + 1:], a[b + 1:], h[b + 1:])
+            counts[b + 1:] += now.astype(int) - hits[b + 1:, i]
+            hits[b + 1:, i] = now
     return tuple(kept)
+
+
+def _reaches(z: np.ndarray, share: np.ndarray, half: np.ndarray, zc: np.ndarray, a: np.ndarray,
+             h: np.ndarray) -> np.ndarray:
+    """Whether candidates (centre ``zc``, MERGE_SHARE and half their radius ``a``, ``h``) lie within reach of kept
+    ones (``z``, ``share``, ``half``), broadcast: ``|z - zc| <= max(share, a, min(half, h))``."""
+    return np.abs(z - zc) <= np.maximum(np.maximum(share, a), np.minimum(half, h))
 
 
 __all__ = ["Candidate", "half_disc_offsets", "local_noise", "merge_candidates", "screen", "strength_maps"]

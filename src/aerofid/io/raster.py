@@ -301,20 +301,22 @@ class _TiffSegmentReader:
         """Samples of the window ``box``, assembled from the decoded segments it intersects."""
         page = self._page
         x0, y0, x1, y1 = box
-        out = np.full((y1 - y0, x1 - x0, page.samplesperpixel), page.nodata, dtype=page.dtype)
+        # every pixel of the window lies in one segment of each plane (the layout was checked at open), so the
+        # array needs no fill but where a segment is empty
+        out = np.empty((y1 - y0, x1 - x0, page.samplesperpixel), dtype=page.dtype)
         indices = segment_indices(box, self.segment_shape, (page.imagelength, page.imagewidth), self.planes)
         for index in indices.tolist():
-            segment, (plane, _, top, left, _), _ = page.decode(
+            segment, (plane, _, top, left, _), shape = page.decode(
                 self._segment_bytes(index), index, **self._decode_args
             )
-            if segment is None:  # empty segment: keep the nodata fill
-                continue
-            segment = segment[0]
-            r0, r1 = max(top, y0), min(top + segment.shape[0], y1)
-            c0, c1 = max(left, x0), min(left + segment.shape[1], x1)
-            out[r0 - y0 : r1 - y0, c0 - x0 : c1 - x0, plane : plane + segment.shape[2]] = segment[
-                r0 - top : r1 - top, c0 - left : c1 - left
-            ]
+            rows, cols, samples = shape[1:] if segment is None else segment.shape[1:]
+            r0, r1 = max(top, y0), min(top + rows, y1)
+            c0, c1 = max(left, x0), min(left + cols, x1)
+            part = out[r0 - y0 : r1 - y0, c0 - x0 : c1 - x0, plane : plane + samples]
+            if segment is None:  # an empty segment: the file's nodata value
+                part[...] = page.nodata
+            else:
+                part[...] = segment[0, r0 - top : r1 - top, c0 - left : c1 - left]
         return out
 
     def close(self) -> None:

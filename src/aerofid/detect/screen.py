@@ -161,7 +161,7 @@ def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RAD
     """The ``limit`` strongest local maxima of the strength of one pyramid level per radius, in input pixels
     (``scale`` input pixels per level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``)."""
     maps = strength_maps(img, radii, noise_floor=noise_floor)
-    found = []
+    found: list[Candidate] = []
     for r, m in zip(radii, maps, strict=True):
         peak = m == cv2.dilate(m, disc_kernel(r).astype(np.uint8))
         ys, xs = np.nonzero(peak & (m >= min_strength))

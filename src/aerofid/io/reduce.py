@@ -218,8 +218,9 @@ def _add_block_means(out: np.ndarray, rows: np.ndarray, block: int, factor: int,
     k, w, bands = rows.shape
     whole = w // factor * factor
     sums = np.empty((k, -(-w // factor), bands), np.float64)
-    columns = rows[:, 0:whole:factor].astype(acc)             # the block's columns added one by one: a reshape's
-    for j in range(1, factor):                                # sum over its last, short axis is slower
+    # the block's columns added one by one: a reshape's sum over its last, short axis is slower
+    columns: np.ndarray = rows[:, 0:whole:factor].astype(acc)
+    for j in range(1, factor):
         columns += rows[:, j:whole:factor]
     sums[:, : whole // factor] = columns
     if whole < w:

@@ -247,7 +247,8 @@ class _Pairs:
     @classmethod
     def of(cls, features: np.ndarray) -> _Pairs:
         i, k = np.triu_indices(len(features), 1)
-        order = np.lexsort((k, i + k))                             # pairs of strong features first
+        # pairs of strong features first: by i + k, then k (one key, unique for i < k: np.lexsort's order)
+        order = np.argsort((i + k) * len(features) + k)
         i, k = i[order], k[order]
         d_px = np.hypot(*(features[k] - features[i]).T)
         return cls(i, k, d_px, np.argsort(d_px, kind="stable"))
@@ -268,7 +269,7 @@ def _hypotheses(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> np.ndarray
     a = pairs.by_distance[np.arange(counts.sum()) + np.repeat(lo - np.cumsum(counts) + counts, counts)]
     keep = np.abs(d_px[a] - d_mm[b]) <= SCALE_TOLERANCE * d_mm[b]   # the band's ends exactly as the test reads
     a, b = a[keep], b[keep]
-    first = np.lexsort((b, a))[:MAX_HYPOTHESES]
+    first = np.argsort(a * len(d_mm) + b)[:MAX_HYPOTHESES]          # by a, then b (one key, unique: lexsort's order)
     a, b = a[first], b[first]
     return np.stack([pairs.i[a], pairs.k[a], j[b], l[b]], axis=1)
 

@@ -415,7 +415,8 @@ def write_doc(path: Path, args, parts: list[str]) -> None:
         f" --repeats {args.repeats}" + (" --hipp <venv>/bin/python" if args.hipp else "")
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     run = "\n".join([f"Produced by `{cmd}` at {commit} on {platform.machine()} / Python "
-                     f"{platform.python_version()}, one thread per process.", "", *parts])
+                     f"{platform.python_version()}, one thread per process (aerofid decodes a JPEG on a second one, "
+                     "overlapping its screening: CPU time above wall time).", "", *parts])
     old = path.read_text(encoding="utf-8") if path.exists() else ""
     head, rest = old.split(RUN_START, 1) if RUN_START in old and RUN_END in old else ("", RUN_END)
     path.write_text(head + RUN_START + "\n" + run + "\n" + RUN_END + rest.split(RUN_END, 1)[1], encoding="utf-8")

@@ -343,3 +343,42 @@ def test_the_frames_method_of_a_tie_does_not_depend_on_the_process():
                               env={**os.environ, "PYTHONHASHSEED": str(seed)}).stdout.strip()
                for seed in range(6)}
     assert answers == {"hough symmetry symmetry"}
+
+
+def test_a_jpeg_frame_whose_whole_decode_fails_is_an_error(tmp_path, monkeypatch):
+    """Where the reduced decode works and the whole one fails, a frame with no layout (no window read) still says
+    the file cannot be decoded."""
+    import cv2
+
+    from aerofid.io import jpeg
+
+    flat = np.clip(np.random.default_rng(0).normal(120, 3, (1600, 1600)), 0, 255).astype(np.uint8)
+    path = tmp_path / "flat.jpg"
+    path.write_bytes(cv2.imencode(".jpg", flat)[1].tobytes())
+    assert aerofid.orient_frame(path).status == "failed"
+    jpeg.decoding.cache_clear()
+
+    def fails(p):
+        raise aerofid.AerofidInputError(f"cannot decode {p}: the file is corrupt or truncated; re-export the scan")
+
+    monkeypatch.setattr(jpeg, "_decode_with_cv2", fails)
+    with pytest.raises(aerofid.AerofidInputError, match="corrupt or truncated"):
+        aerofid.orient_frame(path)
+    jpeg.decoding.cache_clear()
+
+
+def test_a_truncated_jpeg_frame_is_an_error_not_a_frame_without_marks(tmp_path):
+    """The frame's first look comes from libjpeg's reduced decode, which works on a truncated JPEG (grey where data
+    is missing); no layout is found there, and no window is read, but the whole decode fails: that is the answer
+    (exit status 2 on the command line, not a failed frame's 1)."""
+    import cv2
+
+    flat = np.clip(np.random.default_rng(0).normal(120, 3, (3000, 3000)), 0, 255).astype(np.uint8)
+    data = cv2.imencode(".jpg", flat, [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes()
+    path = tmp_path / "trunc.jpg"
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(aerofid.AerofidInputError, match="corrupt or truncated"):
+        aerofid.orient_frame(path)
+    out = subprocess.run([sys.executable, "-m", "aerofid", "orient", str(path)], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 2 and out.stderr.startswith("error: ") and "corrupt" in out.stderr, out.stderr

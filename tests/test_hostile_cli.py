@@ -179,3 +179,21 @@ def test_fresh_interpreter_under_a_memory_limit(ws):
         assert r.stderr.startswith("error: ") and words in r.stderr and len(r.stderr.splitlines()) == 1
         assert time.monotonic() - start < 30
     assert Path(ws.root / "fifo.tif").is_fifo()
+
+
+def test_a_decode_still_running_when_a_command_fails_says_nothing(tmp_path):
+    """A JPEG's whole decode runs in a thread of its own; a command that fails before it ends waits for it with the
+    libraries' chatter still kept off stderr (libjpeg warns of the 3 stray bytes here when it reaches them), so the
+    one ``error:`` line stays the only one."""
+    import cv2
+    import numpy as np
+
+    texture = np.random.default_rng(0).integers(0, 256, (1500, 1500), dtype=np.uint8)
+    image = cv2.resize(texture, (15000, 15000), interpolation=cv2.INTER_LINEAR)   # 0.3-0.5 s to decode
+    data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes()
+    path = tmp_path / "stray.jpg"
+    path.write_bytes(data[:-2] + b"\x00\x00\x00" + data[-2:])
+    out = subprocess.run([sys.executable, "-m", "aerofid", "locate", str(path), "--box", "50000,5000,51000,5100"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert out.stderr.startswith("error: ") and len(out.stderr.splitlines()) == 1, out.stderr

@@ -4,8 +4,10 @@ decode whole (:mod:`aerofid.io.jpeg`) and arrays read like scans (:mod:`aerofid.
 from __future__ import annotations
 
 import os
+import threading
 import time
 import tracemalloc
+import types
 import zlib
 
 import cv2
@@ -17,6 +19,7 @@ from hypothesis import strategies as st
 
 from aerofid.errors import AerofidInputError
 from aerofid.io import jpeg, reduce
+from aerofid.io import raster as raster_module
 from aerofid.io.array import ArrayRaster, as_image_array, open_image
 from aerofid.io.raster import Raster, open_raster
 from conftest import realdata_path
@@ -336,7 +339,7 @@ def test_headers_declare_the_size_of_real_files(tmp_path):
     rgb = write_cv2(tmp_path / "rgb.jpg", smooth_image(3))
     grey = write_cv2(tmp_path / "grey.png", random_image(np.uint16, 1))
     assert jpeg.read_header(rgb, "jpeg") == jpeg.ImageHeader(WIDTH, HEIGHT, 3, 1)
-    assert jpeg.read_header(grey, "png") == jpeg.ImageHeader(WIDTH, HEIGHT, 1, 2)
+    assert jpeg.read_header(grey, "png") == jpeg.ImageHeader(WIDTH, HEIGHT, 1, 2, scalable=False)
 
 
 @pytest.fixture(params=[1, 3], ids=["grey", "rgb"])
@@ -386,8 +389,8 @@ def test_libjpeg_reduced_decode_is_close_to_the_block_mean(jpeg_pair, factor):
 def test_odd_factors_are_refused_and_the_reduced_decode_is_kept(jpeg_pair, monkeypatch):
     _, huge = jpeg_pair
     calls = []
-    imread = cv2.imread
-    monkeypatch.setattr(jpeg.cv2, "imread", lambda *args: calls.append(args[1]) or imread(*args))
+    imdecode = cv2.imdecode
+    monkeypatch.setattr(jpeg.cv2, "imdecode", lambda *args: calls.append(args[1]) or imdecode(*args))
     for factor in (1, 3, 5):
         with pytest.raises(AerofidInputError, match=f"reducing by {factor}"):
             huge.read_reduced((0, 0, 100, 100), factor)
@@ -406,17 +409,42 @@ def test_the_reduced_decode_respects_the_budget(tmp_path, monkeypatch):
             raster.read_reduced((0, 0, 400, 400), 4)
 
 
+@pytest.fixture
+def held_decode(monkeypatch):
+    """The background decode held until the test lets it go (``release``); the paths it decoded (``calls``)."""
+    jpeg.decoding.cache_clear()
+    go, calls = threading.Event(), []
+    decode = jpeg._read_only
+
+    def held(path):
+        calls.append(path)
+        assert go.wait(30), "the decode was never let go"
+        return decode(path)
+
+    monkeypatch.setattr(jpeg, "_read_only", held)
+    yield types.SimpleNamespace(release=go.set, calls=calls)
+    go.set()
+    jpeg.decoding.cache_clear()
+
+
+@pytest.mark.parametrize("bands", [1, 3])
 @pytest.mark.parametrize("factor", [2, 8, 16])
-def test_a_jpeg_overview_is_the_reduced_decode_and_does_not_wait_for_the_whole(jpeg_pair, monkeypatch, factor):
-    """``read_overview`` of a JPEG decoded in the background: libjpeg's reduced decode, the same as a huge JPEG's
-    reduced read (close to the block mean), taken while the whole decode has not finished."""
-    whole, huge = jpeg_pair
+def test_a_jpeg_opens_and_gives_its_overview_before_its_decode_ends(tmp_path, held_decode, bands, factor):
+    """An 8-bit JPEG opens from its header and its overview is libjpeg's reduced decode (what a JPEG too large to
+    decode whole reads), both while the whole decode is still held; its windows then wait for that decode."""
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(bands, (600, 808)), cv2.IMWRITE_JPEG_QUALITY, 95)
+    header = jpeg.read_header(path, "jpeg")
     box = (16, 64, 808, 520)
-    expected = huge.read_reduced(box, factor)
-    monkeypatch.setattr(jpeg, "decoded", lambda *args: pytest.fail("the overview waited for the whole decode"))
-    with open_raster(whole.path) as raster:
+    expected = jpeg.HugeJpegReader(path, header, bands).read_reduced(box, factor)
+    with open_raster(path) as raster:
+        assert (raster.width, raster.height, raster.bands, raster.dtype) == (808, 600, bands, np.uint8)
         got = raster.read_overview(box, factor)
-    np.testing.assert_array_equal(got, expected)
+        assert len(held_decode.calls) == 1                          # the decode began, and is still held
+        held_decode.release()
+        window = raster.read_window((0, 0, 808, 600))
+    np.testing.assert_array_equal(got, expected[:, :, 0] if bands == 1 else expected)
+    decoded = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(window, decoded if bands == 1 else decoded[:, :, ::-1])
 
 
 def test_an_overview_is_the_exact_reduced_read_elsewhere(jpeg_pair, layout_files):
@@ -431,18 +459,35 @@ def test_an_overview_is_the_exact_reduced_read_elsewhere(jpeg_pair, layout_files
                 np.testing.assert_array_equal(raster.read_overview(box, factor), raster.read_reduced(box, factor))
 
 
-def test_a_jpeg_is_decoded_in_the_background_once(tmp_path, monkeypatch):
-    """Opening a JPEG does not wait for its decode; its windows do, and two opens share one decode."""
+def test_an_overview_checks_its_request_as_a_reduced_read(tmp_path, monkeypatch):
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (600, 808)))
+    with open_raster(path) as raster:
+        for box, factor, words in [((0, 0, 808, 600), "2", "factor"), ((0, 0, 900, 600), 2, "outside")]:
+            with pytest.raises(AerofidInputError) as excinfo:
+                raster.read_overview(box, factor)
+            assert_one_line_error(excinfo, words)
+        monkeypatch.setattr(raster_module, "WINDOW_LIMIT_BYTES", 1000)
+        with pytest.raises(AerofidInputError) as excinfo:
+            raster.read_overview((0, 0, 808, 600), 2)
+        assert_one_line_error(excinfo, "GB")
+
+
+def test_two_opens_share_one_decode_and_a_failure_is_not_kept(tmp_path, monkeypatch):
     path = write_cv2(tmp_path / "scan.jpg", smooth_image(3, (600, 808)))
     jpeg.decoding.cache_clear()
     calls = []
-    decode = jpeg._decode_with_cv2
-    monkeypatch.setattr(jpeg, "_decode_with_cv2", lambda p: calls.append(p) or decode(p))
+    decode = jpeg._read_only
+    monkeypatch.setattr(jpeg, "_read_only", lambda p: calls.append(p) or decode(p))
     with open_raster(path) as first, open_raster(path) as second:
-        assert (first.width, first.height, first.bands, first.dtype) == (808, 600, 3, np.uint8)
-        np.testing.assert_array_equal(first.read_window((0, 0, 808, 600)), cv2.imread(str(path))[:, :, ::-1])
         np.testing.assert_array_equal(second.read_window((5, 6, 70, 80)), first.read_window((5, 6, 70, 80)))
     assert calls == [path.resolve()]
+    monkeypatch.setattr(jpeg, "_read_only", lambda p: calls.append(p) or (_ for _ in ()).throw(MemoryError()))
+    jpeg.decoding.cache_clear()
+    for _ in range(2):                                      # the memory it lacked, as such, and tried again
+        with open_raster(path) as raster, pytest.raises(MemoryError):
+            raster.read_window((0, 0, 8, 8))
+    assert len(calls) == 3
+    jpeg.decoding.cache_clear()
 
 
 def test_a_jpeg_that_decodes_to_another_size_than_its_header_is_one_line(tmp_path, monkeypatch):
@@ -456,17 +501,42 @@ def test_a_jpeg_that_decodes_to_another_size_than_its_header_is_one_line(tmp_pat
     jpeg.decoding.cache_clear()
 
 
-def test_a_forked_child_decodes_on_its_own(tmp_path):
-    """A child forked after the parent's decode thread started (a test runner, a process pool) gets its own."""
-    path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
-    other = write_cv2(tmp_path / "other.jpg", smooth_image(1, (48, 40)))
+def test_a_truncated_jpeg_is_an_error_whichever_decode_meets_it(tmp_path):
+    """A truncated JPEG is one line from its overview (libjpeg's reduced decode), from a window and from
+    ``check_decoded`` (what a frame's search calls when it read no window)."""
+    data = cv2.imencode(".jpg", np.full((640, 800), 90, np.uint8))[1].tobytes()
+    path = tmp_path / "trunc.jpg"
+    path.write_bytes(data[: len(data) // 2])
+    jpeg.decoding.cache_clear()
+    for read in (lambda r: r.read_overview((0, 0, 800, 640), 8), lambda r: r.read_window((0, 0, 8, 8)),
+                 lambda r: r.check_decoded()):
+        with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+            read(raster)
+        assert_one_line_error(excinfo, "corrupt or truncated")
+
+
+def test_a_lossless_jpeg_is_decoded_whole_not_reduced(tmp_path):
+    """libjpeg cannot scale a lossless JPEG (SOF3): its overview is the exact reduced read of its whole decode."""
+    imagecodecs = pytest.importorskip("imagecodecs")
+    image = smooth_image(1, (96, 128))
+    path = tmp_path / "lossless.jpg"
+    path.write_bytes(imagecodecs.jpeg8_encode(image, lossless=True))
+    header = jpeg.read_header(path, "jpeg")
+    assert not header.scalable and not jpeg.decodes_in_background(header, "jpeg")
     with open_raster(path) as raster:
-        raster.read_window((0, 0, 8, 8))                    # the parent's worker thread is running
+        np.testing.assert_array_equal(raster.read_overview((0, 0, 128, 96), 8), raster.read_reduced((0, 0, 128, 96), 8))
+        np.testing.assert_array_equal(raster.read_window((0, 0, 128, 96)), image)
+    with pytest.raises(AerofidInputError) as excinfo:
+        jpeg.HugeJpegReader(path, header, 1).read_reduced((0, 0, 128, 96), 8)
+    assert_one_line_error(excinfo, "lossless", "tiled TIFF")
+
+
+def _in_child(work) -> int:
+    """``work()`` in a forked child: its exit status (0: done; -1: still running after 60 s, killed)."""
     pid = os.fork()
     if pid == 0:                                            # pragma: no cover (the child)
         try:
-            with open_raster(other) as r:
-                os._exit(0 if r.read_window((0, 0, 40, 48)).shape == (48, 40) else 1)
+            os._exit(0 if work() else 1)
         finally:
             os._exit(2)
     deadline = time.monotonic() + 60
@@ -475,7 +545,25 @@ def test_a_forked_child_decodes_on_its_own(tmp_path):
     if done[0] == 0:
         os.kill(pid, 9)
         os.waitpid(pid, 0)
-    assert done[0] == pid and os.waitstatus_to_exitcode(done[1]) == 0
+        return -1
+    return os.waitstatus_to_exitcode(done[1])
+
+
+def test_a_forked_child_decodes_on_its_own(tmp_path, held_decode):
+    """A child forked while its parent's decode runs (a test runner, a process pool started by fork) has no
+    decoding thread: a raster it inherited decodes there, and a file it opens gets a decode of its own."""
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
+    other = write_cv2(tmp_path / "other.jpg", smooth_image(1, (48, 40)))
+    with open_raster(path) as raster:
+        # the child lets its own copy of the hold go: its parent's decode stays held, and no thread of the child
+        # would ever finish it
+        child_work = lambda: held_decode.release() or raster.read_window((0, 0, 80, 64)).shape == (64, 80)  # noqa: E731
+        assert _in_child(child_work) == 0
+        held_decode.release()
+    assert _in_child(lambda: open_raster(other).read_window((0, 0, 40, 48)).shape == (48, 40)) == 0
+    with open_raster(path) as raster:
+        raster.read_window((0, 0, 8, 8))
+        assert _in_child(lambda: open_raster(path).read_window((0, 0, 80, 64)).shape == (64, 80)) == 0
 
 
 def test_real_rc20_jpeg_reduced_decode_is_close_to_the_block_mean(monkeypatch):

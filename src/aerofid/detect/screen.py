@@ -175,7 +175,7 @@ def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RAD
         radius = r * scale
         found.extend(Candidate(x=x, y=y, radius=radius, strength=v, inner=radius) for x, y, v in zip(
             ((xs[order] + 0.5) * scale - 0.5).tolist(), ((ys[order] + 0.5) * scale - 0.5).tolist(),
-            strength[order].astype(np.float64).tolist(), strict=True))
+            strength[order].tolist(), strict=True))
     return found
 
 

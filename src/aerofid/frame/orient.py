@@ -181,6 +181,7 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         if best is None or not _settled(best):
             features, f = frame_features(source)
             best = _better(best, frame.oriented(features, f, WHOLE_FRAME, extras))
+            _check_decoded(source)
             if best is None:
                 return _no_layout(frame.head(len(features), f, WHOLE_FRAME), len(cam.fiducials), size, size_source)
         if extras and best.orientation is not None:
@@ -402,6 +403,15 @@ def scan_pixel_size(source: ImageSource, cam: Camera, given: float | None,
     if cam.pixel_size_um is not None:
         return cam.pixel_size_um / 1000.0, "camera"
     return None, "estimated"
+
+
+def _check_decoded(source: ImageSource) -> None:
+    """Raise if the scan's whole decode failed (``Raster.check_decoded``): a JPEG's first look comes from its reduced
+    decode, which may work on a corrupt file, and a frame whose marks were never read would otherwise be reported
+    as a frame without marks."""
+    check = getattr(source, "check_decoded", None)
+    if check is not None:
+        check()
 
 
 def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:

@@ -3,10 +3,12 @@ libjpeg's reduced decode for a JPEG that does not.
 
 OpenCV cannot decode a window of a JPEG or PNG, so :class:`~aerofid.io.raster.Raster` decodes one whole, once,
 when its decoded samples fit the decode budget (:func:`decode_budget`). The size is read from the header first (the JPEG
-start-of-frame segment, the PNG ``IHDR`` chunk), so nothing is decoded to learn it. An 8-bit grey or RGB JPEG is
-decoded in the background (:func:`decoding`, one worker thread): the raster opens at once, and its first window waits
-for the decode, while a whole frame's first look (``Raster.read_overview``) is taken from libjpeg's reduced decode in
-the meantime, on the other core. A larger JPEG is never decoded whole: :class:`HugeJpegReader` answers
+start-of-frame segment, the PNG ``IHDR`` chunk), so nothing is decoded to learn it. The decode runs in a thread of
+its own (:func:`decoding`). The raster waits for it on opening a PNG or an unusual JPEG; an 8-bit DCT JPEG opens at
+once, its first window waits for the decode (:func:`decoded`), and a whole frame's first look
+(``Raster.read_overview``) is taken from libjpeg's reduced decode meanwhile, on the other core; closing the raster
+waits for the decode to end (:func:`finish`), and a corrupt file is an error when a window is read or
+``Raster.check_decoded`` asks. A larger JPEG is never decoded whole: :class:`HugeJpegReader` answers
 ``read_reduced`` with libjpeg's decode at 1/2, 1/4 or 1/8 scale (``cv2.IMREAD_REDUCED_*``) followed by block means of
 the rest of the factor, and refuses full-resolution windows. A larger PNG is refused (PNG has no reduced decode).
 
@@ -20,8 +22,10 @@ from __future__ import annotations
 
 import functools
 import os
+import threading
 from collections.abc import Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, wait
+from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO, NamedTuple
 
@@ -39,10 +43,12 @@ __all__ = [
     "ImageHeader",
     "decode_whole",
     "decode_budget",
+    "Decoding",
     "decoded",
     "decodes_in_background",
     "decodes_whole",
     "decoding",
+    "finish",
     "header_segments",
     "read_header",
 ]
@@ -59,6 +65,7 @@ def decode_budget() -> int:
 DECODED_CACHE = 2
 
 _SOF_MARKERS = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}  # start of frame: not DHT, JPG, DAC
+_LOSSLESS_MARKERS = frozenset({0xC3, 0xC7, 0xCB, 0xCF})  # lossless frames: libjpeg decodes them at full size only
 _STANDALONE = frozenset({0x01, *range(0xD0, 0xD8)})  # TEM and RSTn carry no length
 _PNG_SAMPLES = {0: 1, 2: 3, 3: 3, 4: 2, 6: 4}  # colour type -> decoded samples per pixel (palette -> RGB)
 _REDUCED_FLAGS = {
@@ -75,6 +82,8 @@ class ImageHeader(NamedTuple):
     height: int
     samples: int
     itemsize: int
+    scalable: bool = True
+    """Whether libjpeg can decode it reduced (a DCT JPEG; not a lossless one, nor a PNG)."""
 
     @property
     def decoded_bytes(self) -> int:
@@ -122,7 +131,7 @@ def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
     """Read the frame's size from a JPEG's first start-of-frame segment (:func:`header_segments`)."""
     bad = AerofidInputError(f"cannot decode {path}: its JPEG header is corrupt or truncated; re-export the scan")
     try:
-        body = next(b for m, b in header_segments(file) if m in _SOF_MARKERS)
+        marker, body = next((m, b) for m, b in header_segments(file) if m in _SOF_MARKERS)
     except ValueError:
         raise bad from None
     if len(body) < 6:
@@ -131,7 +140,8 @@ def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
     height, width = int.from_bytes(body[1:3], "big"), int.from_bytes(body[3:5], "big")
     if width == 0 or height == 0:
         raise AerofidInputError(f"{path} declares a {width} x {height} JPEG; re-export the scan")
-    return ImageHeader(width, height, 3 if components >= 3 else components, 1 if precision <= 8 else 2)
+    return ImageHeader(width, height, 3 if components >= 3 else components, 1 if precision <= 8 else 2,
+                       scalable=marker not in _LOSSLESS_MARKERS)
 
 
 def _png_header(file: BinaryIO, path: Path) -> ImageHeader:
@@ -141,7 +151,7 @@ def _png_header(file: BinaryIO, path: Path) -> ImageHeader:
     if len(chunk) < 21 or chunk[4:8] != b"IHDR" or chunk[17] not in _PNG_SAMPLES:
         raise AerofidInputError(f"cannot decode {path}: its PNG header is corrupt or truncated; re-export the scan")
     width, height = int.from_bytes(chunk[8:12], "big"), int.from_bytes(chunk[12:16], "big")
-    return ImageHeader(width, height, _PNG_SAMPLES[chunk[17]], 2 if chunk[16] == 16 else 1)
+    return ImageHeader(width, height, _PNG_SAMPLES[chunk[17]], 2 if chunk[16] == 16 else 1, scalable=False)
 
 
 def read_header(path: Path, kind: str) -> ImageHeader:
@@ -194,16 +204,19 @@ def _decode_with_cv2(path: Path) -> np.ndarray:
 
 
 def decodes_in_background(header: ImageHeader, kind: str) -> bool:
-    """Whether :class:`~aerofid.io.raster.Raster` decodes the file in the background (:func:`decoding`): an 8-bit
-    grey or RGB JPEG, whose decode has the header's size and samples (a PNG's or a CMYK JPEG's decoded samples are
-    learnt from the decode itself)."""
-    return kind == "jpeg" and header.itemsize == 1 and header.samples in (1, 3)
+    """Whether :class:`~aerofid.io.raster.Raster` decodes the file in the background and takes its first look from
+    libjpeg's reduced decode meanwhile: an 8-bit DCT JPEG (grey, or 3 or 4 components, which OpenCV decodes to RGB:
+    the header's samples); a PNG's decoded samples are learnt from the decode itself."""
+    return kind == "jpeg" and header.itemsize == 1 and header.samples in (1, 3) and header.scalable
 
 
-@functools.lru_cache(maxsize=1)
-def _decoder() -> ThreadPoolExecutor:
-    """The one worker thread that decodes files in the background (made on first need)."""
-    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="aerofid-decode")
+@dataclass(frozen=True)
+class Decoding:
+    """A whole decode running in its own thread (:func:`decoding`), started by process ``pid``."""
+
+    path: Path
+    future: Future[np.ndarray]
+    pid: int
 
 
 def _read_only(path: Path) -> np.ndarray:
@@ -212,33 +225,57 @@ def _read_only(path: Path) -> np.ndarray:
     return image
 
 
+def _decode_into(path: Path, future: Future[np.ndarray]) -> None:
+    try:
+        image = _read_only(path)
+    except BaseException as exc:  # noqa: BLE001 (handed to the thread that waits for it)
+        future.set_exception(exc)
+    else:
+        future.set_result(image)
+
+
 @functools.lru_cache(maxsize=DECODED_CACHE)
-def decoding(path: str, mtime_ns: int, size: int) -> Future[np.ndarray]:
-    """The whole decode of a JPEG or PNG as ``(rows, columns, samples)`` in RGB(A) order, read-only, started in the
-    background (cv2 releases the GIL while it decodes) and cached by path, modification time and size (so locating
-    several marks in one file decodes it once). Its result raises :class:`AerofidInputError` for a file that cannot
-    be decoded."""
-    return _decoder().submit(_read_only, Path(path))
+def decoding(path: str, mtime_ns: int, size: int) -> Decoding:
+    """The whole decode of a JPEG or PNG as ``(rows, columns, samples)`` in RGB(A) order, read-only, started in a
+    thread of its own (cv2 releases the GIL while it decodes; the thread ends with the decode) and cached by path,
+    modification time and size, so that locating several marks in one file decodes it once. :func:`decoded` waits
+    for it."""
+    future: Future[np.ndarray] = Future()
+    threading.Thread(target=_decode_into, args=(Path(path), future), name="aerofid-decode").start()
+    return Decoding(Path(path), future, os.getpid())
 
 
-def _forget_decodes() -> None:
-    """In a forked child: the parent's worker thread is not there, so its queue and pending decodes are dropped."""
-    _decoder.cache_clear()
-    decoding.cache_clear()
+os.register_at_fork(after_in_child=decoding.cache_clear)  # a child has none of its parent's decoding threads
 
 
-os.register_at_fork(after_in_child=_forget_decodes)
+def _result(pending: Decoding) -> np.ndarray:
+    """The decoded image: waited for; decoded here in a process forked while its parent's thread decoded it. A
+    failure is raised (:class:`AerofidInputError` for a file that cannot be decoded) and not kept in the cache."""
+    if pending.pid != os.getpid() and not pending.future.done():
+        return _read_only(pending.path)
+    exc = pending.future.exception()
+    if exc is not None:
+        decoding.cache_clear()
+        raise exc.with_traceback(None)
+    return pending.future.result()
+
+
+def finish(pending: Decoding) -> None:
+    """Wait until ``pending`` (started by this process) has ended, whatever its outcome: no decode is left running,
+    or writing libjpeg's warnings to stderr, once its raster is closed."""
+    if pending.pid == os.getpid():
+        wait([pending.future])
 
 
 def decode_whole(path: str, mtime_ns: int, size: int) -> np.ndarray:
     """The whole decode of :func:`decoding`, waited for."""
-    return decoding(path, mtime_ns, size).result()
+    return _result(decoding(path, mtime_ns, size))
 
 
-def decoded(pending: Future[np.ndarray], header: ImageHeader, path: Path) -> np.ndarray:
-    """The background decode ``pending`` of the file at ``path`` once done; it must have the size and samples
+def decoded(pending: Decoding, header: ImageHeader, path: Path) -> np.ndarray:
+    """The whole decode ``pending`` of the file at ``path`` (:func:`_result`); it must have the size and samples
     ``header`` declared (the raster was opened with them)."""
-    image = pending.result()
+    image = _result(pending)
     if image.shape != (header.height, header.width, header.samples):
         raise AerofidInputError(
             f"cannot decode {path}: its header declares {header.width} x {header.height} px of {header.samples} "
@@ -274,6 +311,9 @@ class HugeJpegReader:
     def scale_for(self, factor: int) -> int:
         """The largest libjpeg scale (8, 4, 2) that divides ``factor`` and whose decode fits the budget."""
         h = self.header
+        if not h.scalable:
+            raise AerofidInputError(f"{self._too_large()}, and a lossless JPEG cannot be decoded reduced; convert it "
+                                    "to a tiled TIFF (e.g. gdal_translate -co TILED=YES)")
         for scale in (8, 4, 2):
             reduced = -(-h.width // scale) * -(-h.height // scale) * self.bands * h.itemsize
             if factor % scale == 0 and reduced <= decode_budget():
@@ -290,8 +330,8 @@ class HugeJpegReader:
         self._kept = None
         flags = _REDUCED_FLAGS[(self.bands, scale)] | cv2.IMREAD_IGNORE_ORIENTATION
         try:
-            image = cv2.imread(str(self.path), flags)
-        except cv2.error as exc:
+            image = cv2.imdecode(np.fromfile(self.path, dtype=np.uint8), flags)  # any path, as _decode_with_cv2
+        except (OSError, cv2.error) as exc:
             raise AerofidInputError(f"cannot decode {self.path}: {_one_line(exc)}; re-export the scan") from exc
         expected = (-(-self.header.height // scale), -(-self.header.width // scale))
         if image is None or image.shape[:2] != expected:

@@ -13,10 +13,11 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
   ``page.dataoffsets`` / ``page.databytecounts``;
 * a TIFF layout that cannot be windowed (segments that do not tile the image as the tags say, NDPI-style
   JPEG) is decoded whole on the first read and kept in memory;
-* a JPEG or PNG is decoded whole when opened (OpenCV cannot read a window of it) and kept in memory, if its
-  decoded size (read from the header first) fits the decode budget (:func:`aerofid.io.jpeg.decode_budget`); a
-  larger JPEG is never decoded whole (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced
-  decode), a larger PNG is refused.
+* a JPEG or PNG is decoded whole (OpenCV cannot read a window of it) and kept in memory, if its decoded size (read
+  from the header first) fits the decode budget (:func:`aerofid.io.jpeg.decode_budget`): a PNG when opened, an
+  8-bit DCT JPEG in the background from the moment it is opened (its windows wait for it,
+  :meth:`Raster.read_overview` takes libjpeg's reduced decode meanwhile); a larger JPEG is never decoded whole
+  (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced decode), a larger PNG is refused.
 
 :meth:`Raster.read_reduced` reads a window reduced by block means in horizontal strips (whole tile rows of a
 tiled TIFF), so its memory stays bounded whatever the box (:mod:`aerofid.io.reduce`). A numpy array is read
@@ -34,7 +35,6 @@ import operator
 import os
 import reprlib
 from collections.abc import Callable, Sequence
-from concurrent.futures import Future
 from pathlib import Path
 
 import numpy as np
@@ -342,6 +342,7 @@ class Raster:
         self._tif: tifffile.TiffFile | None = None
         self._reader: _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader | None = None
         self._overview: jpeg.HugeJpegReader | None = None
+        self._pending: jpeg.Decoding | None = None
         self._invert = False
         if self.format == "tiff":
             self._open_tiff()
@@ -372,19 +373,21 @@ class Raster:
         )
         if self.format != "jpeg" or header.itemsize != 1:
             raise AerofidInputError(f"{too_large}; convert it to a tiled TIFF (e.g. gdal_translate -co TILED=YES)")
+        self._reader = self._from_header(header)
+
+    def _from_header(self, header: jpeg.ImageHeader) -> jpeg.HugeJpegReader:
+        """Size, bands and type of an 8-bit JPEG from its header, and its reader through libjpeg's reduced decode."""
         self.width, self.height = header.width, header.height
         self.bands = _bands_for_samples(header.samples, self.path)
         self.dtype = np.dtype(np.uint8)
-        self._reader = jpeg.HugeJpegReader(self.path, header, self.bands)
+        return jpeg.HugeJpegReader(self.path, header, self.bands)
 
-    def _open_decoding(self, header: jpeg.ImageHeader, pending: Future[np.ndarray]) -> None:
+    def _open_decoding(self, header: jpeg.ImageHeader, pending: jpeg.Decoding) -> None:
         """A JPEG being decoded whole in the background (:func:`aerofid.io.jpeg.decoding`): its size from the header,
         windows once the decode is done, and :meth:`read_overview` from libjpeg's reduced decode meanwhile."""
-        self.width, self.height = header.width, header.height
-        self.bands = _bands_for_samples(header.samples, self.path)
-        self.dtype = np.dtype(np.uint8)
+        self._overview = self._from_header(header)
+        self._pending = pending
         self._reader = _ArrayReader(lambda: jpeg.decoded(pending, header, self.path))
-        self._overview = jpeg.HugeJpegReader(self.path, header, self.bands)
 
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""
@@ -468,7 +471,7 @@ class Raster:
         reader = self._open_reader()
         try:
             samples = reader.read(box)
-        except AerofidInputError:
+        except (AerofidInputError, MemoryError):  # a background decode's own error, or the memory it lacked
             raise
         except Exception as exc:  # tifffile, imagecodecs and numpy.memmap raise many types
             raise AerofidInputError(
@@ -539,9 +542,7 @@ class Raster:
             the reduced window would need more than about 1 GB; the file cannot be decoded.
         """
         reader = self._open_reader()
-        window_box = _window_box(box, self.width, self.height)
-        factor = check_factor(factor)
-        check_reduced_size(window_box, factor, self.bands, WINDOW_LIMIT_BYTES)
+        window_box, factor = self._reduced_request(box, factor)
         if isinstance(reader, jpeg.HugeJpegReader):
             out = reader.read_reduced(window_box, factor)
         else:
@@ -551,20 +552,40 @@ class Raster:
                                    self.bands, itemsize=self.dtype.itemsize, row_step=step)
         return out[:, :, 0] if self.bands == 1 else out
 
+    def _reduced_request(self, box: Sequence[int], factor: int) -> tuple[tuple[int, int, int, int], int]:
+        """The window and factor of a reduced read, checked (:meth:`read_reduced`'s errors)."""
+        window_box = _window_box(box, self.width, self.height)
+        factor = check_factor(factor)
+        check_reduced_size(window_box, factor, self.bands, WINDOW_LIMIT_BYTES)
+        return window_box, factor
+
     def read_overview(self, box: Sequence[int], factor: int) -> np.ndarray:
         """A window reduced by ``factor`` for a first look at a whole frame: :meth:`read_reduced`, except for a JPEG
         decoded in the background, where an even ``factor`` is read from libjpeg's reduced decode
-        (:class:`~aerofid.io.jpeg.HugeJpegReader`: close to the block means, not exact) without waiting for the
-        whole decode."""
-        if self._overview is None or factor % 2:
-            return self.read_reduced(box, factor)
+        (:class:`~aerofid.io.jpeg.HugeJpegReader`: close to the block means of a whole frame, not exact, and
+        farther from them at the image's last row and column and on windows not on its 8 x 8 grid) without waiting
+        for the whole decode. A corrupt JPEG's reduced decode may succeed: :meth:`check_decoded` tells."""
         self._open_reader()
-        window_box = _window_box(box, self.width, self.height)
-        out = self._overview.read_reduced(window_box, check_factor(factor))
+        window_box, factor = self._reduced_request(box, factor)
+        if self._overview is None or factor % 2:
+            return self.read_reduced(window_box, factor)
+        out = self._overview.read_reduced(window_box, factor)
         return out[:, :, 0] if self.bands == 1 else out
 
+    def check_decoded(self) -> None:
+        """Wait for a JPEG's background decode and raise its error (one line) if it failed; nothing for other
+        rasters. A search that read only :meth:`read_overview` calls it: a corrupt file is an error, not an image
+        without marks."""
+        if self._pending is not None:
+            self._samples((0, 0, 1, 1), copy=False)
+
     def close(self) -> None:
-        """Release the file and any cached image; later reads raise :class:`AerofidInputError`."""
+        """Release the file and any cached image, once a background decode has ended (so that no decode runs, or
+        writes libjpeg's warnings to stderr, after the raster is closed); later reads raise
+        :class:`AerofidInputError`."""
+        if self._pending is not None:
+            jpeg.finish(self._pending)
+            self._pending = None
         if self._reader is not None:
             self._reader.close()
         self._reader = None
@@ -606,7 +627,8 @@ def open_raster(path: str | os.PathLike[str]) -> Raster:
     Raises
     ------
     AerofidInputError
-        Missing, unreadable, unsupported or corrupt file (one line saying what to do).
+        Missing, unreadable, unsupported or corrupt file (one line saying what to do); the corruption of a JPEG
+        decoded in the background is told when a window is read, or by :meth:`Raster.check_decoded`.
 
     Examples
     --------

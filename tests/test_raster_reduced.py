@@ -389,8 +389,8 @@ def test_libjpeg_reduced_decode_is_close_to_the_block_mean(jpeg_pair, factor):
 def test_odd_factors_are_refused_and_the_reduced_decode_is_kept(jpeg_pair, monkeypatch):
     _, huge = jpeg_pair
     calls = []
-    imdecode = cv2.imdecode
-    monkeypatch.setattr(jpeg.cv2, "imdecode", lambda *args: calls.append(args[1]) or imdecode(*args))
+    imread = cv2.imread
+    monkeypatch.setattr(jpeg.cv2, "imread", lambda *args: calls.append(args[1]) or imread(*args))
     for factor in (1, 3, 5):
         with pytest.raises(AerofidInputError, match=f"reducing by {factor}"):
             huge.read_reduced((0, 0, 100, 100), factor)
@@ -501,17 +501,18 @@ def test_a_jpeg_that_decodes_to_another_size_than_its_header_is_one_line(tmp_pat
     jpeg.decoding.cache_clear()
 
 
-def test_a_truncated_jpeg_is_an_error_whichever_decode_meets_it(tmp_path):
-    """A truncated JPEG is one line from its overview (libjpeg's reduced decode), from a window and from
-    ``check_decoded`` (what a frame's search calls when it read no window)."""
+def test_a_truncated_jpeg_is_an_error_when_a_window_is_read_or_checked(tmp_path):
+    """libjpeg's reduced decode gives a truncated JPEG's overview (grey where data is missing); its whole decode
+    fails, which a window and ``check_decoded`` (what a frame's search calls when it read no window) tell."""
     data = cv2.imencode(".jpg", np.full((640, 800), 90, np.uint8))[1].tobytes()
     path = tmp_path / "trunc.jpg"
     path.write_bytes(data[: len(data) // 2])
     jpeg.decoding.cache_clear()
-    for read in (lambda r: r.read_overview((0, 0, 800, 640), 8), lambda r: r.read_window((0, 0, 8, 8)),
-                 lambda r: r.check_decoded()):
-        with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
-            read(raster)
+    for read in (lambda r: r.read_window((0, 0, 8, 8)), lambda r: r.check_decoded()):
+        with open_raster(path) as raster:
+            assert raster.read_overview((0, 0, 800, 640), 8).shape == (80, 100)
+            with pytest.raises(AerofidInputError) as excinfo:
+                read(raster)
         assert_one_line_error(excinfo, "corrupt or truncated")
 
 

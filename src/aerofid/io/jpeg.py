@@ -330,8 +330,8 @@ class HugeJpegReader:
         self._kept = None
         flags = _REDUCED_FLAGS[(self.bands, scale)] | cv2.IMREAD_IGNORE_ORIENTATION
         try:
-            image = cv2.imdecode(np.fromfile(self.path, dtype=np.uint8), flags)  # any path, as _decode_with_cv2
-        except (OSError, cv2.error) as exc:
+            image = cv2.imread(str(self.path), flags)  # libjpeg reads the file: no copy of its bytes in memory
+        except cv2.error as exc:
             raise AerofidInputError(f"cannot decode {self.path}: {_one_line(exc)}; re-export the scan") from exc
         expected = (-(-self.header.height // scale), -(-self.header.width // scale))
         if image is None or image.shape[:2] != expected:

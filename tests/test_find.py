@@ -435,3 +435,19 @@ def test_screening_on_two_threads_gives_the_same_candidates():
     with mock.patch.object(screen_module, "PARALLEL_PIXELS", 0):
         two = screen(img.astype(np.float32), max_candidates=64)
     assert len(one) > 10 and one == two
+
+
+def test_screening_in_a_thread_that_outlives_the_main_one():
+    """Once the main thread has ended the interpreter takes no new pool threads: the screen then runs on one."""
+    import subprocess
+    import sys
+
+    code = ("import threading, time, numpy as np\n"
+            "from aerofid.detect.screen import screen\n"
+            "img = np.random.default_rng(0).random((600, 600)).astype(np.float32)\n"
+            "def late():\n"
+            "    time.sleep(0.5)\n"
+            "    print('candidates', len(screen(img, min_strength=0.0)), flush=True)\n"
+            "threading.Thread(target=late).start()\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.startswith("candidates "), out.stderr[-500:]

@@ -356,7 +356,7 @@ def test_a_jpeg_frame_whose_whole_decode_fails_is_an_error(tmp_path, monkeypatch
     path = tmp_path / "flat.jpg"
     path.write_bytes(cv2.imencode(".jpg", flat)[1].tobytes())
     assert aerofid.orient_frame(path).status == "failed"
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
 
     def fails(p):
         raise aerofid.AerofidInputError(f"cannot decode {p}: the file is corrupt or truncated; re-export the scan")
@@ -364,7 +364,7 @@ def test_a_jpeg_frame_whose_whole_decode_fails_is_an_error(tmp_path, monkeypatch
     monkeypatch.setattr(jpeg, "_decode_with_cv2", fails)
     with pytest.raises(aerofid.AerofidInputError, match="corrupt or truncated"):
         aerofid.orient_frame(path)
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
 
 
 def test_a_truncated_jpeg_frame_is_an_error_not_a_frame_without_marks(tmp_path):

@@ -4,11 +4,15 @@ decode whole (:mod:`aerofid.io.jpeg`) and arrays read like scans (:mod:`aerofid.
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import threading
 import time
 import tracemalloc
 import types
 import zlib
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -412,19 +416,20 @@ def test_the_reduced_decode_respects_the_budget(tmp_path, monkeypatch):
 @pytest.fixture
 def held_decode(monkeypatch):
     """The background decode held until the test lets it go (``release``); the paths it decoded (``calls``)."""
-    jpeg.decoding.cache_clear()
-    go, calls = threading.Event(), []
+    jpeg.forget_decodes()
+    go, entered, calls = threading.Event(), threading.Event(), []
     decode = jpeg._read_only
 
     def held(path):
         calls.append(path)
+        entered.set()
         assert go.wait(30), "the decode was never let go"
         return decode(path)
 
     monkeypatch.setattr(jpeg, "_read_only", held)
-    yield types.SimpleNamespace(release=go.set, calls=calls)
+    yield types.SimpleNamespace(release=go.set, calls=calls, entered=entered)
     go.set()
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
 
 
 @pytest.mark.parametrize("bands", [1, 3])
@@ -439,7 +444,7 @@ def test_a_jpeg_opens_and_gives_its_overview_before_its_decode_ends(tmp_path, he
     with open_raster(path) as raster:
         assert (raster.width, raster.height, raster.bands, raster.dtype) == (808, 600, bands, np.uint8)
         got = raster.read_overview(box, factor)
-        assert len(held_decode.calls) == 1                          # the decode began, and is still held
+        assert held_decode.entered.wait(10) and len(held_decode.calls) == 1   # the decode began, and is still held
         held_decode.release()
         window = raster.read_window((0, 0, 808, 600))
     np.testing.assert_array_equal(got, expected[:, :, 0] if bands == 1 else expected)
@@ -474,7 +479,7 @@ def test_an_overview_checks_its_request_as_a_reduced_read(tmp_path, monkeypatch)
 
 def test_two_opens_share_one_decode_and_a_failure_is_not_kept(tmp_path, monkeypatch):
     path = write_cv2(tmp_path / "scan.jpg", smooth_image(3, (600, 808)))
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
     calls = []
     decode = jpeg._read_only
     monkeypatch.setattr(jpeg, "_read_only", lambda p: calls.append(p) or decode(p))
@@ -482,23 +487,74 @@ def test_two_opens_share_one_decode_and_a_failure_is_not_kept(tmp_path, monkeypa
         np.testing.assert_array_equal(second.read_window((5, 6, 70, 80)), first.read_window((5, 6, 70, 80)))
     assert calls == [path.resolve()]
     monkeypatch.setattr(jpeg, "_read_only", lambda p: calls.append(p) or (_ for _ in ()).throw(MemoryError()))
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
     for _ in range(2):                                      # the memory it lacked, as such, and tried again
         with open_raster(path) as raster, pytest.raises(MemoryError):
             raster.read_window((0, 0, 8, 8))
     assert len(calls) == 3
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
+
+
+def test_opens_from_two_threads_at_once_share_one_decode(tmp_path, held_decode):
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
+    start = threading.Barrier(8)
+
+    def opened(_):
+        start.wait()
+        return open_raster(path)
+
+    with ThreadPoolExecutor(8) as pool:
+        rasters = list(pool.map(opened, range(8)))
+    held_decode.release()
+    for raster in rasters:
+        assert raster.read_window((0, 0, 80, 64)).shape == (64, 80)
+        raster.close()
+    assert len(held_decode.calls) == 1
+
+
+def test_a_failed_decode_is_forgotten_without_being_read(tmp_path, monkeypatch):
+    """A decode that failed (memory, a file being written) is not kept even when no window asked for it, and only its
+    own file's is dropped."""
+    path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
+    other = write_cv2(tmp_path / "other.jpg", smooth_image(1, (48, 40)))
+    jpeg.forget_decodes()
+    with open_raster(other) as kept:
+        kept.read_window((0, 0, 8, 8))
+    decode = jpeg._read_only
+    monkeypatch.setattr(jpeg, "_read_only", lambda p: (_ for _ in ()).throw(MemoryError()) if p.name == "scan.jpg"
+                        else decode(p))
+    with open_raster(path):
+        pass                                                # closed without a read: the failure is not kept
+    monkeypatch.setattr(jpeg, "_read_only", lambda p: pytest.fail(f"{p.name} was decoded again"))
+    with open_raster(other) as again:                       # another file's decode is still kept
+        assert again.read_window((0, 0, 40, 48)).shape == (48, 40)
+    monkeypatch.setattr(jpeg, "_read_only", decode)
+    with open_raster(path) as raster:
+        assert raster.read_window((0, 0, 80, 64)).shape == (64, 80)
+    jpeg.forget_decodes()
+
+
+def test_a_jpeg_whose_name_is_not_utf8_is_read(tmp_path):
+    """OpenCV's imread crashes on a name that is not valid UTF-8 (a lone surrogate once decoded): the reduced decode
+    reads such a file's bytes instead (in a child process, so that a crash fails the test, not the run)."""
+    folder = os.fsencode(tmp_path)
+    path = os.fsdecode(folder + b"/scan\xff.jpg")
+    Path(path).write_bytes(cv2.imencode(".jpg", smooth_image(1, (1200, 1600)))[1].tobytes())
+    code = ("import sys; from aerofid.io.raster import open_raster\n"
+            "with open_raster(sys.argv[1]) as r: print(r.read_overview((0, 0, 1600, 1200), 8).shape)")
+    out = subprocess.run([sys.executable, "-c", code, path], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "(150, 200)", (out.returncode, out.stderr[-500:])
 
 
 def test_a_jpeg_that_decodes_to_another_size_than_its_header_is_one_line(tmp_path, monkeypatch):
     """The header gave the raster its size; a decode of another size is refused when a window is read."""
     path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
     monkeypatch.setattr(jpeg, "_decode_with_cv2", lambda p: np.zeros((56, 80, 1), np.uint8))
     with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
         raster.read_window((0, 0, 8, 8))
     assert_one_line_error(excinfo, "declares 80 x 64", "decodes to 80 x 56", "re-export")
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
 
 
 def test_a_truncated_jpeg_is_an_error_when_a_window_is_read_or_checked(tmp_path):
@@ -507,7 +563,7 @@ def test_a_truncated_jpeg_is_an_error_when_a_window_is_read_or_checked(tmp_path)
     data = cv2.imencode(".jpg", np.full((640, 800), 90, np.uint8))[1].tobytes()
     path = tmp_path / "trunc.jpg"
     path.write_bytes(data[: len(data) // 2])
-    jpeg.decoding.cache_clear()
+    jpeg.forget_decodes()
     for read in (lambda r: r.read_window((0, 0, 8, 8)), lambda r: r.check_decoded()):
         with open_raster(path) as raster:
             assert raster.read_overview((0, 0, 800, 640), 8).shape == (80, 100)

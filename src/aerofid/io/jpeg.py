@@ -20,13 +20,14 @@ are weighed by area from the reduced pixels.
 
 from __future__ import annotations
 
-import functools
 import os
 import threading
+from collections import OrderedDict
 from collections.abc import Iterator
 from concurrent.futures import Future, wait
 from dataclasses import dataclass
 from pathlib import Path
+from types import TracebackType
 from typing import BinaryIO, NamedTuple
 
 import cv2
@@ -49,6 +50,7 @@ __all__ = [
     "decodes_whole",
     "decoding",
     "finish",
+    "forget_decodes",
     "header_segments",
     "read_header",
 ]
@@ -210,13 +212,20 @@ def decodes_in_background(header: ImageHeader, kind: str) -> bool:
     return kind == "jpeg" and header.itemsize == 1 and header.samples in (1, 3) and header.scalable
 
 
-@dataclass(frozen=True)
+@dataclass
 class Decoding:
-    """A whole decode running in its own thread (:func:`decoding`), started by process ``pid``."""
+    """A whole decode running in its own thread (:func:`decoding`), started by process ``pid``; ``traceback`` is
+    where it failed, if it did."""
 
     path: Path
     future: Future[np.ndarray]
     pid: int
+    traceback: TracebackType | None = None
+
+
+#: The decodes started or done, newest last, by (path, modification time, size); at most DECODED_CACHE.
+_DECODES: OrderedDict[tuple[str, int, int], Decoding] = OrderedDict()
+_DECODES_LOCK = threading.Lock()
 
 
 def _read_only(path: Path) -> np.ndarray:
@@ -225,38 +234,62 @@ def _read_only(path: Path) -> np.ndarray:
     return image
 
 
-def _decode_into(path: Path, future: Future[np.ndarray]) -> None:
+def _decode_into(key: tuple[str, int, int], pending: Decoding) -> None:
     try:
-        image = _read_only(path)
+        image = _read_only(pending.path)
     except BaseException as exc:  # noqa: BLE001 (handed to the thread that waits for it)
-        future.set_exception(exc)
+        with _DECODES_LOCK:                     # a failure is not kept: the next open of the file decodes again
+            if _DECODES.get(key) is pending:
+                del _DECODES[key]
+        pending.traceback = exc.__traceback__
+        pending.future.set_exception(exc)
     else:
-        future.set_result(image)
+        pending.future.set_result(image)
 
 
-@functools.lru_cache(maxsize=DECODED_CACHE)
 def decoding(path: str, mtime_ns: int, size: int) -> Decoding:
     """The whole decode of a JPEG or PNG as ``(rows, columns, samples)`` in RGB(A) order, read-only, started in a
-    thread of its own (cv2 releases the GIL while it decodes; the thread ends with the decode) and cached by path,
-    modification time and size, so that locating several marks in one file decodes it once. :func:`decoded` waits
-    for it."""
-    future: Future[np.ndarray] = Future()
-    threading.Thread(target=_decode_into, args=(Path(path), future), name="aerofid-decode").start()
-    return Decoding(Path(path), future, os.getpid())
+    thread of its own (cv2 releases the GIL while it decodes; the thread ends with the decode) and kept by path,
+    modification time and size (the last :data:`DECODED_CACHE`), so that locating several marks in one file, or
+    opening it from two threads at once, decodes it once. :func:`decoded` waits for it."""
+    key = (path, mtime_ns, size)
+    with _DECODES_LOCK:
+        pending = _DECODES.get(key)
+        if pending is not None:
+            _DECODES.move_to_end(key)
+            return pending
+        pending = _DECODES[key] = Decoding(Path(path), Future(), os.getpid())
+        while len(_DECODES) > DECODED_CACHE:
+            _DECODES.popitem(last=False)
+    threading.Thread(target=_decode_into, args=(key, pending), name="aerofid-decode").start()
+    return pending
 
 
-os.register_at_fork(after_in_child=decoding.cache_clear)  # a child has none of its parent's decoding threads
+def forget_decodes() -> None:
+    """Drop the kept decodes (those running end for whoever waits for them)."""
+    with _DECODES_LOCK:
+        _DECODES.clear()
+
+
+def _after_fork_in_child() -> None:
+    """A forked child has none of its parent's decoding threads, and perhaps a lock one of them held."""
+    global _DECODES_LOCK
+    _DECODES_LOCK = threading.Lock()
+    _DECODES.clear()
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 def _result(pending: Decoding) -> np.ndarray:
     """The decoded image: waited for; decoded here in a process forked while its parent's thread decoded it. A
-    failure is raised (:class:`AerofidInputError` for a file that cannot be decoded) and not kept in the cache."""
+    failure is raised (:class:`AerofidInputError` for a file that cannot be decoded) with the decode's own
+    traceback."""
     if pending.pid != os.getpid() and not pending.future.done():
         return _read_only(pending.path)
     exc = pending.future.exception()
     if exc is not None:
-        decoding.cache_clear()
-        raise exc.with_traceback(None)
+        raise exc.with_traceback(pending.traceback)
     return pending.future.result()
 
 
@@ -282,6 +315,17 @@ def decoded(pending: Decoding, header: ImageHeader, path: Path) -> np.ndarray:
             f"samples but it decodes to {image.shape[1]} x {image.shape[0]} px of {image.shape[2]}; re-export the scan"
         )
     return image
+
+
+def _imread(path: Path, flags: int) -> np.ndarray | None:
+    """``cv2.imread``: libjpeg reads the file, no copy of its bytes is held beside the decode; from the file's bytes
+    (``cv2.imdecode``) for a name that is not valid UTF-8, which OpenCV's ``imread`` cannot take (it crashes)."""
+    name = str(path)
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return cv2.imdecode(np.fromfile(path, dtype=np.uint8), flags)
+    return cv2.imread(name, flags)
 
 
 class HugeJpegReader:
@@ -330,8 +374,8 @@ class HugeJpegReader:
         self._kept = None
         flags = _REDUCED_FLAGS[(self.bands, scale)] | cv2.IMREAD_IGNORE_ORIENTATION
         try:
-            image = cv2.imread(str(self.path), flags)  # libjpeg reads the file: no copy of its bytes in memory
-        except cv2.error as exc:
+            image = _imread(self.path, flags)
+        except (OSError, cv2.error) as exc:
             raise AerofidInputError(f"cannot decode {self.path}: {_one_line(exc)}; re-export the scan") from exc
         expected = (-(-self.header.height // scale), -(-self.header.width // scale))
         if image is None or image.shape[:2] != expected:

@@ -14,8 +14,8 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
 * a TIFF layout that cannot be windowed (segments that do not tile the image as the tags say, NDPI-style
   JPEG) is decoded whole on the first read and kept in memory;
 * a JPEG or PNG is decoded whole (OpenCV cannot read a window of it) and kept in memory, if its decoded size (read
-  from the header first) fits the decode budget (:func:`aerofid.io.jpeg.decode_budget`): a PNG when opened, an
-  8-bit DCT JPEG in the background from the moment it is opened (its windows wait for it,
+  from the header first) fits the decode budget (:func:`aerofid.io.jpeg.decode_budget`): a PNG, a lossless or a
+  12-bit JPEG when opened, an 8-bit DCT JPEG in the background from the moment it is opened (its windows wait for it,
   :meth:`Raster.read_overview` takes libjpeg's reduced decode meanwhile); a larger JPEG is never decoded whole
   (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced decode), a larger PNG is refused.
 
@@ -583,9 +583,15 @@ class Raster:
         """Release the file and any cached image, once a background decode has ended (so that no decode runs, or
         writes libjpeg's warnings to stderr, after the raster is closed); later reads raise
         :class:`AerofidInputError`."""
-        if self._pending is not None:
-            jpeg.finish(self._pending)
-            self._pending = None
+        pending, self._pending = self._pending, None
+        try:
+            if pending is not None:
+                jpeg.finish(pending)
+        finally:
+            self._release()
+
+    def _release(self) -> None:
+        """Drop the readers, the kept image and the TIFF file (:meth:`close`)."""
         if self._reader is not None:
             self._reader.close()
         self._reader = None

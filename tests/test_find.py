@@ -421,33 +421,3 @@ def test_a_centre_the_method_gives_back_on_the_recentred_window_is_the_new_measu
         assert anew.found and math.hypot(anew.x - first.x, anew.y - first.y) < 1e-3
         assert not Measurer(source, make_detector("auto", "auto", {}), ("bright",)).confirms(first, half)
 
-
-def test_screening_on_two_threads_gives_the_same_candidates():
-    """A large image's finest level is screened beside its coarser ones (``PARALLEL_PIXELS``): the candidates, their
-    order and numbers are those of one thread."""
-    rng = np.random.default_rng(3)
-    img = synth.add_gaussian_noise(synth.blur(rng.random((300, 340)).astype(np.float32) * 0.2, 2.0), 0.01, rng)
-    for x, y in ((60.3, 70.6), (250.2, 200.9)):
-        img[int(y) - 6:int(y) + 7, int(x) - 1:int(x) + 2] += 0.6
-        img[int(y) - 1:int(y) + 2, int(x) - 6:int(x) + 7] += 0.6
-    with mock.patch.object(screen_module, "PARALLEL_PIXELS", 10**9):
-        one = screen(img.astype(np.float32), max_candidates=64)
-    with mock.patch.object(screen_module, "PARALLEL_PIXELS", 0):
-        two = screen(img.astype(np.float32), max_candidates=64)
-    assert len(one) > 10 and one == two
-
-
-def test_screening_in_a_thread_that_outlives_the_main_one():
-    """Once the main thread has ended the interpreter takes no new pool threads: the screen then runs on one."""
-    import subprocess
-    import sys
-
-    code = ("import threading, time, numpy as np\n"
-            "from aerofid.detect.screen import screen\n"
-            "img = np.random.default_rng(0).random((600, 600)).astype(np.float32)\n"
-            "def late():\n"
-            "    time.sleep(0.5)\n"
-            "    print('candidates', len(screen(img, min_strength=0.0)), flush=True)\n"
-            "threading.Thread(target=late).start()\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert out.returncode == 0 and out.stdout.startswith("candidates "), out.stderr[-500:]

@@ -27,7 +27,6 @@ stronger kept). A candidate is a hint for the detectors, never an answer.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import cv2
@@ -49,10 +48,6 @@ MERGE_SHARE = 0.25
 """Two candidates closer than this share of the larger radius are one structure (module docstring)."""
 MERGE_BATCH = 64
 """Candidates whose reach to every kept one :func:`merge_candidates` computes at once."""
-PARALLEL_PIXELS = 250_000
-"""A finest level of at least this many pixels (a whole frame's 1 Mpx, a box of 500 x 500 px or more) is screened
-beside the coarser ones, on two threads, with the same candidates: the pyramid's levels of a whole frame alone,
-127 -> 101 ms; the screening 10-20 % faster. Smaller images on one."""
 ENERGY_ROWS = 128
 """Rows of a level that :func:`symmetric_energy` sums over every offset before the next (a band that stays in the
 cache: 1.6 times faster on a 688 px level than whole levels, with the same sums)."""
@@ -221,32 +216,17 @@ def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_rad
     >>> bool(abs(best.x - 180.3) < 3 and abs(best.y - 110.6) < 3)
     True
     """
-    levels = []
+    found: list[Candidate] = []
     level = np.asarray(img, np.float32)
     s = float(scale)
     while min(level.shape) >= MIN_LEVEL_SIDE:
         if max_radius is not None and RADII[0] * s > max_radius:
             break
         if RADII[-1] * s >= min_radius:
-            levels.append((level, s))
+            found.extend(level_candidates(level, s, RADII, min_strength, noise_floor, 4 * max_candidates))
         level = reduce2(level)
         s *= 2.0
-
-    def candidates(part: list[tuple[np.ndarray, float]]) -> list[Candidate]:
-        return [c for lv, f in part for c in level_candidates(lv, f, RADII, min_strength, noise_floor,
-                                                              4 * max_candidates)]
-
-    if len(levels) < 2 or levels[0][0].size < PARALLEL_PIXELS:
-        return merge_candidates(candidates(levels), max_candidates)
-    # the finest level here, the coarser ones (a third of the work) on a second thread: numpy and OpenCV release
-    # the GIL, and the candidates are joined in the same order
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        try:
-            coarser = pool.submit(candidates, levels[1:])
-        except RuntimeError:  # the interpreter is shutting down (a search in a thread that outlives the main one)
-            return merge_candidates(candidates(levels), max_candidates)
-        finest = candidates(levels[:1])
-        return merge_candidates(finest + coarser.result(), max_candidates)
+    return merge_candidates(found, max_candidates)
 
 
 def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:

@@ -251,7 +251,8 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
         zc = np.array([complex(c.x, c.y) for c in batch])
         # MERGE_SHARE max(R, r) and min(R, r) / 2 as the max and min of the products (the same numbers: rounding
         # is monotonic), so that the kept ones' products are computed once
-        a, h = MERGE_SHARE * np.array([c.radius for c in batch]), 0.5 * np.array([c.radius for c in batch])
+        radius = np.array([c.radius for c in batch])
+        a, h = MERGE_SHARE * radius, 0.5 * radius
         n = len(kept)
         hits = np.zeros((len(batch), size), bool)
         hits[:, :n] = _reaches(z[:n], share[:n], half[:n], zc[:, None], a[:, None], h[:, None])

@@ -565,9 +565,10 @@ class Raster:
         (:class:`~aerofid.io.jpeg.HugeJpegReader`: close to the block means of a whole frame, not exact, and
         farther from them at the image's last row and column and on windows not on its 8 x 8 grid) without waiting
         for the whole decode. A corrupt JPEG's reduced decode may succeed: :meth:`check_decoded` tells."""
-        self._open_reader()
+        if self._overview is None:                  # not such a JPEG, or closed: read_reduced checks and reads
+            return self.read_reduced(box, factor)
         window_box, factor = self._reduced_request(box, factor)
-        if self._overview is None or factor % 2:
+        if factor % 2:
             return self.read_reduced(window_box, factor)
         out = self._overview.read_reduced(window_box, factor)
         return out[:, :, 0] if self.bands == 1 else out

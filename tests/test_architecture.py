@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import realdata_path
+
 SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
 
 LAYER = {"conventions": 0, "errors": 0, "robust": 0, "io": 1, "detect": 2, "orientation": 2, "formats": 3,
@@ -185,4 +187,23 @@ def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     found = out.split()
     assert found[0] == "found" and abs(float(found[1][2:]) - 47.3) < 0.05 and abs(float(found[2][2:]) - 48.6) < 0.05
+    assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out
+
+
+def test_a_one_box_locate_of_the_real_rc20_ring_fits_no_cross():
+    """The real RC20 ring's X has an open centre: ``hough``'s cross-check of the ring proposes two candidates where no
+    stroke crosses, refused before any fit (``detector.MAX_CROSSING_GAP``), so one ``aerofid locate`` of it loads
+    neither scipy.optimize nor scipy.special (issue 10: 0.3-0.4 s of the call)."""
+    jpeg = realdata_path("unbc_bc_wild_rc20/15BCC02013_114.jpg")
+    code = (
+        "import sys\n"
+        "from aerofid.cli import main\n"
+        "try:\n"
+        f"    main(['locate', {str(jpeg)!r}, '--box', '605,119,725,239', '--mark', 'external'])\n"
+        "except SystemExit as e:\n"
+        "    print('status', e.code)\n"
+        "print(sorted(m for m in sys.modules if m.startswith(('scipy.optimize', 'scipy.special'))))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split()[0] == "found", out
     assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out

@@ -1,6 +1,7 @@
 """The Hough cross detector of seed 001 against known truth: exact geometry, the seed's constants, and
 synthetic marks with exact sub-pixel centres."""
 
+import dataclasses
 from pathlib import Path
 
 import cv2
@@ -16,7 +17,7 @@ from aerofid.detect.hough import HoughParams, HoughResult, detect
 from aerofid.detect.hough import analysis as hc
 from aerofid.detect.hough import detector as hd
 from aerofid.detect.hough.cross_fit import CrossFit
-from aerofid.detect.hough.search import search_box, spiral_coordinates, window_sizes
+from aerofid.detect.hough.search import make_candidate, search_box, spiral_coordinates, window_sizes
 from aerofid.detect.threshold import interclass_variance, optimum_threshold
 from aerofid.errors import AerofidInputError
 
@@ -373,3 +374,49 @@ def test_the_search_gives_up_after_max_rejections():
     calls.clear()
     search_box(img, HoughParams(max_rejections=None), refuse)
     assert len(calls) > limit
+
+
+def _plus_window(hollow: float) -> np.ndarray:
+    """A bright '+' of 2 px strokes (whole pixels) and 14 px half-arms at (30.5, 29.5) of a 60 px window, blurred,
+    its crossing cut out to ``hollow`` px from the centre (0: a whole '+')."""
+    yy, xx = np.mgrid[0:60, 0:60].astype(np.float64)
+    dx, dy = xx - 30.5, yy - 29.5
+    bars = ((np.abs(dy) <= 1.0) & (np.abs(dx) <= 14.0)) | ((np.abs(dx) <= 1.0) & (np.abs(dy) <= 14.0))
+    img = 0.2 + 0.6 * (bars & (np.hypot(dx, dy) >= hollow))
+    return cv2.GaussianBlur(img.astype(np.float32), (0, 0), 0.8)
+
+
+@pytest.mark.parametrize("hollow,refused", [(0.0, False), (3.0, True), (6.0, True)])
+def test_lines_that_do_not_cross_on_a_stroke_are_refused_before_the_fit(monkeypatch, hollow, refused):
+    """The Hough lines of a '+' cut out at its crossing meet where no pixel is bright: the candidate is refused
+    unfitted; a whole '+' has a stroke at its Hough centre and is fitted and accepted."""
+    img = _plus_window(hollow)
+    a = hc.analyse_window(img)
+    assert np.hypot(a.x - 30.5, a.y - 29.5) < 1.0
+    assert (hd.crossing_gap(a) > hd.MAX_CROSSING_GAP) == refused
+    fits = []
+    fit_cross = hd.fit_cross
+    monkeypatch.setattr(hd, "fit_cross", lambda *args, **kw: fits.append(args) or fit_cross(*args, **kw))
+    cand = make_candidate(1, (a, img, (0, 0)), 60)
+    got = hd.verify_candidate(img, cand, 60)
+    if refused:
+        assert isinstance(got, str) and "no stroke at the Hough centre" in got and not fits
+    else:
+        assert isinstance(got, hd.Verified) and len(fits) == 1
+        assert np.hypot(got.x - 30.5, got.y - 29.5) < 0.01
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-3.0, 22.0), st.floats(-3.0, 22.0), st.integers(0, 2 ** 32 - 1), st.floats(0.0, 0.1))
+def test_crossing_gap_is_the_distance_to_the_nearest_bright_pixel(x, y, seed, density):
+    """Within MAX_CROSSING_GAP the gap is the distance to the nearest bright pixel; beyond it only its being beyond
+    matters (the Hough centre may lie outside the window)."""
+    binary = np.random.default_rng(seed).random((20, 20)) < density
+    a = dataclasses.replace(hc.analyse_window(_plus_window(0.0)), x=x, y=y, binary=binary)
+    ys, xs = np.nonzero(binary)
+    nearest = float(np.hypot(xs - x, ys - y).min()) if xs.size else np.inf
+    got = hd.crossing_gap(a)
+    if nearest <= hd.MAX_CROSSING_GAP:
+        assert got == pytest.approx(nearest, abs=1e-12)
+    else:
+        assert got > hd.MAX_CROSSING_GAP

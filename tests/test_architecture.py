@@ -161,7 +161,7 @@ def test_import_aerofid_loads_no_part_until_a_name_is_used():
 
 
 START_UP_HEAVY = ("scipy.ndimage", "scipy.sparse", "scipy.stats", "scipy.spatial", "matplotlib", "aerofid.batch",
-                  "aerofid.frame", "aerofid.resample")
+                  "aerofid.frame", "aerofid.resample", "tifffile", "yaml")
 """What a one-box ``aerofid locate`` of a ring must not import (issue 10: a call pays only for what it uses)."""
 
 
@@ -169,7 +169,7 @@ def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
     """The CLI imports the command it runs (``aerofid.cli.COMMANDS``), and a ring that ``circles`` and ``symmetry``
     corroborate needs no scipy module (the spline coefficients and moving means are aerofid's own, scipy.sparse
     serves only a reduced JPEG source; scipy.optimize, with scipy.sparse and scipy.spatial, loads when a '+' is
-    fitted)."""
+    fitted); a PNG needs no tifffile, a box list no PyYAML."""
     png = tmp_path / "ring.png"
     code = (
         "import sys, numpy as np, cv2\n"

@@ -12,7 +12,8 @@ from pathlib import Path
 import yaml
 
 from aerofid.formats.micmac import read_measures_camera, write_measures_camera
-from aerofid.formats.text import load_json, load_yaml
+from aerofid.formats.text import load_json
+from aerofid.formats.yaml_text import load_yaml
 from aerofid.io.atomic import write_text_atomic
 from aerofid.io.files import input_file, read_text_input
 from aerofid.orientation.camera import Camera

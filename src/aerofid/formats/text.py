@@ -1,6 +1,6 @@
-"""Reading the text files aerofid takes (camera, measurements, boxes) without trusting them: JSON and YAML with
-duplicate keys refused and nesting limited, XML with nesting limited, and the rows of a delimited table with a
-header recognised only by its column names.
+"""Reading the text files aerofid takes (camera, measurements, boxes) without trusting them: JSON with duplicate
+keys refused and nesting limited, XML with nesting limited, and the rows of a delimited table with a header
+recognised only by its column names (YAML, read only for camera files: :mod:`aerofid.formats.yaml_text`).
 
 Every refusal is one :class:`~aerofid.errors.AerofidInputError` line naming the file.
 """
@@ -14,11 +14,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import yaml
 
 from aerofid.errors import AerofidInputError
 
-__all__ = ["MAX_DEPTH", "is_header", "load_json", "load_yaml", "parse_xml", "table_rows"]
+__all__ = ["MAX_DEPTH", "is_header", "load_json", "parse_xml", "table_rows", "too_deep"]
 
 MAX_DEPTH = 32
 """Deepest nesting of JSON arrays/objects, YAML collections or XML elements accepted: the deepest file aerofid
@@ -30,7 +29,7 @@ _COORDINATE_NAME = re.compile(r"(x|y|col|column|row|line|sample|i|j|u|v)\d?([ _\
 """A column name a table's header may give a coordinate: x, y, x0, y1, x_px, "x (px)", column, row..."""
 
 
-def _too_deep(source: str) -> AerofidInputError:
+def too_deep(source: str) -> AerofidInputError:
     return AerofidInputError(f"{source} nests deeper than {MAX_DEPTH} levels; it is not a file aerofid writes or "
                              "reads: check that it is the right file")
 
@@ -69,65 +68,15 @@ def load_json(text: str, source: str) -> Any:
     aerofid.errors.AerofidInputError: duplicate key(s) a in x.json; each key once
     """
     if _json_depth(text) > MAX_DEPTH:
-        raise _too_deep(source)
+        raise too_deep(source)
     try:
         return json.loads(text, object_pairs_hook=_unique_pairs(source))
     except json.JSONDecodeError as e:
         raise AerofidInputError(f"{source} is not valid JSON: {e}") from None
     except RecursionError:
-        raise _too_deep(source) from None
+        raise too_deep(source) from None
 
 
-class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader with duplicate keys refused and nesting limited (its composer recurses)."""
-
-    source = ""
-    depth = 0
-
-    def compose_node(self, parent, index):
-        self.depth += 1
-        try:
-            if self.depth > MAX_DEPTH:
-                raise _too_deep(self.source)
-            return super().compose_node(parent, index)
-        finally:
-            self.depth -= 1
-
-    def construct_mapping(self, node, deep=False):
-        keys = [self.construct_object(k, deep=deep) for k, _ in node.value]
-        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
-        if dup:
-            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {self.source}; each key once")
-        return super().construct_mapping(node, deep=deep)
-
-
-_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _Loader.construct_mapping)
-
-
-def load_yaml(text: str, source: str) -> Any:
-    """Parse YAML ``text`` safely (no Python objects): duplicate keys and nesting deeper than :data:`MAX_DEPTH`
-    refused.
-
-    Examples
-    --------
-    >>> load_yaml("a: [1, 2]", "x.yaml")
-    {'a': [1, 2]}
-    >>> load_yaml("a: " + "[" * 40 + "]" * 40, "x.yaml")  # doctest: +ELLIPSIS
-    Traceback (most recent call last):
-    ...
-    aerofid.errors.AerofidInputError: x.yaml nests deeper than 32 levels; ...
-    """
-    loader = _Loader(text)
-    loader.source = source
-    try:
-        return loader.get_single_data()
-    except yaml.YAMLError as e:
-        msg = " ".join(str(e).split())
-        raise AerofidInputError(f"{source} is not valid YAML: {msg}") from None
-    except RecursionError:
-        raise _too_deep(source) from None
-    finally:
-        loader.dispose()
 
 
 def parse_xml(text: str, source: str) -> ET.Element:
@@ -148,7 +97,7 @@ def parse_xml(text: str, source: str) -> ET.Element:
         for event, element in parser.read_events():  # type: ignore[misc]
             depth += 1 if event == "start" else -1
             if depth > MAX_DEPTH:
-                raise _too_deep(source)
+                raise too_deep(source)
             if root is None and isinstance(element, ET.Element):
                 root = element
     except ET.ParseError as e:

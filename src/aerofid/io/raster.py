@@ -36,15 +36,18 @@ import os
 import reprlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import tifffile
 
 from aerofid.errors import AerofidInputError
 from aerofid.io import jpeg
 from aerofid.io.budget import check_budget
 from aerofid.io.files import input_file
 from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
+
+if TYPE_CHECKING:
+    import tifffile
 
 __all__ = [
     "WINDOW_LIMIT_BYTES",
@@ -62,7 +65,8 @@ _TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 _JPEG_MAGIC = b"\xff\xd8\xff"
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 _JPEG_COMPRESSIONS = frozenset({6, 7, 33007, 34892})
-_PHOTOMETRIC = tifffile.PHOTOMETRIC
+_MINISWHITE, _MINISBLACK, _RGB, _YCBCR = 0, 1, 2, 6
+"""TIFF 6.0's PhotometricInterpretation values read (tifffile's ``PHOTOMETRIC`` enumeration compares equal to them)."""
 
 
 # --------------------------------------------------------------------------------------------------
@@ -391,6 +395,8 @@ class Raster:
 
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""
+        import tifffile  # only a TIFF needs it (start-up of a JPEG's one-box locate, issue 10)
+
         try:
             tif = self._tif = tifffile.TiffFile(self.path)
             page = tif.pages.first
@@ -424,10 +430,8 @@ class Raster:
         self.tiled = bool(page.is_tiled)
         photometric = page.photometric
         jpeg = page.compression in _JPEG_COMPRESSIONS
-        usable = photometric in (_PHOTOMETRIC.MINISBLACK, _PHOTOMETRIC.RGB) or (
-            photometric == _PHOTOMETRIC.YCBCR and jpeg
-        )
-        if photometric == _PHOTOMETRIC.MINISWHITE and self.bands == 1 and self.dtype.kind == "u":
+        usable = photometric in (_MINISBLACK, _RGB) or (photometric == _YCBCR and jpeg)
+        if photometric == _MINISWHITE and self.bands == 1 and self.dtype.kind == "u":
             self._invert = True
         elif not usable:
             name = getattr(photometric, "name", photometric)

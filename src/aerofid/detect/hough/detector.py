@@ -29,11 +29,11 @@ benchmark, rejection and RC20 scenes), and with the start within ``MAX_REFINE_SH
 MAX_CROSSING_GAP = 1.0
 """Screening before the fit: the two Hough lines of a '+' cross on its strokes, so the optimally thresholded window
 (thesis step 1) has a bright pixel within this many px of their intersection, the Hough centre; a candidate without
-one is refused unfitted (:func:`crossing_gap`; the blurred-cross model puts its brightest value at the crossing). In
-8034 verifications (``scratch`` recording over bench_fits.py's scenes at ``--n 12`` and bench_marks.py's 30 per
-condition and style) the 863 accepted '+' had one within 0.70 px; 1361 of the 7171 refused candidates had none within
-1 px (rings crossed by lines, the open centre of the real RC20 ring's X), and their fits took a sixth of the refused
-fits' CPU time."""
+one is refused unfitted (:func:`crossing_gap`; the blurred-cross model puts its brightest value at the crossing, so
+its fit could only be refused). ``benchmarks/bench_fits.py --n 8 --seed 7 --marks 30`` (docs/benchmarks_peers.md,
+session 19): the accepted '+' had one within 0.67 px (285 of them) and 0.69 px (441 on bench_marks.py's scenes);
+441 of 2329 and 670 of 3641 refused candidates had none within 1 px (rings crossed by lines, the open centre of the
+real RC20 ring's X)."""
 REFINE_WINDOW_FACTOR = 1.5
 """When the arms reach the edge of the first-stage window, the sub-pixel fit looks at a window this many
 times larger, so that it sees the arms' ends."""

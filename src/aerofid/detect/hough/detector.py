@@ -29,8 +29,8 @@ benchmark, rejection and RC20 scenes), and with the start within ``MAX_REFINE_SH
 MAX_CROSSING_GAP = 1.0
 """Screening before the fit: the two Hough lines of a '+' cross on its strokes, so the optimally thresholded window
 (thesis step 1) has a bright pixel within this many px of their intersection, the Hough centre; a candidate without
-one is refused unfitted (:func:`crossing_gap`; the blurred-cross model puts its brightest value at the crossing, so
-its fit could only be refused). ``benchmarks/bench_fits.py --n 8 --seed 7 --marks 30`` (docs/benchmarks_peers.md,
+one is refused unfitted (:func:`crossing_gap`; the blurred-cross model puts its brightest value at the crossing).
+``benchmarks/bench_fits.py --n 8 --seed 7 --marks 30`` (docs/benchmarks_peers.md,
 session 19): the accepted '+' had one within 0.67 px (285 of them) and 0.69 px (441 on bench_marks.py's scenes);
 441 of 2329 and 670 of 3641 refused candidates had none within 1 px (rings crossed by lines, the open centre of the
 real RC20 ring's X)."""

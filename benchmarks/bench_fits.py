@@ -9,8 +9,8 @@ of each rejection case there, ``n`` 200 px boxes per style of bench_peers.py (``
 the 8 real RC20 boxes of bench_rc20.py (skipped when ``../shared/realdata`` is absent). ``--max-evaluations``
 sets :data:`aerofid.detect.hough.cross_fit.MAX_EVALUATIONS` for the run, so that the passes a lower limit would
 cut short can be seen. The cross fit's own CPU time per verification is summed as well, and each candidate's crossing
-gap (:func:`aerofid.detect.hough.detector.crossing_gap`) is recorded: a candidate beyond ``MAX_CROSSING_GAP`` is
-refused before any fit.
+gap (:func:`aerofid.detect.hough.detector.crossing_gap`) is recorded: beyond ``AutoParams.cross_check_crossing_gap``,
+``auto``'s cross-check refuses a candidate before any fit.
 
 ``--marks N`` adds ``hough`` alone on bench_marks.py's own scenes (its seed 2026, ``N`` per condition and style,
 in its order) and reports the bounded solver's retries (a least-squares pass that ran out of evaluations, then
@@ -67,7 +67,8 @@ class Recorder:
 
         def verify_candidate(*args: Any, **kwargs: Any) -> Any:
             self.passes = []
-            gap = hough_detector.crossing_gap(hough_detector.refine_window(*args, **kwargs)[0])
+            analysis = hough_detector.refine_window(*args, **kwargs)[0]   # what verify_candidate screens
+            gap = hough_detector.crossing_gap(analysis, AutoParams().cross_check_crossing_gap)
             t = time.process_time()
             out = verify(*args, **kwargs)
             self.records.append({"source": self.source, "accepted": not isinstance(out, str),
@@ -167,15 +168,16 @@ def report(records: list[dict[str, Any]], limit: int) -> list[str]:
 
 def crossing_report(records: list[dict[str, Any]]) -> str:
     """The screening before the fit: how near the accepted '+' had a bright pixel to their Hough centre, and how
-    many refused candidates had none within ``MAX_CROSSING_GAP`` (refused unfitted)."""
-    limit = hough_detector.MAX_CROSSING_GAP
+    many refused candidates had none within ``AutoParams.cross_check_crossing_gap`` (where ``auto``'s cross-check
+    refuses them unfitted; the search of a box fits them)."""
+    limit = AutoParams().cross_check_crossing_gap
     accepted = [r["gap"] for r in records if r["accepted"]]
     refused = [r for r in records if not r["accepted"]]
-    screened = sum(r["gap"] > limit for r in refused)
+    beyond = sum(r["gap"] > limit for r in refused)
     largest = f"{max(accepted):.2f} px" if accepted else "-"
     return (f"Crossing gap (`detector.crossing_gap`, the nearest bright pixel of the thresholded window to the Hough "
-            f"centre): largest of the accepted {largest}; {screened} of the {len(refused)} refused beyond "
-            f"{limit:g} px (refused before any fit, no pass).")
+            f"centre): largest of the accepted {largest}; {beyond} of the {len(refused)} refused beyond {limit:g} px "
+            "(`auto`'s cross-check refuses such a candidate before any fit).")
 
 
 def main() -> None:

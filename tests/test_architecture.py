@@ -192,8 +192,8 @@ def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
 
 def test_a_one_box_locate_of_the_real_rc20_ring_fits_no_cross():
     """The real RC20 ring's X has an open centre: ``hough``'s cross-check of the ring proposes two candidates where no
-    stroke crosses, refused before any fit (``detector.MAX_CROSSING_GAP``), so one ``aerofid locate`` of it loads
-    neither scipy.optimize nor scipy.special (issue 10: 0.3-0.4 s of the call)."""
+    stroke crosses, refused before any fit (``AutoParams.cross_check_crossing_gap``), so one ``aerofid locate`` of it
+    loads neither scipy.optimize nor scipy.special (issue 10: 0.3-0.4 s of the call)."""
     jpeg = realdata_path("unbc_bc_wild_rc20/15BCC02013_114.jpg")
     code = (
         "import sys\n"

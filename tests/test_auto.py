@@ -276,11 +276,29 @@ def test_plot_draws_the_members_figure_or_every_answer():
 def test_auto_params_are_validated():
     assert AutoParams().mark == "auto" and AutoParams().max_disc_asymmetry == 0.2
     for bad in ({"mark": "ring"}, {"min_agree": 2.0}, {"crop_margin": -1}, {"crop_margin": 2.5},
-                {"max_disc_asymmetry": 0.0}, {"lone_factor": 1.5}, {"extent_percentile": 0.0}):
+                {"max_disc_asymmetry": 0.0}, {"lone_factor": 1.5}, {"extent_percentile": 0.0},
+                {"cross_check_crossing_gap": -1.0}):
         with pytest.raises(ValueError):
             AutoParams(**bad)
     with pytest.raises(AerofidInputError, match="valid: mark"):
         AutoParams.from_mapping({"max_asymmetry": 0.3}, "auto")
+
+
+def test_the_cross_check_limits_hough_unless_the_user_limits_it_more():
+    """``hough`` re-examining a lone answer gets ``cross_check_rejections`` and ``cross_check_crossing_gap``, or the
+    user's own ``max_rejections`` and ``max_crossing_gap`` where those are lower."""
+    hough = METHODS["hough"].params_type
+
+    def overrides(params, **mine):
+        seeds = auto.seed_params(params, {"hough": hough(**mine)})
+        return auto._cross_check_hough(auto._Context(np.zeros((8, 8), np.float32), 0.01, params, seeds))
+
+    assert overrides(AutoParams()) == {"max_rejections": 2, "max_crossing_gap": 1.0}
+    assert overrides(AutoParams(), max_rejections=None) == {"max_rejections": 2, "max_crossing_gap": 1.0}
+    assert overrides(AutoParams(cross_check_crossing_gap=2.5), max_rejections=1, max_crossing_gap=0.5) == {
+        "max_rejections": 1, "max_crossing_gap": 0.5}
+    assert overrides(AutoParams(cross_check_rejections=5), max_crossing_gap=3.0) == {
+        "max_rejections": 5, "max_crossing_gap": 1.0}
 
 
 def test_auto_params_do_not_take_a_seed_methods_name_for_something_else():

@@ -13,6 +13,7 @@ from matplotlib.figure import Figure
 
 from aerofid import synth
 from aerofid.detect import hough_lines
+from aerofid.detect.auto import detect as auto_detect
 from aerofid.detect.hough import HoughParams, HoughResult, detect
 from aerofid.detect.hough import analysis as hc
 from aerofid.detect.hough import detector as hd
@@ -342,6 +343,7 @@ def test_exhaustive_search_lists_every_candidate_with_stage_and_metric():
     ("hough_threshold", 1.0), ("max_bright_fraction", 0.0), ("taper_half_width", 0.0), ("pair_separation", 180),
     ("min_pixels", 0), ("max_recursion", -1), ("max_rejections", 0), ("min_metric", float("nan")),
     ("mark", "circle"), ("verify", "yes"), ("min_arm_balance", 2.0), ("min_arm_snr", -1.0), ("theta_step", "5"),
+    ("max_crossing_gap", -1.0), ("max_crossing_gap", float("nan")), ("max_crossing_gap", float("inf")),
 ])
 def test_bad_parameters_are_one_line_errors(name, value):
     with pytest.raises(ValueError) as e:
@@ -386,37 +388,58 @@ def _plus_window(hollow: float) -> np.ndarray:
     return cv2.GaussianBlur(img.astype(np.float32), (0, 0), 0.8)
 
 
-@pytest.mark.parametrize("hollow,refused", [(0.0, False), (3.0, True), (6.0, True)])
-def test_lines_that_do_not_cross_on_a_stroke_are_refused_before_the_fit(monkeypatch, hollow, refused):
-    """The Hough lines of a '+' cut out at its crossing meet where no pixel is bright: the candidate is refused
-    unfitted; a whole '+' has a stroke at its Hough centre and is fitted and accepted."""
+@pytest.mark.parametrize("hollow", [0.0, 2.0])
+def test_a_crossing_with_no_stroke_is_fitted_unless_the_screen_is_asked_for(monkeypatch, hollow):
+    """A '+' cut out to 2 px around its crossing has no bright pixel at its Hough centre: by default it is fitted and
+    found exactly (a dust speck on a crossing does the same); with ``max_crossing_gap`` 1 px it is refused unfitted.
+    A whole '+' is fitted and found either way."""
     img = _plus_window(hollow)
     a = hc.analyse_window(img)
     assert np.hypot(a.x - 30.5, a.y - 29.5) < 1.0
-    assert (hd.crossing_gap(a) > hd.MAX_CROSSING_GAP) == refused
+    assert (hd.crossing_gap(a, 1.0) > 1.0) == (hollow > 0)
     fits = []
     fit_cross = hd.fit_cross
     monkeypatch.setattr(hd, "fit_cross", lambda *args, **kw: fits.append(args) or fit_cross(*args, **kw))
     cand = make_candidate(1, (a, img, (0, 0)), 60)
-    got = hd.verify_candidate(img, cand, 60)
-    if refused:
-        assert isinstance(got, str) and "no stroke at the Hough centre" in got and not fits
-    else:
-        assert isinstance(got, hd.Verified) and len(fits) == 1
-        assert np.hypot(got.x - 30.5, got.y - 29.5) < 0.01
+    for params in (HoughParams(), HoughParams(max_crossing_gap=1.0)):
+        fits.clear()
+        got = hd.verify_candidate(img, cand, 60, params)
+        if hollow > 0 and params.max_crossing_gap is not None:
+            assert isinstance(got, str) and "no stroke at the Hough centre" in got and not fits
+        else:
+            assert isinstance(got, hd.Verified) and len(fits) == 1
+            assert np.hypot(got.x - 30.5, got.y - 29.5) < 0.01
 
 
-@settings(max_examples=200, deadline=None)
-@given(st.floats(-3.0, 22.0), st.floats(-3.0, 22.0), st.integers(0, 2 ** 32 - 1), st.floats(0.0, 0.1))
-def test_crossing_gap_is_the_distance_to_the_nearest_bright_pixel(x, y, seed, density):
-    """Within MAX_CROSSING_GAP the gap is the distance to the nearest bright pixel; beyond it only its being beyond
+def test_a_dust_speck_on_the_crossing_does_not_hide_the_cross():
+    """A speck of 1.6 px radius in the ground's grey level on the crossing of a 30 px '+' of 2 px strokes: ``hough``
+    and ``auto`` still find it to a few hundredths of a pixel (the crossing-gap screen is not used on a box)."""
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        s = synth.mark_scene("cross", 30, width=2.0, window=60, angle_deg=rng.uniform(0, 90), rng=rng)
+        x, y = s.marks[0].x, s.marks[0].y
+        speck = synth.coverage(s.image.shape, (x, y), synth.disc(1.6), 8, extent=8)
+        img = np.clip(synth.blur(synth.paint(s.image, speck, float(np.median(s.image))), 0.5), 0, 1)
+        img = img.astype(np.float32)
+        for d in (detect(img, HoughParams()), auto_detect(img)):
+            assert d.found and np.hypot(d.x - x, d.y - y) < 0.05, (d.method, d.reason)
+
+
+_ANALYSIS = hc.analyse_window(_plus_window(0.0))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-3.0, 22.0), st.floats(-3.0, 22.0), st.integers(0, 2 ** 32 - 1), st.floats(0.0, 0.1),
+       st.sampled_from([0.0, 0.5, 1.0, 1.49, 1.5, 2.3]))
+def test_crossing_gap_is_the_distance_to_the_nearest_bright_pixel(x, y, seed, density, limit):
+    """Within ``limit`` the gap is the distance to the nearest bright pixel; beyond it only its being beyond
     matters (the Hough centre may lie outside the window)."""
     binary = np.random.default_rng(seed).random((20, 20)) < density
-    a = dataclasses.replace(hc.analyse_window(_plus_window(0.0)), x=x, y=y, binary=binary)
+    a = dataclasses.replace(_ANALYSIS, x=x, y=y, binary=binary)
     ys, xs = np.nonzero(binary)
     nearest = float(np.hypot(xs - x, ys - y).min()) if xs.size else np.inf
-    got = hd.crossing_gap(a)
-    if nearest <= hd.MAX_CROSSING_GAP:
+    got = hd.crossing_gap(a, limit)
+    if nearest <= limit:
         assert got == pytest.approx(nearest, abs=1e-12)
     else:
-        assert got > hd.MAX_CROSSING_GAP
+        assert got > limit

@@ -137,6 +137,15 @@ class AutoParams(MethodParams):
     max_disc_asymmetry: float = 0.2
     """Largest share of the mark disc's structure that may change under a 180-degree rotation (step 3; not
     ``symmetry``'s own ``max_asymmetry``)."""
+    cross_check_crossing_gap: float = 1.0
+    """``hough`` re-examining a lone answer on its crop refuses before its cross fit a candidate whose Hough lines
+    cross more than this many px from any bright pixel of its thresholded window (``HoughParams.max_crossing_gap``;
+    a lower one of the user's is kept). There it can only confirm, refine or contradict a centre that two methods
+    already agree on; the real RC20 rings' X, open at its centre, gave two such candidates on the ring, whose fits
+    were refused and cost scipy.optimize's import in a one-box ``aerofid locate``. ``benchmarks/bench_fits.py --n 8
+    --seed 7 --marks 30`` (docs/benchmarks_peers.md, session 19): every accepted '+' had a bright pixel within
+    0.69 px of its Hough centre. The search of a whole box fits every candidate: a dust speck may hide the crossing
+    of a '+'. Step 2."""
     cross_check_rejections: int = 2
     """``hough`` re-examining a lone answer on its crop gives up after this many refused candidates (its own
     ``max_rejections`` is 8 for a whole box; a lower one of the user's is kept): a true '+' is the first candidate
@@ -200,7 +209,7 @@ class AutoParams(MethodParams):
                   f"{name} must be a whole number >= 1, not {getattr(self, name)!r}")
         check(isinstance(self.crop_margin, int) and 0 <= self.crop_margin <= MAX_PX,
               f"crop_margin must be a whole number of px in [0, {MAX_PX}], not {self.crop_margin!r}")
-        for name in ("edge_margin", "min_moat"):
+        for name in ("edge_margin", "min_moat", "cross_check_crossing_gap"):
             check(number_in(getattr(self, name), 0, MAX_PX), f"{name} must be in [0, {MAX_PX}] px, "
                   f"not {getattr(self, name)!r}")
         for name in ("max_disc_asymmetry", "second_size", "min_core_snr", "isolate_factor", "blob_edge_ratio",
@@ -536,7 +545,7 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
     for m in checkers:
         if min(crop.shape) < MIN_CROP_SIDE or (len(group) > 1 and not _outranks(m, group)):
             continue
-        d = ctx.run(m, crop, max_rejections=_cross_check_rejections(ctx)) if m == "hough" else ctx.run(m, crop)
+        d = ctx.run(m, crop, **_cross_check_hough(ctx)) if m == "hough" else ctx.run(m, crop)
         if not d.found:
             continue
         d = d.shifted(x0, y0)
@@ -550,12 +559,16 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
     return None
 
 
-def _cross_check_rejections(ctx: _Context) -> int:
-    """``hough``'s ``max_rejections`` in a cross-check: ``cross_check_rejections``, or the user's own limit for
-    ``hough`` when that is lower."""
-    own = getattr(ctx.seeds["hough"], "max_rejections", None)
-    limit = ctx.params.cross_check_rejections
-    return limit if own is None else min(own, limit)
+def _cross_check_hough(ctx: _Context) -> dict[str, Any]:
+    """``hough``'s ``max_rejections`` and ``max_crossing_gap`` in a cross-check: ``cross_check_rejections`` and
+    ``cross_check_crossing_gap``, or the user's own values for ``hough`` where they are lower."""
+    own = ctx.seeds["hough"]
+    out: dict[str, Any] = {}
+    for name, limit in (("max_rejections", ctx.params.cross_check_rejections),
+                        ("max_crossing_gap", ctx.params.cross_check_crossing_gap)):
+        mine = getattr(own, name, None)
+        out[name] = limit if mine is None else min(mine, limit)
+    return out
 
 
 def _outranks(method: str, group: list[Detection]) -> bool:

@@ -77,8 +77,6 @@ def load_json(text: str, source: str) -> Any:
         raise too_deep(source) from None
 
 
-
-
 def parse_xml(text: str, source: str) -> ET.Element:
     """Parse XML ``text``: its root element; nesting deeper than :data:`MAX_DEPTH` refused (expat itself refuses
     entity expansion bombs).

@@ -26,14 +26,6 @@ EARLY_EXIT_SHIFT = 1.5 * MAX_REFINE_SHIFT
 """A first least-squares pass that moves the centre further than this (px) from the fit's start is refused
 without its Huber refits: 5 times the largest first-pass move of an accepted '+' (0.61 px on 693 fits of the
 benchmark, rejection and RC20 scenes), and with the start within ``MAX_REFINE_SHIFT`` of the Hough centre."""
-MAX_CROSSING_GAP = 1.0
-"""Screening before the fit: the two Hough lines of a '+' cross on its strokes, so the optimally thresholded window
-(thesis step 1) has a bright pixel within this many px of their intersection, the Hough centre; a candidate without
-one is refused unfitted (:func:`crossing_gap`; the blurred-cross model puts its brightest value at the crossing).
-``benchmarks/bench_fits.py --n 8 --seed 7 --marks 30`` (docs/benchmarks_peers.md,
-session 19): the accepted '+' had one within 0.67 px (285 of them) and 0.69 px (441 on bench_marks.py's scenes);
-441 of 2329 and 670 of 3641 refused candidates had none within 1 px (rings crossed by lines, the open centre of the
-real RC20 ring's X)."""
 REFINE_WINDOW_FACTOR = 1.5
 """When the arms reach the edge of the first-stage window, the sub-pixel fit looks at a window this many
 times larger, so that it sees the arms' ends."""
@@ -95,20 +87,19 @@ class Verified:
     refinement: CrossFit
 
 
-def crossing_gap(analysis: WindowAnalysis) -> float:
-    """Distance (px) from the Hough centre to the nearest bright pixel of the thresholded window, exact up to
-    ``MAX_CROSSING_GAP``; inf when the pixels that near the centre are dark (only those are looked at: a pixel
-    within d of it lies within d + 0.5 of its rounded position on each axis).
+def crossing_gap(analysis: WindowAnalysis, limit: float) -> float:
+    """Distance (px) from the Hough centre to the nearest bright pixel of the thresholded window, exact when it is at
+    most ``limit``; above ``limit`` (inf when no pixel near the centre is bright) otherwise. Only the pixels that
+    near are looked at: a pixel within d of the centre lies within d + 0.5 of its rounded position on each axis.
 
     Examples
     --------
     >>> from aerofid import synth
     >>> a = analyse_window(synth.mark_scene("cross", 30, width=2.0, window=60, rng=np.random.default_rng(2)).image)
-    >>> crossing_gap(a) <= MAX_CROSSING_GAP
+    >>> crossing_gap(a, 1.0) <= 1.0
     True
     """
-    reach = int(MAX_CROSSING_GAP + 0.5)
-    h, w = analysis.binary.shape
+    reach = int(limit + 0.5)
     cx, cy = int(round(analysis.x)), int(round(analysis.y))
     x0, y0 = max(0, cx - reach), max(0, cy - reach)
     ys, xs = np.nonzero(analysis.binary[y0:max(y0, cy + reach + 1), x0:max(x0, cx + reach + 1)])
@@ -175,14 +166,14 @@ def quality_refusal(ref: CrossFit, params: HoughParams = DEFAULT, slack: float =
 def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
                      params: HoughParams = DEFAULT) -> Verified | str:
     """Refine a search candidate to sub-pixel (:func:`refine_window`, :func:`fit_cross`) and check that it is a
-    '+': before the fit, a stroke at the Hough centre (:data:`MAX_CROSSING_GAP`); after it, :func:`shape_refusal`,
-    :func:`quality_refusal`, within ``MAX_REFINE_SHIFT`` of the Hough centre. Returns :class:`Verified` or the
-    reason."""
+    '+': before the fit, with ``params.max_crossing_gap``, a stroke at the Hough centre (:func:`crossing_gap`); after
+    it, :func:`shape_refusal`, :func:`quality_refusal`, within ``MAX_REFINE_SHIFT`` of the Hough centre. Returns
+    :class:`Verified` or the reason."""
     analysis, window, origin = refine_window(image, cand, refine_size, params)
-    gap = crossing_gap(analysis)
-    if gap > MAX_CROSSING_GAP:
-        return (f"no stroke at the Hough centre (no bright pixel within {MAX_CROSSING_GAP:g} px of it): the two lines "
-                "do not cross as a '+'")
+    limit = params.max_crossing_gap
+    if limit is not None and crossing_gap(analysis, limit) > limit:
+        return (f"no stroke at the Hough centre (no bright pixel within {limit:g} px of it): the two lines do not "
+                "cross as a '+' there")
     # the fit starts within MAX_REFINE_SHIFT of the candidate (refine_window); a first pass that moves more
     # than EARLY_EXIT_SHIFT from there will be refused: no refits (cross_fit._robust_solve)
     ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis),

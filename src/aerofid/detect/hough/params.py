@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 
 from aerofid.conventions import MARKS
-from aerofid.detect.params import MethodParams, check, is_int, number_in
+from aerofid.detect.params import MAX_PX, MethodParams, check, is_int, number_in
 
 MAX_WINDOW = 4096
 """Largest first-stage window (px)."""
@@ -109,6 +109,12 @@ class HoughParams(MethodParams):
     candidate is an L, a T, a bar or a corner of a roof, not a '+'."""
     min_arm_snr: float = 3.0
     """The weakest half-arm's contrast must be at least this many times the grey-level noise."""
+    max_crossing_gap: float | None = None
+    """Before the cross fit, refuse a candidate whose Hough centre has no bright pixel of the thresholded window
+    within this many px (:func:`~aerofid.detect.hough.detector.crossing_gap`); None: fit every candidate. A '+'
+    whose crossing a dust speck hides, or that is open at its centre, has no stroke there and is still fitted and
+    found, so the search of a box fits every candidate; ``auto`` sets it where it only asks whether a '+' crosses
+    at a centre that two other methods agree on (``AutoParams.cross_check_crossing_gap``)."""
 
     def validate(self) -> None:
         """Refuse, in one line, any value that would fail or exhaust memory later."""
@@ -159,6 +165,8 @@ def _validate_verification(p: HoughParams) -> None:
     check(isinstance(p.verify, bool), f"verify must be True or False, not {p.verify!r}")
     check(number_in(p.min_arm_balance, 0.0, 1.0), f"min_arm_balance must be in [0, 1], not {p.min_arm_balance!r}")
     check(number_in(p.min_arm_snr, 0.0, math.inf), f"min_arm_snr must be >= 0, not {p.min_arm_snr!r}")
+    check(p.max_crossing_gap is None or number_in(p.max_crossing_gap, 0.0, MAX_PX),
+          f"max_crossing_gap must be None or in [0, {MAX_PX}] px, not {p.max_crossing_gap!r}")
 
 
 DEFAULT = HoughParams()

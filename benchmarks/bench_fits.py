@@ -55,9 +55,16 @@ class Recorder:
         self.records: list[dict[str, Any]] = []
         self.passes: list[tuple[str, int, float]] = []
         self.source = ""
+        self.analysis: Any = None
 
     def install(self) -> None:
         solve, verify = scipy.optimize.least_squares, hough_detector.verify_candidate
+        refine = hough_detector.refine_window
+
+        def refine_window(*args: Any, **kwargs: Any) -> Any:
+            got = refine(*args, **kwargs)
+            self.analysis = got[0]    # the window analysis verify_candidate screens and fits
+            return got
 
         def least_squares(fun: Any, x0: np.ndarray, *args: Any, **kwargs: Any) -> Any:
             sol = solve(fun, x0, *args, **kwargs)
@@ -67,15 +74,16 @@ class Recorder:
 
         def verify_candidate(*args: Any, **kwargs: Any) -> Any:
             self.passes = []
-            analysis = hough_detector.refine_window(*args, **kwargs)[0]   # what verify_candidate screens
-            gap = hough_detector.crossing_gap(analysis, AutoParams().cross_check_crossing_gap)
             t = time.process_time()
             out = verify(*args, **kwargs)
+            cpu = time.process_time() - t
+            gap = hough_detector.crossing_gap(self.analysis, AutoParams().cross_check_crossing_gap)
             self.records.append({"source": self.source, "accepted": not isinstance(out, str),
-                                 "passes": list(self.passes), "cpu": time.process_time() - t, "gap": gap})
+                                 "passes": list(self.passes), "cpu": cpu, "gap": gap})
             return out
 
         scipy.optimize.least_squares = least_squares
+        hough_detector.refine_window = refine_window
         hough_detector.verify_candidate = verify_candidate
 
     def run(self, source: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> None:

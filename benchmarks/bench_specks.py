@@ -6,8 +6,7 @@ bench_marks.py's scenes (its styles, its moderate condition) with a dark speck o
 0.05 x size of the centre (``bench_marks.SPECKED``). Its ``occluded`` condition puts the speck 0.25-0.45 x size from
 the centre, never on the crossing. A '+' whose crossing a speck hides has no stroke where its Hough lines meet (the
 crossing gap, ``HoughParams.max_crossing_gap``, docs/hough.md); the cross fit finds it when the speck is small. Per
-style and method:
-found, erroneous (> 1.5 px, > 0.5 px), RMS and maximum error, median time per call.
+style and method: found, erroneous (> 1.5 px, > 0.5 px), RMS and maximum error, median time per call.
 """
 
 from __future__ import annotations

@@ -165,26 +165,35 @@ START_UP_HEAVY = ("scipy.ndimage", "scipy.sparse", "scipy.stats", "scipy.spatial
 """What a one-box ``aerofid locate`` of a ring must not import (issue 10: a call pays only for what it uses)."""
 
 
+def _locate_loads(setup: str, image: str, box: str, prefixes: tuple[str, ...]) -> str:
+    """Stdout of one ``aerofid locate IMAGE --box BOX --mark external`` in a fresh interpreter (after ``setup``), then
+    its exit status and the loaded modules whose names start with one of ``prefixes``, a line each."""
+    code = (
+        "import sys\n" + setup +
+        "from aerofid.cli import main\n"
+        "try:\n"
+        f"    main(['locate', {image!r}, '--box', {box!r}, '--mark', 'external'])\n"
+        "except SystemExit as e:\n"
+        "    print('status', e.code)\n"
+        f"print(sorted(m for m in sys.modules if m.startswith({prefixes!r})))\n"
+    )
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+
+
 def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
     """The CLI imports the command it runs (``aerofid.cli.COMMANDS``), and a ring that ``circles`` and ``symmetry``
     corroborate needs no scipy module (the spline coefficients and moving means are aerofid's own, scipy.sparse
     serves only a reduced JPEG source; scipy.optimize, with scipy.sparse and scipy.spatial, loads when a '+' is
     fitted); a PNG needs no tifffile, a box list no PyYAML."""
-    png = tmp_path / "ring.png"
-    code = (
-        "import sys, numpy as np, cv2\n"
+    png = str(tmp_path / "ring.png")
+    setup = (
+        "import numpy as np, cv2\n"
         "yy, xx = np.mgrid[0:96, 0:96]\n"
         "img = 40 + 160 * np.exp(-(np.hypot(xx - 47.3, yy - 48.6) - 12.0) ** 2 / 3.0)\n"
         "img += np.random.default_rng(0).normal(0, 2, img.shape)\n"
-        f"cv2.imwrite({str(png)!r}, np.clip(img, 0, 255).astype(np.uint8))\n"
-        "from aerofid.cli import main\n"
-        "try:\n"
-        f"    main(['locate', {str(png)!r}, '--box', '20,20,76,76', '--mark', 'external'])\n"
-        "except SystemExit as e:\n"
-        "    print('status', e.code)\n"
-        "print(sorted(m for m in sys.modules if m.startswith(" + repr(START_UP_HEAVY) + ")))\n"
+        f"cv2.imwrite({png!r}, np.clip(img, 0, 255).astype(np.uint8))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    out = _locate_loads(setup, png, "20,20,76,76", START_UP_HEAVY)
     found = out.split()
     assert found[0] == "found" and abs(float(found[1][2:]) - 47.3) < 0.05 and abs(float(found[2][2:]) - 48.6) < 0.05
     assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out
@@ -194,16 +203,7 @@ def test_a_one_box_locate_of_the_real_rc20_ring_fits_no_cross():
     """The real RC20 ring's X has an open centre: ``hough``'s cross-check of the ring proposes two candidates where no
     stroke crosses, refused before any fit (``AutoParams.cross_check_crossing_gap``), so one ``aerofid locate`` of it
     loads neither scipy.optimize nor scipy.special (issue 10: 0.3-0.4 s of the call)."""
-    jpeg = realdata_path("unbc_bc_wild_rc20/15BCC02013_114.jpg")
-    code = (
-        "import sys\n"
-        "from aerofid.cli import main\n"
-        "try:\n"
-        f"    main(['locate', {str(jpeg)!r}, '--box', '605,119,725,239', '--mark', 'external'])\n"
-        "except SystemExit as e:\n"
-        "    print('status', e.code)\n"
-        "print(sorted(m for m in sys.modules if m.startswith(('scipy.optimize', 'scipy.special'))))\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    jpeg = str(realdata_path("unbc_bc_wild_rc20/15BCC02013_114.jpg"))
+    out = _locate_loads("", jpeg, "605,119,725,239", ("scipy.optimize", "scipy.special"))
     assert out.split()[0] == "found", out
     assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out

@@ -236,6 +236,30 @@ def test_de_hough_labels_points_by_circle_and_leaves_tangential_edges_out():
     assert (circles.de_hough(tangential, 30.0, 30.0, [6.0, 12.0]) == -1).all()
 
 
+@given(n=st.integers(0, 40), seed=st.integers(0, 2**31 - 1), radii=st.lists(st.floats(0.0, 12.0), max_size=6))
+@settings(max_examples=150, deadline=None)
+def test_shells_are_the_points_within_one_px_of_each_radius(n, seed, radii):
+    """``estimate_radii``'s runs of sorted distances are exactly the points ``|d - r| <= 1`` (its test as it reads),
+    with distances on the radii's 0.5 px grid and a rounding step beside it (where ``d - r`` is 1 exactly or not):
+    their median, the coverage of their angular sectors and the sign of their summed polarities."""
+    rng = np.random.default_rng(seed)
+    d = np.round(rng.uniform(0.0, 14.0, n) * 4) / 4
+    d = np.where(rng.random(n) < 0.3, np.nextafter(d, rng.choice([-1.0, 30.0], n)), d)
+    d.sort()
+    sector = rng.integers(0, circles.N_SECTORS, n)
+    outward = rng.choice([-1.0, 0.0, 1.0], n)
+    shells = circles._Shells.about(d, sector, outward)
+    r = np.round(np.asarray(radii, float) * 2) / 2
+    lo, hi = shells.runs(r)
+    got_r, cov, sign = shells.radii(r), shells.coverage(lo, hi), shells.polarity(lo, hi)
+    for k, rk in enumerate(r):
+        sel = np.abs(d - rk) <= 1.0
+        assert (np.nonzero(sel)[0] == np.arange(lo[k], hi[k])).all()
+        assert got_r[k] == (float(np.median(d[sel])) if sel.any() else rk)
+        assert cov[k] == np.unique(sector[sel]).size / circles.N_SECTORS
+        assert sign[k] == np.sign(outward[sel].sum())
+
+
 def test_estimate_radii_finds_both_edges_of_a_ring():
     s = synth.mark_scene("ring_x_dot", 40, window=72, rng=np.random.default_rng(13), noise_sigma=0.01)
     m = s.marks[0]

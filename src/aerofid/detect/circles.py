@@ -35,7 +35,7 @@ import itertools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import cv2
 import numpy as np
@@ -297,9 +297,71 @@ def _coverage(ep_x: np.ndarray, ep_y: np.ndarray, cx: float, cy: float, n_sector
     """Fraction of ``n_sectors`` angular sectors around (cx, cy) holding at least one point."""
     if ep_x.size == 0:
         return 0.0
+    return float(np.unique(_sectors(ep_x, ep_y, cx, cy, n_sectors)).size / n_sectors)
+
+
+def _sectors(ep_x: np.ndarray, ep_y: np.ndarray, cx: float, cy: float, n_sectors: int = N_SECTORS) -> np.ndarray:
+    """The angular sector (0 .. ``n_sectors`` - 1) of each point around (cx, cy)."""
     a = np.arctan2(ep_y - cy, ep_x - cx)
-    k = np.floor((a + np.pi) / (2 * np.pi) * n_sectors).astype(int) % n_sectors
-    return float(np.unique(k).size / n_sectors)
+    return np.floor((a + np.pi) / (2 * np.pi) * n_sectors).astype(int) % n_sectors
+
+
+@dataclass(frozen=True)
+class _Shells:
+    """The edge points :func:`estimate_radii` weighs, sorted by their distance ``d`` from its centre, with the sums
+    of their polarities over the first j points (``outward[j]``) and, per angular sector, how many of the first j
+    points lie in it (``seen[s, j]``): the points within 1 px of a radius are one run of them."""
+
+    d: np.ndarray
+    outward: np.ndarray
+    seen: np.ndarray
+
+    @classmethod
+    def about(cls, d: np.ndarray, sector: np.ndarray, outward: np.ndarray) -> _Shells:
+        """The shells of points at distances ``d`` (ascending) in angular sectors ``sector``, of polarities
+        ``outward`` (+1, -1 or 0: their sums are exact)."""
+        seen = np.zeros((N_SECTORS, d.size + 1), np.int32)
+        np.cumsum(sector[None, :] == np.arange(N_SECTORS)[:, None], axis=1, out=seen[:, 1:])
+        return cls(d, np.concatenate([[0.0], np.cumsum(outward)]), seen)
+
+    def runs(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The runs [lo, hi) of the points with ``|d - r| <= 1``, for each radius of ``r``, exactly as that test
+        reads: ``d - r`` rounds to a non-decreasing sequence, so they are the points from the first whose
+        ``d - r`` is not below -1 up to the first whose ``d - r`` is above 1."""
+        return (self._first(r, lambda t: t >= -1.0, r - 1.0, "left"),
+                self._first(r, lambda t: t > 1.0, r + 1.0, "right"))
+
+    def _first(self, r: np.ndarray, holds: Callable[[np.ndarray], np.ndarray], guess: np.ndarray,
+               side: Literal["left", "right"]) -> np.ndarray:
+        """For each of ``r``, the index of the first point for which ``holds(d - r)`` (a test that, once true, stays
+        true along ``d``): the bisection for ``guess`` moved over the few points rounding puts on its other side."""
+        d, n = self.d, self.d.size
+        i = np.searchsorted(d, guess, side)
+        if n == 0:
+            return i
+        while (back := (i > 0) & holds(d[np.maximum(i - 1, 0)] - r)).any():
+            i = i - back
+        while (ahead := (i < n) & ~holds(d[np.minimum(i, n - 1)] - r)).any():
+            i = i + ahead
+        return i
+
+    def radii(self, r0: np.ndarray) -> np.ndarray:
+        """For each of ``r0``, the median distance of the points within 1 px of it (itself without any):
+        :func:`aerofid.robust.median` of the run, its middle value or the mean of its two middle values."""
+        lo, hi = self.runs(r0)
+        n = hi - lo
+        upper = self.d[np.minimum(lo + n // 2, self.d.size - 1)] if self.d.size else r0
+        lower = self.d[np.maximum(lo + n // 2 - 1, 0)] if self.d.size else r0
+        middle = np.where(n % 2 == 1, upper, (lower + upper) / 2.0)
+        return np.where(n > 0, middle, r0)
+
+    def coverage(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """:func:`_coverage` of the points of each run [lo, hi)."""
+        return np.count_nonzero(self.seen[:, hi] > self.seen[:, lo], axis=0) / N_SECTORS
+
+    def polarity(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """The sign of the summed polarities of the points of each run [lo, hi) (0 for none)."""
+        return np.sign(self.outward[hi] - self.outward[lo])
 
 
 def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: float,
@@ -327,42 +389,39 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
     peaks = np.nonzero(is_peak)[0]
 
     # polarity of each edge point: +1 when its gradient points away from the centre (dark inside)
+    order = np.argsort(d[ok], kind="stable")
+    x, y, nx, ny = (v[ok][order] for v in (ep.x, ep.y, ep.nx, ep.ny))
     with np.errstate(divide="ignore", invalid="ignore"):
-        outward = np.sign((ep.x - cx) * ep.nx + (ep.y - cy) * ep.ny)
+        outward = np.sign((x - cx) * nx + (y - cy) * ny)
+    shells = _Shells.about(d[ok][order], _sectors(x, y, cx, cy), outward)
 
-    def refine(i: int | np.integer) -> tuple[float, float]:
-        sel = ok & (np.abs(d - centres[i]) <= 1.0)
-        r = float(median(d[sel])) if sel.any() else float(centres[i])
-        sel = ok & (np.abs(d - r) <= 1.0)
-        return r, _coverage(ep.x[sel], ep.y[sel], cx, cy)
-
-    def polarity(r: float) -> float:
-        sel = ok & (np.abs(d - r) <= 1.0)
-        return float(np.sign(outward[sel].sum())) if sel.any() else 0.0
+    def refine(i: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Radius, coverage and polarity of the histogram peaks ``i``: the median distance of the points within 1 px
+        of the peak, the coverage and summed polarity of the points within 1 px of that."""
+        r = shells.radii(centres[i])
+        run = shells.runs(r)
+        return r, shells.coverage(*run), shells.polarity(*run)
 
     if near is not None:
         # each given radius takes its own histogram peak (within max(2, 0.15 R)), the set of peaks with the
         # least total distance to the given radii; a radius without a peak keeps its value, coverage 0
         best = _match_radii(peaks, hs, centres, near)
-        return [refine(i) if i is not None else (float(r0), 0.0) for r0, i in zip(near, best)]
+        r, cov, _ = refine(np.array([i for i in best if i is not None], dtype=np.intp))
+        given = zip(r.tolist(), cov.tolist(), strict=True)
+        return [next(given) if i is not None else (float(r0), 0.0) for r0, i in zip(near, best)]
     # circles covered on at least min_coverage of their circumference first, then by edge-point count
-    scored = []
-    for i in peaks:
-        r, cov = refine(i)
-        if r >= r_min and cov >= 0.25:
-            scored.append((cov >= min_coverage, float(hs[i]), r, cov))
-    scored.sort(key=lambda t: (not t[0], -t[1]))
-    return _apart([(r, cov) for _, _, r, cov in scored], polarity, n_circles)
+    r, cov, sign = refine(peaks)
+    keep = (r >= r_min) & (cov >= 0.25)
+    ranked = sorted(np.nonzero(keep)[0].tolist(), key=lambda j: (not cov[j] >= min_coverage, -float(hs[peaks[j]])))
+    return _apart([(float(r[j]), float(cov[j])) for j in ranked], [float(sign[j]) for j in ranked], n_circles)
 
 
-def _apart(circles: list[tuple[float, float]], polarity: Callable[[float], float],
-           n_circles: int) -> list[tuple[float, float]]:
+def _apart(circles: list[tuple[float, float]], polarity: list[float], n_circles: int) -> list[tuple[float, float]]:
     """The first ``n_circles`` of ``circles`` (radius, coverage) at least 1.5 px from every one taken before,
-    :data:`SAME_POLARITY_GAP` px when both edges have the same ``polarity``."""
+    :data:`SAME_POLARITY_GAP` px when both edges have the same ``polarity`` (one sign per circle)."""
     out: list[tuple[float, float]] = []
     signs: list[float] = []
-    for r, cov in circles:
-        sign = polarity(r)
+    for (r, cov), sign in zip(circles, polarity, strict=True):
         if any(abs(r - q) < (SAME_POLARITY_GAP if sign == t else 1.5) for (q, _), t in zip(out, signs)):
             continue
         out.append((r, cov))

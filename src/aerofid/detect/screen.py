@@ -90,6 +90,26 @@ def disc_kernel(radius: int) -> np.ndarray:
     return (dx * dx + dy * dy <= radius * radius).astype(np.float32)
 
 
+DFT_CELLS = 130
+"""OpenCV's ``filter2D`` convolves float32 images with a kernel of at least this many cells (rows x columns) by DFT."""
+
+
+def disc_sums(img: np.ndarray, radius: int) -> np.ndarray:
+    """The sum of each channel of ``img`` (float32, at most 4 channels) over the disc of ``radius`` px
+    (:func:`disc_kernel`) about each pixel, zero outside. Summed directly: a disc whose square has
+    :data:`DFT_CELLS` cells or more (radius 7) in two halves, the rows up to its centre and those below, each
+    under that size (the DFT took 5 times as long on a 248 px screening level, 2 times on a 1400 px one)."""
+    kern = disc_kernel(radius)
+    if kern.size < DFT_CELLS:
+        return cv2.filter2D(img, -1, kern, borderType=cv2.BORDER_CONSTANT)
+    upper, lower = kern[:radius + 1], kern[radius:].copy()
+    lower[0] = 0
+    assert max(upper.size, lower.size) < DFT_CELLS, radius
+    out: np.ndarray = cv2.filter2D(img, -1, upper, anchor=(radius, radius), borderType=cv2.BORDER_CONSTANT)
+    out += cv2.filter2D(img, -1, lower, anchor=(radius, 0), borderType=cv2.BORDER_CONSTANT)
+    return out
+
+
 def symmetric_energy(g: np.ndarray, radii: tuple[int, ...] = RADII) -> np.ndarray:
     """``sum_{d in disc(r)} g(c+d) g(c-d)`` for each r of ``radii`` (stacked on axis 0), zero-padded outside
     ``g``. The sum runs over the half disc and is doubled (each opposite pair appears twice in the full disc);
@@ -146,13 +166,11 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1)
     noise = local_noise(img, floor=noise_floor)
     out = np.zeros_like(sym)
+    squares = cv2.merge([g * g, gx * gx, gy * gy, gx * gy])
     for i, r in enumerate(radii):
-        kern = disc_kernel(r)
-        energy = np.maximum(cv2.filter2D(g * g, -1, kern, borderType=cv2.BORDER_CONSTANT), 0)  # rounding: >= 0
+        sums = disc_sums(squares, r)
+        energy, jxx, jyy, jxy = (sums[:, :, c] for c in range(4))
         s = sym[i] / np.maximum(energy, 1e-12)
-        jxx = cv2.filter2D(gx * gx, -1, kern, borderType=cv2.BORDER_CONSTANT)
-        jyy = cv2.filter2D(gy * gy, -1, kern, borderType=cv2.BORDER_CONSTANT)
-        jxy = cv2.filter2D(gx * gy, -1, kern, borderType=cv2.BORDER_CONSTANT)
         iso = 1.0 - np.sqrt((jxx - jyy) ** 2 + 4 * jxy ** 2) / np.maximum(jxx + jyy, 1e-12)
         m = np.clip((1 + k) * s - k, 0, None) * iso * np.sqrt(energy) / noise
         m[:r], m[-r:], m[:, :r], m[:, -r:] = 0, 0, 0, 0

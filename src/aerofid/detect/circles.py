@@ -297,7 +297,8 @@ def _coverage(ep_x: np.ndarray, ep_y: np.ndarray, cx: float, cy: float, n_sector
     """Fraction of ``n_sectors`` angular sectors around (cx, cy) holding at least one point."""
     if ep_x.size == 0:
         return 0.0
-    return float(np.unique(_sectors(ep_x, ep_y, cx, cy, n_sectors)).size / n_sectors)
+    seen = np.bincount(_sectors(ep_x, ep_y, cx, cy, n_sectors), minlength=n_sectors)
+    return float(np.count_nonzero(seen) / n_sectors)
 
 
 def _sectors(ep_x: np.ndarray, ep_y: np.ndarray, cx: float, cy: float, n_sectors: int = N_SECTORS) -> np.ndarray:

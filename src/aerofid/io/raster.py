@@ -44,6 +44,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.io import jpeg
 from aerofid.io.budget import check_budget
 from aerofid.io.files import input_file
+from aerofid.io.jpeg_top import BackgroundJpegReader
 from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
 
 if TYPE_CHECKING:
@@ -328,6 +329,10 @@ class _TiffSegmentReader:
         del self._page, self._filehandle
 
 
+_Reader = _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader | BackgroundJpegReader
+"""What reads a raster's windows."""
+
+
 class Raster:
     """A scanned photograph opened for windowed reading; use as a context manager or call :meth:`close`.
 
@@ -344,7 +349,7 @@ class Raster:
         self.path = Path(path)
         self.format = _file_format(self.path)
         self._tif: tifffile.TiffFile | None = None
-        self._reader: _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader | None = None
+        self._reader: _Reader | None = None
         self._overview: jpeg.HugeJpegReader | None = None
         self._pending: jpeg.Decoding | None = None
         self._invert = False
@@ -391,7 +396,7 @@ class Raster:
         windows once the decode is done, and :meth:`read_overview` from libjpeg's reduced decode meanwhile."""
         self._overview = self._from_header(header)
         self._pending = pending
-        self._reader = _ArrayReader(lambda: jpeg.decoded(pending, header, self.path))
+        self._reader = BackgroundJpegReader(pending, header, self.path)
 
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""
@@ -463,7 +468,7 @@ class Raster:
                      "the file may be corrupt; else convert it to a tiled TIFF (e.g. gdal_translate -co TILED=YES)")
         return _ArrayReader(lambda: _hwc(page.asarray(squeeze=False)))
 
-    def _open_reader(self) -> _ArrayReader | _TiffSegmentReader | jpeg.HugeJpegReader:
+    def _open_reader(self) -> _Reader:
         """The reader, or raise if the raster is closed."""
         if self._reader is None:
             raise AerofidInputError(f"{self.path} is closed; open it again with open_raster()")
@@ -581,17 +586,23 @@ class Raster:
         """Wait for a JPEG's background decode and raise its error (one line) if it failed; nothing for other
         rasters. A search that read only :meth:`read_overview` calls it: a corrupt file is an error, not an image
         without marks."""
-        if self._pending is not None:
-            self._samples((0, 0, 1, 1), copy=False)
+        reader = self._open_reader()
+        if isinstance(reader, BackgroundJpegReader):
+            reader.whole()
 
-    def close(self) -> None:
+    def close(self, check: bool = True) -> None:
         """Release the file and any cached image, once a background decode has ended (so that no decode runs, or
         writes libjpeg's warnings to stderr, after the raster is closed); later reads raise
-        :class:`AerofidInputError`."""
+        :class:`AerofidInputError`. Where windows were read from a JPEG's top rows before its whole decode was done
+        (:mod:`aerofid.io.jpeg_top`), that decode's error is raised here (``check``; not while leaving a ``with``
+        block on another error): a truncated file is an error, as when the window waited for it."""
         pending, self._pending = self._pending, None
+        reader = self._reader
         try:
             if pending is not None:
                 jpeg.finish(pending)
+                if check and isinstance(reader, BackgroundJpegReader) and reader.served_top:
+                    reader.whole()
         finally:
             self._release()
 
@@ -611,7 +622,7 @@ class Raster:
         return self
 
     def __exit__(self, *exc_info: object) -> None:
-        self.close()
+        self.close(check=exc_info[0] is None)
 
     def __repr__(self) -> str:
         state = "closed" if self._reader is None else "open"

@@ -1,0 +1,134 @@
+"""A JPEG's top rows before its whole decode: libjpeg decodes a baseline or progressive JPEG's rows in order and can
+stop after any of them (issue 10: a JPEG is not decoded whole for one box where the codec allows less).
+
+A :class:`~aerofid.io.raster.Raster` of an 8-bit JPEG starts its whole decode in the background when it is opened
+(:func:`aerofid.io.jpeg.decoding`). Until that decode is done, a window whose rows end within :data:`TOP_SHARE` of the
+image is read from a decode of the rows above it (and :data:`TOP_MARGIN` more) in the reading thread, on the other
+core: one box near the top of a frame waits for a tenth of a decode instead of the whole. The rows are decoded by
+Pillow's libjpeg-turbo, the library and inverse DCT of OpenCV's whole decode, to the same samples (tests compare them
+on 4:2:0, 4:4:4 and grey JPEGs and on the real RC20 frame); where Pillow cannot decode them, or cannot tell that it
+decoded every one of them (a corrupt or truncated file), the whole decode answers, as without this.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from aerofid.io.jpeg import Decoding, ImageHeader, decode_budget, decoded
+
+TOP_SHARE = 0.4
+"""A window whose rows end within this share of the image's height is read from a decode of the top rows alone
+(the whole decode runs meanwhile on the other core; a decode of more of the image gains too little on it)."""
+TOP_MARGIN = 1024
+"""Rows decoded below such a window, for the next windows of the same search (a search reads up to 64 px of context
+around its region and measures marks on windows of at most 641 px, :mod:`aerofid.find`)."""
+MIN_DECODED_BYTES = 8_000_000
+"""A smaller image (under a few milliseconds of decode) is read from its whole decode only."""
+CHUNK = 1 << 20
+"""Bytes of the file given to the decoder at a time."""
+SENTINEL: dict[str, int | tuple[int, int, int]] = {"L": 7, "RGB": (7, 250, 7)}
+"""The value the rows are filled with before the decode, by Pillow mode: a last row that still holds it everywhere
+was not decoded (or is this colour throughout: then the whole decode answers, only later)."""
+
+
+def decode_top(path: Path, rows: int, header: ImageHeader) -> np.ndarray | None:
+    """The first ``rows`` rows of the JPEG at ``path`` as ``(rows, columns, samples)`` uint8 (``header``'s size and
+    samples), or None where Pillow cannot decode them or cannot tell that it decoded them all.
+
+    Pillow's decoder is given the file a :data:`CHUNK` at a time and an image of ``rows`` rows: it stops once they
+    are decoded (libjpeg then reports the scanlines it was not asked for as an error, which is how every decode of
+    the top rows ends). An error before them, or the end of the file, leaves the last row as :data:`SENTINEL` filled
+    it, and gives None."""
+    try:
+        from PIL import Image
+    except ImportError:  # Pillow comes with matplotlib; without it the whole decode answers
+        return None
+    try:
+        with Image.open(path) as im:
+            if im.format != "JPEG" or len(im.tile) != 1 or im.mode not in SENTINEL or im.size != (header.width,
+                                                                                                   header.height):
+                return None
+            tile = im.tile[0]
+            top = Image.new(im.mode, (header.width, rows), SENTINEL[im.mode])
+            decoder = Image._getdecoder(im.mode, tile[0], tile[3], im.decoderconfig)
+            decoder.setimage(top.im, (0, 0, header.width, rows))
+            try:
+                _feed(decoder, path, tile[2])
+            finally:
+                decoder.cleanup()
+    except Exception:  # noqa: BLE001 (Pillow raises many types for files it cannot read: the whole decode tells)
+        return None
+    samples = np.asarray(top).reshape(rows, header.width, -1)
+    if samples.shape[2] != header.samples or (samples[-1] == np.asarray(SENTINEL[im.mode], np.uint8)).all():
+        return None
+    return samples
+
+
+def _feed(decoder: object, path: Path, offset: int) -> None:
+    """Give ``decoder`` the file's bytes from ``offset`` until it ends (stops or fails) or the file does."""
+    data = b""
+    with open(path, "rb") as f:
+        f.seek(offset)
+        while chunk := f.read(CHUNK):
+            data += chunk
+            used, _ = decoder.decode(data)  # type: ignore[attr-defined]
+            if used < 0:
+                return
+            data = data[used:]
+
+
+class BackgroundJpegReader:
+    """Windows of a JPEG being decoded whole in the background (:func:`aerofid.io.jpeg.decoding`): from that decode
+    once it is done; before, a window in the top :data:`TOP_SHARE` of the image from :func:`decode_top` of the rows
+    down to it and :data:`TOP_MARGIN` more (kept, and decoded further for a window below them), where the whole
+    decode and those rows fit the decode budget together and the image is not small (:data:`MIN_DECODED_BYTES`)."""
+
+    def __init__(self, pending: Decoding, header: ImageHeader, path: Path):
+        self._pending, self._header, self._path = pending, header, path
+        self._whole: np.ndarray | None = None
+        self._top: np.ndarray | None = None
+        self.served_top = False
+        """Whether a window was read from the top rows (then the whole decode's error is still to be told)."""
+
+    def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
+        """Samples of the window ``box`` (a view of a decoded array)."""
+        x0, y0, x1, y1 = box
+        if self._whole is None and not self._pending.future.done():
+            top = self._top_rows(y1)
+            if top is not None:
+                self.served_top = True
+                return top[y0:y1, x0:x1]
+        return self.whole()[y0:y1, x0:x1]
+
+    def whole(self) -> np.ndarray:
+        """The whole decode, waited for (its error raised: :func:`aerofid.io.jpeg.decoded`)."""
+        if self._whole is None:
+            self._whole = decoded(self._pending, self._header, self._path)
+            self._top = None
+        return self._whole
+
+    def _top_rows(self, bottom: int) -> np.ndarray | None:
+        """The decoded top rows reaching row ``bottom`` (exclusive), decoded now if need be; None where the window
+        is not in the top of the image or the rows are not decoded."""
+        if self._top is not None and bottom <= self._top.shape[0]:
+            return self._top
+        h = self._header
+        rows = min(h.height, bottom + TOP_MARGIN)
+        row_bytes = h.width * h.samples * h.itemsize
+        if (bottom > TOP_SHARE * h.height or h.decoded_bytes < MIN_DECODED_BYTES
+                or h.decoded_bytes + rows * row_bytes > decode_budget()):
+            return None
+        top = decode_top(self._path, rows, h)
+        if top is not None:
+            top.setflags(write=False)
+            self._top = top
+        return top
+
+    def release(self) -> None:
+        """Nothing to release between the strips of a reduced read (the decodes are kept)."""
+
+    def close(self) -> None:
+        """Drop the decoded arrays."""
+        self._whole = self._top = None

@@ -1,0 +1,123 @@
+"""A JPEG's top rows before its whole decode (aerofid.io.jpeg_top): the same samples as OpenCV's whole decode, and a
+file that cannot be decoded whole stays an error."""
+
+from __future__ import annotations
+
+import threading
+
+import cv2
+import numpy as np
+import pytest
+
+from aerofid.errors import AerofidInputError
+from aerofid.io import jpeg, jpeg_top
+from aerofid.io.raster import open_raster
+
+
+def _texture(shape, bands, seed=0):
+    """Noisy, structured uint8 samples (JPEG keeps plenty of detail: every block's coefficients matter)."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[: shape[0], : shape[1]]
+    planes = [127 + 80 * np.sin(x / (9 + k) + y / 13) + rng.normal(0, 20, shape) for k in range(bands)]
+    image = np.clip(np.stack(planes, axis=-1), 0, 255).astype(np.uint8)
+    return image[:, :, 0] if bands == 1 else image
+
+
+def _write(path, image, *params):
+    bgr = image if image.ndim == 2 else image[:, :, ::-1]
+    path.write_bytes(cv2.imencode(".jpg", bgr, list(params))[1].tobytes())
+    return path
+
+
+def _whole(path):
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    return image[:, :, None] if image.ndim == 2 else image[:, :, ::-1]
+
+
+ENCODINGS = {
+    "rgb 4:2:0": (3, [cv2.IMWRITE_JPEG_SAMPLING_FACTOR, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_420]),
+    "rgb 4:4:4": (3, [cv2.IMWRITE_JPEG_SAMPLING_FACTOR, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_444]),
+    "rgb progressive": (3, [cv2.IMWRITE_JPEG_PROGRESSIVE, 1]),
+    "grey": (1, [cv2.IMWRITE_JPEG_QUALITY, 80]),
+}
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_top_rows_are_the_whole_decode_s_rows(tmp_path, encoding):
+    """Any number of top rows (within an MCU row, at its end, all of them) of an odd-sized image are OpenCV's."""
+    bands, params = ENCODINGS[encoding]
+    path = _write(tmp_path / "scan.jpg", _texture((203, 157), bands), *params)
+    header = jpeg.read_header(path, "jpeg")
+    whole = _whole(path)
+    for rows in (1, 7, 16, 17, 100, 203):
+        top = jpeg_top.decode_top(path, rows, header)
+        assert top is not None and top.shape == (rows, 157, bands)
+        np.testing.assert_array_equal(top, whole[:rows])
+
+
+def test_rows_beyond_a_truncated_file_s_data_are_not_given(tmp_path):
+    """A file cut short: the rows its data reaches decode; rows beyond them give None (the whole decode tells)."""
+    data = (_write(tmp_path / "scan.jpg", _texture((400, 300), 3))).read_bytes()
+    path = tmp_path / "cut.jpg"
+    path.write_bytes(data[: len(data) // 2])
+    header = jpeg.read_header(path, "jpeg")
+    assert jpeg_top.decode_top(path, 390, header) is None
+    top = jpeg_top.decode_top(path, 48, header)
+    assert top is not None
+    np.testing.assert_array_equal(top, _whole(tmp_path / "scan.jpg")[:48])
+
+
+def test_the_real_rc20_frame_s_top_rows_are_the_whole_decode_s(realdata):
+    path = realdata("unbc_bc_wild_rc20/15BCC02013_114.jpg")
+    top = jpeg_top.decode_top(path, 1100, jpeg.read_header(path, "jpeg"))
+    assert top is not None
+    np.testing.assert_array_equal(top, _whole(path)[:1100])
+
+
+def _held_decode(monkeypatch):
+    """The background whole decode held until the returned event is set."""
+    release = threading.Event()
+    real = jpeg._read_only
+
+    def held(path):
+        release.wait(60)
+        return real(path)
+
+    monkeypatch.setattr(jpeg, "_read_only", held)
+    jpeg.forget_decodes()
+    return release
+
+
+def test_a_window_near_the_top_is_read_before_the_whole_decode_is_done(tmp_path, monkeypatch):
+    """While the whole decode runs, a window in the top rows comes from them (the same samples); one below the top
+    share waits for the whole decode."""
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    whole = _whole(path)
+    release = _held_decode(monkeypatch)
+    try:
+        with open_raster(path) as raster:
+            np.testing.assert_array_equal(raster.read_window((100, 30, 400, 500)), whole[30:500, 100:400])
+            assert raster._reader.served_top and not raster._pending.future.done()
+            release.set()
+            np.testing.assert_array_equal(raster.read_window((10, 2000, 50, 2400)), whole[2000:2400, 10:50])
+    finally:
+        release.set()
+        jpeg.forget_decodes()
+
+
+def test_a_file_that_cannot_be_decoded_whole_is_an_error_though_its_top_rows_decode(tmp_path, monkeypatch):
+    """A truncated frame: its top rows are read, and closing the raster raises the whole decode's error (one line),
+    as a window that waited for it would have."""
+    data = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3)).read_bytes()
+    path = tmp_path / "cut.jpg"
+    path.write_bytes(data[: int(len(data) * 0.7)])
+    release = _held_decode(monkeypatch)
+    try:
+        with pytest.raises(AerofidInputError) as excinfo, open_raster(path) as raster:
+            raster.read_window((0, 0, 64, 64))
+            assert raster._reader.served_top
+            release.set()
+        assert "corrupt or truncated" in str(excinfo.value) and "\n" not in str(excinfo.value)
+    finally:
+        release.set()
+        jpeg.forget_decodes()

@@ -127,17 +127,6 @@ def test_two_panels_are_ambiguous_wherever_the_first_lies(room):
     assert not d.found and "second mark-like feature" in d.reason, d.reason
 
 
-def test_a_probe_leaves_out_the_uniqueness_pass_and_nothing_else():
-    """``detect(probe=True)`` (find's first windows): two panels in the box, refused as ambiguous, give one of them
-    found; a lone mark gives the same answer as without the probe."""
-    d = detect(_two_panels_at((79.0, 79.0), (22.3, 48.6)), AutoParams(mark="panel"), probe=True)
-    assert d.found and min(np.hypot(d.x - x, d.y - y) for x, y in ((79.0, 79.0), (22.3, 48.6))) < 0.2
-    for style in ("ring_x_dot", "cross", "dot"):
-        sc = synth.mark_scene(style, 30, window=120, rng=np.random.default_rng(4), noise_sigma=0.02)
-        full, probe = detect(sc.image), detect(sc.image, probe=True)
-        assert full.found and (probe.x, probe.y, probe.score, probe.method) == (full.x, full.y, full.score, full.method)
-
-
 def test_two_panels_near_the_box_edges_are_ambiguous_by_hough_s_search(monkeypatch):
     """The panel's turned image needs 11 px of room around it (half-size 7); with 10.5 px panel_twins cannot look
     and hough's search of the blanked box looks for the second panel, as before."""

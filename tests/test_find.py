@@ -17,10 +17,8 @@ from hypothesis import strategies as st
 
 import aerofid
 from aerofid import synth
-from aerofid.conventions import FOUND
 from aerofid.detect import screen as screen_module
 from aerofid.detect.registry import METHODS
-from aerofid.detect.result import Detection
 from aerofid.detect.screen import MERGE_SHARE, Candidate, local_noise, merge_candidates, screen
 from aerofid.find import Measurer, recentred_half, reduction_for, window_ladder, with_window_term
 from aerofid.io.array import open_image
@@ -410,40 +408,6 @@ def test_the_window_term_of_symmetry_equals_the_full_method_on_its_windows(style
                 again, full = m.again(final, half), m.at(final.x, final.y, half)
                 assert again.found and full.found and again.polarity == final.polarity
                 assert np.hypot(again.x - full.x, again.y - full.y) < 1e-3
-
-
-class _ScriptedAuto(AutoDetector):
-    """``auto`` whose probe finds a mark at each window's centre and whose full measurement (uniqueness pass
-    included) refuses it; every call is logged as (kind, window side)."""
-
-    def __init__(self, calls):
-        super().__init__(make_detector("auto", "auto", {}).params, {})
-        object.__setattr__(self, "calls", calls)
-
-    def probe(self, grey):
-        self.calls.append(("probe", grey.shape[0]))
-        c = (grey.shape[0] - 1) / 2.0
-        return Detection(status=FOUND, x=c, y=c, score=0.9, sigma=0.01, method="scripted")
-
-    def __call__(self, grey):
-        self.calls.append(("full", grey.shape[0]))
-        return Detection.not_found("scripted", f"refused on {grey.shape[0]} px")
-
-
-def test_a_probed_window_refused_when_recentred_gets_its_own_verdict_and_the_ladder_goes_on():
-    """``Measurer.candidate``: each ladder window is probed; a probe's find is re-centred (measured in full); when
-    that refuses, the window is measured in full, and where that refuses too the ladder goes on to the next window.
-    With every window refused, the answer is the first window's full verdict (as without probes)."""
-    calls = []
-    with open_image(np.zeros((400, 400), np.float32)) as source:
-        m = Measurer(source, _ScriptedAuto(calls), ("bright",))
-        got = m.candidate(Candidate(x=200.0, y=200.0, radius=40.0, strength=10.0, inner=20.0))
-    ladder = [2 * min(max(math.ceil(h), 12), 320) + 1 for h in window_ladder(40.0, 20.0)]
-    recentred = 2 * math.ceil(recentred_half(40.0)) + 1  # the scripted mark has no extent: the candidate's radius
-    assert len(ladder) >= 3
-    assert calls == [call for side in ladder for call in (("probe", side), ("full", recentred), ("full", side))]
-    assert not got.found and got.detection.reason == f"refused on {ladder[0]} px"
-    assert got.box[2] - got.box[0] == ladder[0]
 
 
 def test_again_with_auto_is_a_whole_measurement():

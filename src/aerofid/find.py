@@ -40,7 +40,7 @@ from aerofid.io.colour import COLOUR_POLICIES, to_grey
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import read_reduced_levels
 from aerofid.io.source import ImageSource
-from aerofid.methods import AutoDetector, Detector, MethodDetector, check_choice, check_polarity, make_detector, probing
+from aerofid.methods import AutoDetector, Detector, MethodDetector, check_choice, check_polarity, make_detector
 
 SCREEN_PIXELS = 2_000_000
 """Most pixels of the reduced region that screening holds (a power-of-two reduction is chosen to fit)."""
@@ -155,17 +155,15 @@ class Measurer:
     colour: str = "auto"
 
     def at(self, x: float, y: float, half: float, candidate: Candidate | None = None,
-           blank: tuple[float, float, float] | None = None, probe: bool = False) -> Located:
-        """The detector's answer on the window of half-size ``half`` centred on the pixel nearest (x, y); ``probe``:
-        by :func:`~aerofid.methods.probing` (a window whose found answer is measured again on its own)."""
+           blank: tuple[float, float, float] | None = None) -> Located:
+        """The detector's answer on the window of half-size ``half`` centred on the pixel nearest (x, y)."""
         box, samples = self._window(x, y, half)
-        detector = probing(self.detector) if probe else self.detector
         best: Located | None = None
         for pol in self.polarities:
             grey = self._grey(samples, pol)
             if blank is not None:
                 grey = blank_disc(grey, blank[0] - box[0], blank[1] - box[1], blank[2])
-            det = detector(grey).shifted(box[0], box[1])
+            det = self.detector(grey).shifted(box[0], box[1])
             got = Located(det, pol, box, grey, candidate)
             if best is None or better(got.detection, best.detection):
                 best = got
@@ -212,27 +210,13 @@ class Measurer:
                   settle: bool = True) -> Located:
         """Steps 2 and 3 of the search for one candidate: windows from the candidate's largest radius down to
         its smallest (:func:`window_ladder`) until one is found, then (``settle``, and no ``blank``) re-centred
-        windows sized by the mark's own extent until the size settles.
-
-        A window that is re-centred when found is first measured as a probe (``auto`` without its uniqueness pass,
-        :func:`~aerofid.methods.probing`): the re-centred window's measurement runs the pass on the mark's own
-        surroundings. Only when that finds nothing is the window's own verdict taken (the pass run on it), and the
-        ladder goes on where it refuses, as it always did: the pass on a first window 2.5 times a screened radius
-        that took in the mark's surroundings was half of one locate of a real RC20 mark."""
-        recentred = settle and blank is None
+        windows sized by the mark's own extent until the size settles."""
         first: Located | None = None
         for half in window_ladder(c.radius, c.inner):
-            got = self.at(c.x, c.y, half, c, blank, probe=recentred)
-            if got.found and recentred:
-                final = self.recentre(got, c)
-                if final.found:
-                    return final
-                got = self.at(c.x, c.y, half, c)
-                if got.found:
-                    return final
+            got = self.at(c.x, c.y, half, c, blank)
             first = first or got
             if got.found:
-                return got
+                return self.recentre(got, c) if settle and blank is None else got
         assert first is not None
         return first
 

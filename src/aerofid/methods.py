@@ -62,22 +62,12 @@ class AutoDetector:
     def __call__(self, grey: np.ndarray) -> Detection:
         return auto.detect(grey, self.params, methods=self.methods)
 
-    def probe(self, grey: np.ndarray) -> Detection:
-        """``auto`` on ``grey`` without its uniqueness pass (``probe`` of :func:`aerofid.detect.auto.detect`)."""
-        return auto.detect(grey, self.params, methods=self.methods, probe=True)
-
     def member(self, name: str) -> MethodDetector | None:
         """The seed method ``name`` as ``auto`` runs it (None for a name that is no seed method, e.g.
         ``"centroid"``)."""
         if name not in METHODS:
             return None
         return MethodDetector(METHODS[name], auto.seed_params(self.params, self.methods)[name])
-
-
-def probing(detector: Detector) -> Detector:
-    """``detector`` for a window whose found answer is measured again on its own window: ``auto`` without its
-    uniqueness pass (:meth:`AutoDetector.probe`), any other detector itself (the seed methods have none)."""
-    return detector.probe if isinstance(detector, AutoDetector) else detector
 
 
 def make_detector(method_name: str, mark: str, params: Mapping[str, Any]) -> Detector:
@@ -122,4 +112,4 @@ def check_polarity(polarity: str) -> None:
 
 
 __all__ = ["METHOD_NAMES", "AutoDetector", "Detector", "MethodDetector", "check_choice", "check_polarity",
-           "make_detector", "probing"]
+           "make_detector"]

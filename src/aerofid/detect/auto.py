@@ -365,8 +365,6 @@ class _Context:
     noise: float
     params: AutoParams
     seeds: Mapping[str, MethodParams]
-    unique: bool = True
-    """Whether step 3's uniqueness pass runs (:func:`detect`'s ``probe`` leaves it out)."""
 
     def run(self, name: str, window: np.ndarray, **overrides: Any) -> Detection:
         """Seed method ``name`` on ``window`` with its parameters, changed by ``overrides`` for this call."""
@@ -390,7 +388,7 @@ def seed_params(params: AutoParams, methods: Mapping[str, MethodParams] | None) 
 # --- the rule --------------------------------------------------------------------------------------------
 
 def detect(window: np.ndarray, params: AutoParams = AutoParams(),
-           methods: Mapping[str, MethodParams] | None = None, probe: bool = False) -> AutoResult:
+           methods: Mapping[str, MethodParams] | None = None) -> AutoResult:
     """The most reliable centre in ``window`` by the rule of the module docstring, or ``not_found``.
 
     Parameters
@@ -402,10 +400,6 @@ def detect(window: np.ndarray, params: AutoParams = AutoParams(),
     methods : Mapping[str, MethodParams], optional
         Each seed method's parameters by name (e.g. from :func:`aerofid.detect.registry.route_params`);
         a method not named runs with its defaults.
-    probe : bool
-        Leave out step 3's uniqueness pass (an answer it would refuse is found): for a window whose found answer is
-        measured again on a window of its own, where the pass runs (the search's first windows,
-        :meth:`aerofid.find.Measurer.candidate`). Every other answer is the same.
 
     Returns
     -------
@@ -427,7 +421,7 @@ def detect(window: np.ndarray, params: AutoParams = AutoParams(),
     if bad is not None:
         return AutoResult.not_found(METHOD, bad + (": no mark" if bad.startswith("homogeneous") else ""))
     noise = max(laplacian_noise_sigma(img), 1e-4)
-    ctx = _Context(img, noise, params, seed_params(params, methods), unique=not probe)
+    ctx = _Context(img, noise, params, seed_params(params, methods))
     trace = _Trace(noise=noise)
     run_candidates(ctx, trace)
     groups = group_answers([d for d in trace.answers.values() if d.found], params)
@@ -611,7 +605,7 @@ def conclude(ctx: _Context, trace: _Trace, group: list[Detection], extent: float
     trace.check, trace.rule, trace.mark_extent = chk, rule, extent
     if not chk.ok:
         return trace.not_found(chk.reason)
-    why = uniqueness(ctx, trace, group, best, extent, dot) if ctx.unique else None
+    why = uniqueness(ctx, trace, group, best, extent, dot)
     if why is not None:
         return trace.not_found(why)
     return trace.found(best, auto_score(group, chk, ctx.params), group)

@@ -296,21 +296,27 @@ def bench_real(repeats: int, hipp: Hipp) -> list[str]:
 
 
 CLI_BOX = "605,119,725,239"
-"""The box of the command-line call timed (corner TL, as in docs/benchmarks_peers.md's start-up table)."""
+"""The box of the command-line timing: corner TL, in the image's top rows."""
+CLI_BOX_BOTTOM = "600,5153,720,5273"
+"""The same timing on corner BL, in its bottom rows: a JPEG decodes its rows in order, so only a window in the top
+rows can be read before the whole decode is done (``aerofid.io.jpeg_top``)."""
 
 
 def bench_cli(repeats: int) -> list[str]:
     """Wall time of one ``aerofid locate`` of the RC20 JPEG (a fresh interpreter: start-up, imports, the JPEG's
-    decode and the search) and of its imports alone, median of ``2 * repeats + 1`` runs each."""
+    decode and the search) on a box in its top rows and on one in its bottom rows, and of its imports alone, median
+    of ``2 * repeats + 1`` runs each."""
     if not REAL.exists():
         return []
     call = [sys.executable, "-m", "aerofid", "locate", str(REAL), "--box", CLI_BOX, "--mark", "external"]
+    bottom = [sys.executable, "-m", "aerofid", "locate", str(REAL), "--box", CLI_BOX_BOTTOM, "--mark", "external"]
     imports = [sys.executable, "-c", "import aerofid.cli.locate_cmd"]
     # as installed: pip compiles the package's bytecode when it installs it; a PYTHONDONTWRITEBYTECODE in the
     # benchmark's environment would make every call compile the modules changed since their last .pyc
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     out = []
     for label, cmd in (("`aerofid locate` of one box (whole call)", call),
+                       (f"the same on the bottom box {CLI_BOX_BOTTOM} (corner BL)", bottom),
                        ("`import aerofid.cli.locate_cmd` (start-up)", imports)):
         subprocess.run(cmd, capture_output=True, check=True, env=env)   # writes the bytecode, not timed
         times = []

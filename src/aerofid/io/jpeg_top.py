@@ -4,10 +4,11 @@ stop after any of them (issue 10: a JPEG is not decoded whole for one box where 
 A :class:`~aerofid.io.raster.Raster` of an 8-bit JPEG starts its whole decode in the background when it is opened
 (:func:`aerofid.io.jpeg.decoding`). Until that decode is done, a window whose rows end within :data:`TOP_SHARE` of the
 image is read from a decode of the rows above it (and :data:`TOP_MARGIN` more) in the reading thread, on the other
-core: one box near the top of a frame waits for a tenth of a decode instead of the whole. The rows are decoded by
-Pillow's libjpeg-turbo, the library and inverse DCT of OpenCV's whole decode, to the same samples (tests compare them
-on 4:2:0, 4:4:4 and grey JPEGs and on the real RC20 frame); where Pillow cannot decode them, or cannot tell that it
-decoded every one of them (a corrupt or truncated file), the whole decode answers, as without this.
+core: one box near the top of a frame waits for the decode of the rows down to it, not of the whole image. The rows
+are decoded by Pillow's libjpeg-turbo, the library and inverse DCT of OpenCV's whole decode, to the same samples
+(tests compare them on 4:2:0, 4:4:4, progressive and grey JPEGs and on the real RC20 frame); where Pillow cannot
+decode them, or cannot tell that it decoded every one of them (a corrupt or truncated file), the whole decode answers
+(and the read waits for it, as without this).
 """
 
 from __future__ import annotations
@@ -41,10 +42,8 @@ def decode_top(path: Path, rows: int, header: ImageHeader) -> np.ndarray | None:
     are decoded (libjpeg then reports the scanlines it was not asked for as an error, which is how every decode of
     the top rows ends). An error before them, or the end of the file, leaves the last row as :data:`SENTINEL` filled
     it, and gives None."""
-    try:
-        from PIL import Image
-    except ImportError:  # Pillow comes with matplotlib; without it the whole decode answers
-        return None
+    from PIL import Image  # only a window read before the whole decode is done needs it (start-up)
+
     try:
         with Image.open(path) as im:
             if im.format != "JPEG" or len(im.tile) != 1 or im.mode not in SENTINEL or im.size != (header.width,

@@ -207,6 +207,70 @@ def test_peak_memory_is_bounded_by_the_strip_not_the_box(tmp_path, monkeypatch):
     assert peak < whole / 5, f"peak {peak / 1e6:.1f} MB for a {whole / 1e6:.0f} MB image"
 
 
+def test_strips_read_by_threads_give_the_same_numbers_and_each_tile_is_decoded_once(tmp_path, monkeypatch):
+    """A whole-frame reduced read of a compressed tiled TIFF, its strips read by several threads at once
+    (:data:`aerofid.io.reduce.READ_THREADS`): each tile decoded once, by more than one thread, and every number
+    that of the read one strip after another."""
+    image = random_image(np.uint8, 3, shape=(1024, 700))
+    path = write_tiff(tmp_path / "tiled.tif", image, tile=(32, 64), compression="zlib")  # 32 x 11 tiles
+    monkeypatch.setattr(reduce, "STRIP_BYTES", 2**20)
+    monkeypatch.setattr(raster_module, "READ_THREADS", 3)
+    threads = []
+    strip_rows = Raster._strip_rows
+
+    def recording_rows(self, r0, r1, columns):
+        threads.append(threading.get_ident())
+        return strip_rows(self, r0, r1, columns)
+
+    monkeypatch.setattr(Raster, "_strip_rows", recording_rows)
+    with open_raster(path) as raster:
+        alone = raster.read_reduced((0, 0, 700, 1024), 16)    # 2 MB: fewer bytes than THREADED_BYTES
+    assert set(threads) == {threading.get_ident()}
+    threads.clear()
+    monkeypatch.setattr(reduce, "THREADED_BYTES", 2**20)
+    decoded = record_decoded_segments(monkeypatch)
+    with open_raster(path) as raster:
+        together = raster.read_reduced((0, 0, 700, 1024), 16)
+    assert np.array_equal(together, alone)
+    np.testing.assert_allclose(together, block_mean(image, 16), rtol=1e-6)
+    assert sorted(decoded) == list(range(32 * 11))
+    assert len(threads) == 7 and len(set(threads)) > 1     # strips of 160 rows: 5 tile rows, 1 MB for 3 threads
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.data())
+def test_strips_read_by_threads_are_the_strips_read_in_turn(data):
+    """:func:`aerofid.io.reduce.reduce_in_strips` with several threads gives exactly the numbers of one strip after
+    another, for any window (from row 0, where the threads are used, or not), factor, row step and strip budget,
+    and reads each source row once."""
+    dtype = data.draw(st.sampled_from([np.uint8, np.uint16, np.float32]))
+    bands = data.draw(st.sampled_from([1, 3]))
+    h, w = data.draw(st.integers(1, 300)), data.draw(st.integers(1, 40))
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**16)))
+    image = (rng.normal(0, 1000, (h, w, bands)) if dtype == np.float32 else rng.integers(0, 255, (h, w, bands))
+             ).astype(dtype)
+    x0, x1 = 0, w
+    y0 = data.draw(st.sampled_from([0, data.draw(st.integers(0, h - 1))]))
+    y1 = data.draw(st.integers(y0 + 1, h))
+    factor, row_step = data.draw(st.integers(1, 12)), data.draw(st.integers(1, 16))
+    strip_bytes = data.draw(st.integers(1, 60)) * row_step * w * bands * image.itemsize
+    rows = []
+
+    def read_rows(r0, r1):
+        rows.extend(range(r0, r1))
+        return image[r0:r1, x0:x1]
+
+    original = reduce.STRIP_BYTES, reduce.THREADED_BYTES
+    reduce.STRIP_BYTES, reduce.THREADED_BYTES = strip_bytes, 0
+    try:
+        outs = [reduce.reduce_in_strips(read_rows, (x0, y0, x1, y1), factor, bands, itemsize=image.itemsize,
+                                        row_step=row_step, threads=threads) for threads in (1, 2, 4)]
+    finally:
+        reduce.STRIP_BYTES, reduce.THREADED_BYTES = original
+    assert np.array_equal(outs[1], outs[0]) and np.array_equal(outs[2], outs[0])
+    assert sorted(rows) == sorted(list(range(y0, y1)) * 3)
+
+
 def mapped_file_bytes():
     """Bytes of files mapped into this process and resident (Linux ``RssFile``)."""
     with open("/proc/self/status") as status:

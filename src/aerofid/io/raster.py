@@ -20,7 +20,9 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
   (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced decode), a larger PNG is refused.
 
 :meth:`Raster.read_reduced` reads a window reduced by block means in horizontal strips (whole tile rows of a
-tiled TIFF), so its memory stays bounded whatever the box (:mod:`aerofid.io.reduce`). A numpy array is read
+tiled TIFF), so its memory stays bounded whatever the box (:mod:`aerofid.io.reduce`); a TIFF's strips of a large
+window by several threads at once (:data:`aerofid.io.reduce.READ_THREADS`: tiles are decoded, and a memory map's
+pages read, while the GIL is released). A numpy array is read
 through the same interface by :class:`aerofid.io.array.ArrayRaster`; :func:`aerofid.io.array.open_image` opens a
 path, an array or an open raster alike.
 
@@ -34,6 +36,7 @@ import math
 import operator
 import os
 import reprlib
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -45,7 +48,7 @@ from aerofid.io import jpeg
 from aerofid.io.budget import check_budget
 from aerofid.io.files import input_file
 from aerofid.io.jpeg_top import BackgroundJpegReader
-from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
+from aerofid.io.reduce import READ_THREADS, check_factor, check_reduced_size, reduce_in_strips
 
 if TYPE_CHECKING:
     import tifffile
@@ -253,14 +256,19 @@ class _ArrayReader:
     def __init__(self, load: Callable[[], np.ndarray], mapped: bool = False):
         self._load = load
         self._array: np.ndarray | None = None
+        self._loading = threading.Lock()
         self.mapped = mapped
 
     def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
-        """Samples of the window ``box`` (a view of the kept array)."""
-        if self._array is None:
-            self._array = self._load()
+        """Samples of the window ``box`` (a view of the kept array); from any thread (one loads the array)."""
+        array = self._array
+        if array is None:
+            with self._loading:
+                if self._array is None:
+                    self._array = self._load()
+                array = self._array
         x0, y0, x1, y1 = box
-        return self._array[y0:y1, x0:x1]
+        return array[y0:y1, x0:x1]
 
     def release(self) -> None:
         """Forget a memory map (it is unmapped once no window views it; the next read maps it again)."""
@@ -277,6 +285,7 @@ class _TiffSegmentReader:
 
     def __init__(self, tif: tifffile.TiffFile, page: tifffile.TiffPage):
         self._filehandle = tif.filehandle
+        self._seeking = threading.Lock()        # tifffile's own lock is a no-op unless asked for
         self._page = page
         if page.is_tiled:
             self.segment_shape = (page.tilelength, page.tilewidth)
@@ -298,7 +307,7 @@ class _TiffSegmentReader:
         offset, count = self._page.dataoffsets[index], self._page.databytecounts[index]
         if offset == 0 or count == 0:
             return None
-        with self._filehandle.lock:
+        with self._seeking:                     # strips are read by several threads (aerofid.io.reduce)
             self._filehandle.seek(offset)
             return self._filehandle.read(count)
 
@@ -557,8 +566,9 @@ class Raster:
         else:
             step = reader.segment_shape[0] if isinstance(reader, _TiffSegmentReader) else 1
             columns = (window_box[0], window_box[2])
+            threads = READ_THREADS if isinstance(reader, _TiffSegmentReader | _ArrayReader) else 1
             out = reduce_in_strips(lambda r0, r1: self._strip_rows(r0, r1, columns), window_box, factor,
-                                   self.bands, itemsize=self.dtype.itemsize, row_step=step)
+                                   self.bands, itemsize=self.dtype.itemsize, row_step=step, threads=threads)
         return out[:, :, 0] if self.bands == 1 else out
 
     def _reduced_request(self, box: Sequence[int], factor: int) -> tuple[tuple[int, int, int, int], int]:

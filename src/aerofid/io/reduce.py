@@ -4,7 +4,8 @@ A window of ``h`` x ``w`` pixels reduced by a factor ``f`` has ``ceil(h / f)`` x
 mean of an ``f`` x ``f`` block of the window (blocks at the right and bottom edges are means of the pixels they
 have). The window is read in horizontal strips of at most :data:`STRIP_BYTES` of samples (whole tile rows of a
 tiled TIFF) and each strip is folded into the output in chunks of :data:`CHUNK_SAMPLES`, so peak memory is the
-output plus one strip plus one chunk, whatever the window.
+output plus one strip plus one chunk, whatever the window (where :data:`READ_THREADS` threads read strips at once,
+:func:`reduce_in_strips`, their strips together hold at most :data:`STRIP_BYTES`, plus a chunk each).
 
 A source at the image's own scale is summed block by block (rows and columns grouped by reshapes, in
 integers for integer samples; :func:`_fold_blocks`). The reduction is linear: ``out = Wy @
@@ -17,7 +18,9 @@ from __future__ import annotations
 
 import math
 import operator
+import os
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -31,7 +34,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CHUNK_SAMPLES",
+    "READ_THREADS",
     "STRIP_BYTES",
+    "THREADED_BYTES",
     "ReducedView",
     "block_weights",
     "check_factor",
@@ -43,6 +48,13 @@ __all__ = [
 
 #: Most bytes of samples read at once by ``read_reduced`` (one strip; a tile row may be more).
 STRIP_BYTES = 64 * 2**20
+#: Threads that read and fold the strips of one reduced window at once, where the source can be read from several
+#: (a TIFF's tiles are decoded and a memory map's pages read while the GIL is released); at most 4 (the
+#: strips of a whole 11000^2 frame: 22 tile rows of 512).
+READ_THREADS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
+#: Least bytes of samples in a window whose strips several threads read (:data:`READ_THREADS`): starting them costs
+#: about a millisecond, the time one thread reads and folds 2 MB of an array in memory.
+THREADED_BYTES = 16 * 2**20
 #: Most samples of a strip folded into the output at once (block sums, or float64 for the weights of a reduced source).
 CHUNK_SAMPLES = 2**21
 
@@ -233,7 +245,7 @@ def _add_block_means(out: np.ndarray, rows: np.ndarray, block: int, factor: int,
 
 
 def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, bands: int, *, itemsize: int,
-                     scale: int = 1, row_step: int = 1) -> np.ndarray:
+                     scale: int = 1, row_step: int = 1, threads: int = 1) -> np.ndarray:
     """Block means of window ``box`` reduced by ``factor``, read strip by strip.
 
     Parameters
@@ -252,7 +264,14 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
     scale : int, optional
         Each source pixel stands for ``scale`` x ``scale`` image pixels (1: the source is the image).
     row_step : int, optional
-        Strip boundaries fall on multiples of this many source rows (a TIFF's tile length or rows per strip).
+        Strip boundaries fall on multiples of this many source rows (a TIFF's tile length or rows per strip), and
+        of ``factor`` too where the window's blocks begin on one (a window from row 0) and a strip can hold that
+        many rows: each block is then summed from one strip.
+    threads : int, optional
+        Strips read and folded at once, by that many threads, where ``read_rows`` may be called from several
+        (:data:`READ_THREADS`): where the window holds :data:`THREADED_BYTES` or more and ``threads`` strips of
+        whole blocks (above) fit in :data:`STRIP_BYTES` together, two per thread where the window has the rows
+        (the same numbers as one strip after another); else one strip after another.
 
     Returns
     -------
@@ -273,7 +292,9 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
         wy = block_weights(y0, y1, factor, scale)
         wx = sparse.csr_array(sparse.kron(block_weights(x0, x1, factor, scale), sparse.identity(bands)))
         weights = (wy, sparse.csc_array(wy), wx)
-    for r0, r1 in _strips(src0, src1, step):
+
+    def add(strip_rows: tuple[int, int]) -> None:
+        r0, r1 = strip_rows
         strip = read_rows(r0, r1)
         if factor == 1:
             out.reshape(rows, cols, bands)[r0 - src0 : r1 - src0] = strip
@@ -282,6 +303,20 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
         else:
             _fold(out, strip, r0 - src0, *weights)
         del strip  # a memory-mapped strip is unmapped before the next is read
+
+    unit = math.lcm(row_step, factor)                   # strips of whole blocks and whole tile rows
+    whole_blocks = weights is None and src0 % factor == 0
+    if whole_blocks and unit <= step:
+        step = step // unit * unit
+    each = min(STRIP_BYTES // (threads * row_bytes), -(-(src1 - src0) // (2 * threads))) // unit * unit
+    if (threads > 1 and whole_blocks and each > 0 and src1 - src0 > each
+            and (src1 - src0) * row_bytes >= THREADED_BYTES):
+        with ThreadPoolExecutor(threads) as pool:
+            for _ in pool.map(add, _strips(src0, src1, each)):
+                pass                                     # (an exception is raised here)
+    else:
+        for strip_rows in _strips(src0, src1, step):
+            add(strip_rows)
     return out.reshape(rows, cols, bands)
 
 

@@ -7,6 +7,7 @@ cleanly without it.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import replace
 from unittest import mock
 
@@ -55,6 +56,31 @@ def test_disc_sums_are_the_sums_over_each_pixel_s_disc(h, w, channels, radius, s
     pad = np.pad(img.astype(np.float64), ((radius, radius), (radius, radius), (0, 0)))
     want = sum(pad[radius + y:radius + y + h, radius + x:radius + x + w] for y, x in zip(dy[inside], dx[inside]))
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5)
+
+
+def test_a_large_image_s_levels_are_screened_by_threads_to_the_same_candidates(monkeypatch):
+    """A whole frame's screening (levels of 512^2 px and more, :data:`aerofid.detect.screen.THREADED_PIXELS`):
+    its pyramid levels screened by several threads give the candidates of one level after another."""
+    frame = synth.demo_frame(np.random.default_rng(3), size=900, mark_size=40)
+    ran_in = []
+    level_candidates = screen_module.level_candidates
+
+    def recording(*args, **kwargs):
+        ran_in.append(threading.get_ident())
+        return level_candidates(*args, **kwargs)
+
+    monkeypatch.setattr(screen_module, "level_candidates", recording)
+    monkeypatch.setattr(screen_module, "THREADS", 1)
+    alone = screen(frame.image, max_candidates=64)
+    assert set(ran_in) == {threading.get_ident()}
+    ran_in.clear()
+    monkeypatch.setattr(screen_module, "THREADS", 2)
+    together = screen(frame.image, max_candidates=64)
+    assert together == alone and len(alone) == 64
+    assert len(ran_in) == 6 and len(set(ran_in)) == 2          # levels of 900 .. 28 px
+    ran_in.clear()
+    screen(frame.image[:400, :400], max_candidates=64)        # 400^2: fewer pixels than THREADED_PIXELS
+    assert set(ran_in) == {threading.get_ident()}
 
 
 @pytest.mark.parametrize("style", STYLES)

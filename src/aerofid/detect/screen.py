@@ -32,6 +32,8 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from aerofid.parallel import THREADS, map_in_threads
+
 RADII = (3, 5, 7)
 """Disc radii (level pixels) screened on each pyramid level; level k covers radii 3 * 2^k .. 7 * 2^k of the
 input."""
@@ -51,6 +53,10 @@ MERGE_BATCH = 64
 ENERGY_ROWS = 128
 """Rows of a level that :func:`symmetric_energy` sums over every offset before the next (a band that stays in the
 cache: 1.6 times faster on a 688 px level than whole levels, with the same sums)."""
+THREADED_PIXELS = 2**18
+"""Least pixels of the largest level screened for the levels to be screened by several threads at once
+(:data:`aerofid.parallel.THREADS`; a whole frame's, 688 x 688 px at 11000^2; starting them costs about a
+millisecond)."""
 MIN_LEVEL_SIDE = 2 * RADII[-1] + 3
 """A pyramid level smaller than this on either side is not screened."""
 
@@ -234,17 +240,20 @@ def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_rad
     >>> bool(abs(best.x - 180.3) < 3 and abs(best.y - 110.6) < 3)
     True
     """
-    found: list[Candidate] = []
+    levels: list[tuple[np.ndarray, float]] = []
     level = np.asarray(img, np.float32)
     s = float(scale)
     while min(level.shape) >= MIN_LEVEL_SIDE:
         if max_radius is not None and RADII[0] * s > max_radius:
             break
         if RADII[-1] * s >= min_radius:
-            found.extend(level_candidates(level, s, RADII, min_strength, noise_floor, 4 * max_candidates))
+            levels.append((level, s))
         level = reduce2(level)
         s *= 2.0
-    return merge_candidates(found, max_candidates)
+    found = map_in_threads(lambda ls: level_candidates(ls[0], ls[1], RADII, min_strength, noise_floor,
+                                                       4 * max_candidates),
+                           levels, THREADS if levels and levels[0][0].size >= THREADED_PIXELS else 1)
+    return merge_candidates([c for candidates in found for c in candidates], max_candidates)
 
 
 def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:

@@ -18,9 +18,7 @@ from __future__ import annotations
 
 import math
 import operator
-import os
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -28,6 +26,7 @@ import numpy as np
 
 from aerofid.errors import AerofidInputError
 from aerofid.io.source import ImageSource
+from aerofid.parallel import THREADS, map_in_threads
 
 if TYPE_CHECKING:
     from scipy import sparse
@@ -49,9 +48,8 @@ __all__ = [
 #: Most bytes of samples read at once by ``read_reduced`` (one strip; a tile row may be more).
 STRIP_BYTES = 64 * 2**20
 #: Threads that read and fold the strips of one reduced window at once, where the source can be read from several
-#: (a TIFF's tiles are decoded and a memory map's pages read while the GIL is released); at most 4 (the
-#: strips of a whole 11000^2 frame: 22 tile rows of 512).
-READ_THREADS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
+#: (a TIFF's tiles are decoded and a memory map's pages read while the GIL is released).
+READ_THREADS = THREADS
 #: Least bytes of samples in a window whose strips several threads read (:data:`READ_THREADS`): starting them costs
 #: about a millisecond, the time one thread reads and folds 2 MB of an array in memory.
 THREADED_BYTES = 16 * 2**20
@@ -311,9 +309,7 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
     each = min(STRIP_BYTES // (threads * row_bytes), -(-(src1 - src0) // (2 * threads))) // unit * unit
     if (threads > 1 and whole_blocks and each > 0 and src1 - src0 > each
             and (src1 - src0) * row_bytes >= THREADED_BYTES):
-        with ThreadPoolExecutor(threads) as pool:
-            for _ in pool.map(add, _strips(src0, src1, each)):
-                pass                                     # (an exception is raised here)
+        map_in_threads(add, _strips(src0, src1, each), threads)
     else:
         for strip_rows in _strips(src0, src1, step):
             add(strip_rows)

@@ -246,12 +246,15 @@ class _Pairs:
 
     @classmethod
     def of(cls, features: np.ndarray) -> _Pairs:
-        i, k = np.triu_indices(len(features), 1)
-        # pairs of strong features first: by i + k, then k (one key, unique for i < k: np.lexsort's order)
-        order = np.argsort((i + k) * len(features) + k)
-        i, k = i[order], k[order]
+        # pairs of strong features first: by i + k, then k; for each sum s = i + k, k runs from s // 2 + 1 up
+        n = len(features)
+        s = np.arange(1, 2 * n - 2)
+        first, count = s // 2 + 1, np.minimum(s, n - 1) - s // 2
+        k = np.arange(count.sum()) + np.repeat(first - np.cumsum(count) + count, count)
+        i = np.repeat(s, count) - k
         d_px = np.hypot(*(features[k] - features[i]).T)
-        return cls(i, k, d_px, np.argsort(d_px, kind="stable"))
+        # the order of equal distances is free: _hypotheses takes each fiducial pair's band of them as a set
+        return cls(i, k, d_px, np.argsort(d_px))
 
 
 def _hypotheses(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> np.ndarray:

@@ -58,6 +58,7 @@ from aerofid.formats.camera_file import read_camera  # noqa: E402
 from aerofid.frame.profile import learn_profile, read_profile  # noqa: E402
 from aerofid.io.raster import open_raster  # noqa: E402
 from aerofid.orientation.adjustment import adjust  # noqa: E402
+from aerofid.parallel import THREADS  # noqa: E402
 from bench_peers import hipp_subpixel_template  # noqa: E402
 from bench_rc20 import MARKS as RC20_APPROX  # noqa: E402
 from bench_rc20 import REAL as RC20  # noqa: E402
@@ -415,8 +416,10 @@ def write_doc(path: Path, args, parts: list[str]) -> None:
         f" --repeats {args.repeats}" + (" --hipp <venv>/bin/python" if args.hipp else "")
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     run = "\n".join([f"Produced by `{cmd}` at {commit} on {platform.machine()} / Python "
-                     f"{platform.python_version()}, one thread per process (aerofid decodes a JPEG on a second one, "
-                     "overlapping its screening: CPU time above wall time).", "", *parts])
+                     f"{platform.python_version()}, OpenCV and BLAS on one thread per process; aerofid's own threads "
+                     f"(aerofid.parallel.THREADS = {THREADS} here) read a TIFF's reduced frame and screen its levels, "
+                     "and a JPEG is decoded on a second one, overlapping its screening (CPU time above wall time).",
+                     "", *parts])
     old = path.read_text(encoding="utf-8") if path.exists() else ""
     head, rest = old.split(RUN_START, 1) if RUN_START in old and RUN_END in old else ("", RUN_END)
     path.write_text(head + RUN_START + "\n" + run + "\n" + RUN_END + rest.split(RUN_END, 1)[1], encoding="utf-8")

@@ -58,6 +58,16 @@ def test_disc_sums_are_the_sums_over_each_pixel_s_disc(h, w, channels, radius, s
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5)
 
 
+def test_the_symmetric_energy_s_bands_summed_by_threads_are_the_same_sums():
+    g = np.random.default_rng(5).normal(0, 1, (300, 211)).astype(np.float32)
+    alone = screen_module.symmetric_energy(g)
+    assert np.array_equal(screen_module.symmetric_energy(g, threads=3), alone)
+    for y in (127, 128, 200):                                # either side of the first band's end (ENERGY_ROWS)
+        disc = sum(g[y + dy, 100 + dx] * g[y - dy, 100 - dx] for dy in range(-7, 8) for dx in range(-7, 8)
+                   if dx * dx + dy * dy <= 49)
+        assert alone[-1, y, 100] == pytest.approx(disc, rel=1e-4)
+
+
 def test_a_large_image_s_levels_are_screened_by_threads_to_the_same_candidates(monkeypatch):
     """A whole frame's screening (levels of 512^2 px and more, :data:`aerofid.detect.screen.THREADED_PIXELS`):
     its pyramid levels screened by several threads give the candidates of one level after another."""

@@ -54,9 +54,9 @@ ENERGY_ROWS = 128
 """Rows of a level that :func:`symmetric_energy` sums over every offset before the next (a band that stays in the
 cache: 1.6 times faster on a 688 px level than whole levels, with the same sums)."""
 THREADED_PIXELS = 2**18
-"""Least pixels of the largest level screened for the levels to be screened by several threads at once
-(:data:`aerofid.parallel.THREADS`; a whole frame's, 688 x 688 px at 11000^2; starting them costs about a
-millisecond)."""
+"""Least pixels of an image worked on by several threads (:data:`aerofid.parallel.THREADS`; a whole frame's, 688 x
+688 px at 11000^2; starting them costs about a millisecond): its pyramid levels screened at once
+(:func:`screen`), and its strength maps' parts (:func:`strength_maps`)."""
 MIN_LEVEL_SIDE = 2 * RADII[-1] + 3
 """A pyramid level smaller than this on either side is not screened."""
 
@@ -116,24 +116,27 @@ def disc_sums(img: np.ndarray, radius: int) -> np.ndarray:
     return out
 
 
-def symmetric_energy(g: np.ndarray, radii: tuple[int, ...] = RADII) -> np.ndarray:
+def symmetric_energy(g: np.ndarray, radii: tuple[int, ...] = RADII, threads: int = 1) -> np.ndarray:
     """``sum_{d in disc(r)} g(c+d) g(c-d)`` for each r of ``radii`` (stacked on axis 0), zero-padded outside
     ``g``. The sum runs over the half disc and is doubled (each opposite pair appears twice in the full disc);
-    the centre pixel's own term g(c)^2 is added."""
+    the centre pixel's own term g(c)^2 is added. Bands of :data:`ENERGY_ROWS` rows are summed apart, by
+    ``threads`` threads at once."""
     h, w = g.shape
     rmax = max(radii)
     pad = np.pad(g.astype(np.float32), rmax)
     rings = np.zeros((len(radii), h, w), np.float32)
-    tmp = np.empty((min(h, ENERGY_ROWS), w), np.float32)
     offsets = half_disc_offsets(rmax)
     ring_of = np.searchsorted(np.asarray(radii) ** 2, (offsets ** 2).sum(axis=1)).tolist()
-    for r0 in range(0, h, ENERGY_ROWS):       # a band of rows at a time, every offset: it stays in the cache
+
+    def band(r0: int) -> None:                # a band of rows, every offset: it stays in the cache
         r1 = min(r0 + ENERGY_ROWS, h)
-        t = tmp[:r1 - r0]
+        t = np.empty((r1 - r0, w), np.float32)
         for (dx, dy), k in zip(offsets.tolist(), ring_of, strict=True):
             np.multiply(pad[rmax + dy + r0:rmax + dy + r1, rmax + dx:rmax + dx + w],
                         pad[rmax - dy + r0:rmax - dy + r1, rmax - dx:rmax - dx + w], out=t)
             rings[k, r0:r1] += t
+
+    map_in_threads(band, range(0, h, ENERGY_ROWS), threads)
     out = 2.0 * np.cumsum(rings, axis=0)
     out += g[None] * g[None]
     return out
@@ -162,18 +165,22 @@ def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.
 def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
                   k: float = SYMMETRY_WEIGHT, noise_floor: float = 1e-4) -> np.ndarray:
     """The screening strength (module docstring) of every pixel of ``img`` for each of ``radii`` (axis 0);
-    zero where the disc is not wholly inside ``img``."""
+    zero where the disc is not wholly inside ``img``. An image of :data:`THREADED_PIXELS` or more is worked on by
+    :data:`~aerofid.parallel.THREADS` threads (the symmetric energy's bands, the radii)."""
     img = img.astype(np.float32)
+    threads = THREADS if img.size >= THREADED_PIXELS else 1
     rmax = max(radii)
     g = img - cv2.blur(img, (2 * rmax + 1, 2 * rmax + 1), borderType=cv2.BORDER_REFLECT)
     g = cv2.GaussianBlur(g, (0, 0), 0.7, borderType=cv2.BORDER_REFLECT)
-    sym = symmetric_energy(g, radii)
+    sym = symmetric_energy(g, radii, threads)
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0)
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1)
     noise = local_noise(img, floor=noise_floor)
     out = np.zeros_like(sym)
     squares = cv2.merge([g * g, gx * gx, gy * gy, gx * gy])
-    for i, r in enumerate(radii):
+
+    def strength(i: int) -> None:
+        r = radii[i]
         sums = disc_sums(squares, r)
         energy, jxx, jyy, jxy = (sums[:, :, c] for c in range(4))
         s = sym[i] / np.maximum(energy, 1e-12)
@@ -181,6 +188,8 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
         m = np.clip((1 + k) * s - k, 0, None) * iso * np.sqrt(energy) / noise
         m[:r], m[-r:], m[:, :r], m[:, -r:] = 0, 0, 0, 0
         out[i] = m
+
+    map_in_threads(strength, range(len(radii)), threads)
     return out
 
 

@@ -11,15 +11,19 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
+import tifffile
 
 import aerofid
 from aerofid.formats.camera_file import write_camera
+from aerofid.frame import orient as orient_module
 from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.frame.nominal import extra_marks
 from aerofid.frame.profile import learn_profile
 from aerofid.frame.report import frame_html, frame_text
+from aerofid.io.raster import Raster, open_raster
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import arrangement_matrix
@@ -382,3 +386,25 @@ def test_a_truncated_jpeg_frame_is_an_error_not_a_frame_without_marks(tmp_path):
     out = subprocess.run([sys.executable, "-m", "aerofid", "orient", str(path)], capture_output=True, text=True,
                          timeout=120)
     assert out.returncode == 2 and out.stderr.startswith("error: ") and "corrupt" in out.stderr, out.stderr
+
+
+def test_a_jpeg_frame_is_screened_on_one_thread_while_its_whole_decode_runs(tmp_path, monkeypatch):
+    """The screening's threads would take the core of a JPEG's background decode: a frame whose scan is being
+    decoded is screened on one thread, a scan read otherwise by the default (as many as its size earns)."""
+    image = np.random.default_rng(0).integers(0, 255, (600, 700), dtype=np.uint8)
+    assert cv2.imwrite(str(tmp_path / "frame.jpg"), image)
+    tifffile.imwrite(tmp_path / "frame.tif", image)
+    asked = []
+    screen = orient_module.screen
+    monkeypatch.setattr(orient_module, "screen", lambda *a, **k: asked.append(k["threads"]) or screen(*a, **k))
+    with open_raster(tmp_path / "frame.jpg") as raster:
+        with monkeypatch.context() as decoding:
+            decoding.setattr(Raster, "decoding", property(lambda self: True))
+            orient_module.frame_features(raster)
+        raster.check_decoded()
+        assert not raster.decoding                          # the decode is done
+        orient_module.frame_features(raster)
+    with open_raster(tmp_path / "frame.tif") as raster:
+        assert not raster.decoding
+        orient_module.frame_features(raster)
+    assert asked == [1, None, None]

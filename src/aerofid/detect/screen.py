@@ -163,12 +163,13 @@ def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.
 
 
 def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
-                  k: float = SYMMETRY_WEIGHT, noise_floor: float = 1e-4) -> np.ndarray:
+                  k: float = SYMMETRY_WEIGHT, noise_floor: float = 1e-4, threads: int | None = None) -> np.ndarray:
     """The screening strength (module docstring) of every pixel of ``img`` for each of ``radii`` (axis 0);
-    zero where the disc is not wholly inside ``img``. An image of :data:`THREADED_PIXELS` or more is worked on by
-    :data:`~aerofid.parallel.THREADS` threads (the symmetric energy's bands, the radii)."""
+    zero where the disc is not wholly inside ``img``. Worked on by ``threads`` threads (the symmetric energy's
+    bands, the radii); default: :data:`~aerofid.parallel.THREADS` for an image of :data:`THREADED_PIXELS` or more,
+    else one."""
     img = img.astype(np.float32)
-    threads = THREADS if img.size >= THREADED_PIXELS else 1
+    threads = _threads(img.size, threads)
     rmax = max(radii)
     g = img - cv2.blur(img, (2 * rmax + 1, 2 * rmax + 1), borderType=cv2.BORDER_REFLECT)
     g = cv2.GaussianBlur(g, (0, 0), 0.7, borderType=cv2.BORDER_REFLECT)
@@ -195,10 +196,11 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
 
 def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RADII,
                      min_strength: float = MIN_STRENGTH, noise_floor: float = 1e-4,
-                     limit: int = 256) -> list[Candidate]:
+                     limit: int = 256, threads: int | None = None) -> list[Candidate]:
     """The ``limit`` strongest local maxima of the strength of one pyramid level per radius, in input pixels
-    (``scale`` input pixels per level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``)."""
-    maps = strength_maps(img, radii, noise_floor=noise_floor)
+    (``scale`` input pixels per level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``);
+    ``threads``: as :func:`strength_maps`."""
+    maps = strength_maps(img, radii, noise_floor=noise_floor, threads=threads)
     found: list[Candidate] = []
     for r, m in zip(radii, maps, strict=True):
         peak = m == cv2.dilate(m, disc_kernel(r).astype(np.uint8))
@@ -221,7 +223,7 @@ def reduce2(img: np.ndarray) -> np.ndarray:
 
 def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_radius: float | None = None,
            max_candidates: int = 32, min_strength: float = MIN_STRENGTH,
-           noise_floor: float = 1e-4) -> tuple[Candidate, ...]:
+           noise_floor: float = 1e-4, threads: int | None = None) -> tuple[Candidate, ...]:
     """Candidates for mark centres in ``img`` (grey, either polarity), strongest first.
 
     Parameters
@@ -239,6 +241,9 @@ def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_rad
         Least strength (module docstring).
     noise_floor : float
         Least local noise (grey levels of ``img``): one quantisation step of the scan's samples.
+    threads : int, optional
+        Threads that screen the levels at once and work on each (the same candidates whatever their number);
+        default: :data:`~aerofid.parallel.THREADS` for an image of :data:`THREADED_PIXELS` or more, else one.
 
     Examples
     --------
@@ -260,9 +265,16 @@ def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_rad
         level = reduce2(level)
         s *= 2.0
     found = map_in_threads(lambda ls: level_candidates(ls[0], ls[1], RADII, min_strength, noise_floor,
-                                                       4 * max_candidates),
-                           levels, THREADS if levels and levels[0][0].size >= THREADED_PIXELS else 1)
+                                                       4 * max_candidates, threads),
+                           levels, _threads(levels[0][0].size if levels else 0, threads))
     return merge_candidates([c for candidates in found for c in candidates], max_candidates)
+
+
+def _threads(pixels: int, threads: int | None) -> int:
+    """``threads``, or by default those an image of ``pixels`` is worked on by (:data:`THREADED_PIXELS`)."""
+    if threads is not None:
+        return threads
+    return THREADS if pixels >= THREADED_PIXELS else 1
 
 
 def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:

@@ -419,7 +419,8 @@ def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
     f = reduction_for(source.width, source.height, FRAME_PIXELS)
     reduced, step = read_reduced_levels(source, (0, 0, source.width, source.height), f, overview=True)
     grey = reduced.mean(axis=2) if reduced.ndim == 3 else reduced
-    return screen(grey, scale=f, min_radius=2.0, max_candidates=FEATURES, noise_floor=step / f), f
+    threads = 1 if getattr(source, "decoding", False) else None      # a JPEG's whole decode has the other core
+    return screen(grey, scale=f, min_radius=2.0, max_candidates=FEATURES, noise_floor=step / f, threads=threads), f
 
 
 def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,

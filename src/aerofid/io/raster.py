@@ -592,6 +592,12 @@ class Raster:
         out = self._overview.read_reduced(window_box, factor)
         return out[:, :, 0] if self.bands == 1 else out
 
+    @property
+    def decoding(self) -> bool:
+        """Whether a whole decode of this JPEG is running in its own thread (then a second core is busy with it)."""
+        pending = self._pending
+        return pending is not None and not pending.future.done()
+
     def check_decoded(self) -> None:
         """Wait for a JPEG's background decode and raise its error (one line) if it failed; nothing for other
         rasters. A search that read only :meth:`read_overview` calls it: a corrupt file is an error, not an image

@@ -209,12 +209,12 @@ def test_peak_memory_is_bounded_by_the_strip_not_the_box(tmp_path, monkeypatch):
 
 def test_strips_read_by_threads_give_the_same_numbers_and_each_tile_is_decoded_once(tmp_path, monkeypatch):
     """A whole-frame reduced read of a compressed tiled TIFF, its strips read by several threads at once
-    (:data:`aerofid.io.reduce.READ_THREADS`): each tile decoded once, by more than one thread, and every number
+    (:data:`aerofid.parallel.THREADS`): each tile decoded once, by more than one thread, and every number
     that of the read one strip after another."""
     image = random_image(np.uint8, 3, shape=(1024, 700))
     path = write_tiff(tmp_path / "tiled.tif", image, tile=(32, 64), compression="zlib")  # 32 x 11 tiles
     monkeypatch.setattr(reduce, "STRIP_BYTES", 2**20)
-    monkeypatch.setattr(raster_module, "READ_THREADS", 3)
+    monkeypatch.setattr(raster_module, "THREADS", 3)
     threads = []
     strip_rows = Raster._strip_rows
 

@@ -21,8 +21,8 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
 
 :meth:`Raster.read_reduced` reads a window reduced by block means in horizontal strips (whole tile rows of a
 tiled TIFF), so its memory stays bounded whatever the box (:mod:`aerofid.io.reduce`); a TIFF's strips of a large
-window by several threads at once (:data:`aerofid.io.reduce.READ_THREADS`: tiles are decoded, and a memory map's
-pages read, while the GIL is released). A numpy array is read
+window by several threads at once (:data:`aerofid.parallel.THREADS`: tiles are decoded, and a memory map's pages
+read, while the GIL is released). A numpy array is read
 through the same interface by :class:`aerofid.io.array.ArrayRaster`; :func:`aerofid.io.array.open_image` opens a
 path, an array or an open raster alike.
 
@@ -48,7 +48,8 @@ from aerofid.io import jpeg
 from aerofid.io.budget import check_budget
 from aerofid.io.files import input_file
 from aerofid.io.jpeg_top import BackgroundJpegReader
-from aerofid.io.reduce import READ_THREADS, check_factor, check_reduced_size, reduce_in_strips
+from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
+from aerofid.parallel import THREADS
 
 if TYPE_CHECKING:
     import tifffile
@@ -566,7 +567,7 @@ class Raster:
         else:
             step = reader.segment_shape[0] if isinstance(reader, _TiffSegmentReader) else 1
             columns = (window_box[0], window_box[2])
-            threads = READ_THREADS if isinstance(reader, _TiffSegmentReader | _ArrayReader) else 1
+            threads = THREADS if isinstance(reader, _TiffSegmentReader | _ArrayReader) else 1
             out = reduce_in_strips(lambda r0, r1: self._strip_rows(r0, r1, columns), window_box, factor,
                                    self.bands, itemsize=self.dtype.itemsize, row_step=step, threads=threads)
         return out[:, :, 0] if self.bands == 1 else out

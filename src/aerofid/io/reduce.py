@@ -4,7 +4,7 @@ A window of ``h`` x ``w`` pixels reduced by a factor ``f`` has ``ceil(h / f)`` x
 mean of an ``f`` x ``f`` block of the window (blocks at the right and bottom edges are means of the pixels they
 have). The window is read in horizontal strips of at most :data:`STRIP_BYTES` of samples (whole tile rows of a
 tiled TIFF) and each strip is folded into the output in chunks of :data:`CHUNK_SAMPLES`, so peak memory is the
-output plus one strip plus one chunk, whatever the window (where :data:`READ_THREADS` threads read strips at once,
+output plus one strip plus one chunk, whatever the window (where several threads read strips at once,
 :func:`reduce_in_strips`, their strips together hold at most :data:`STRIP_BYTES`, plus a chunk each).
 
 A source at the image's own scale is summed block by block (rows and columns grouped by reshapes, in
@@ -26,14 +26,13 @@ import numpy as np
 
 from aerofid.errors import AerofidInputError
 from aerofid.io.source import ImageSource
-from aerofid.parallel import THREADS, map_in_threads
+from aerofid.parallel import map_in_threads
 
 if TYPE_CHECKING:
     from scipy import sparse
 
 __all__ = [
     "CHUNK_SAMPLES",
-    "READ_THREADS",
     "STRIP_BYTES",
     "THREADED_BYTES",
     "ReducedView",
@@ -47,10 +46,7 @@ __all__ = [
 
 #: Most bytes of samples read at once by ``read_reduced`` (one strip; a tile row may be more).
 STRIP_BYTES = 64 * 2**20
-#: Threads that read and fold the strips of one reduced window at once, where the source can be read from several
-#: (a TIFF's tiles are decoded and a memory map's pages read while the GIL is released).
-READ_THREADS = THREADS
-#: Least bytes of samples in a window whose strips several threads read (:data:`READ_THREADS`): starting them costs
+#: Least bytes of samples in a window whose strips several threads read (:func:`reduce_in_strips`): starting them costs
 #: about a millisecond, the time one thread reads and folds 2 MB of an array in memory.
 THREADED_BYTES = 16 * 2**20
 #: Most samples of a strip folded into the output at once (block sums, or float64 for the weights of a reduced source).
@@ -267,7 +263,8 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
         many rows: each block is then summed from one strip.
     threads : int, optional
         Strips read and folded at once, by that many threads, where ``read_rows`` may be called from several
-        (:data:`READ_THREADS`): where the window holds :data:`THREADED_BYTES` or more and ``threads`` strips of
+        (:data:`aerofid.parallel.THREADS`: a TIFF's tiles are decoded, and a memory map's pages read, with the GIL
+        released): where the window holds :data:`THREADED_BYTES` or more and ``threads`` strips of
         whole blocks (above) fit in :data:`STRIP_BYTES` together, two per thread where the window has the rows
         (the same numbers as one strip after another); else one strip after another.
 
@@ -307,12 +304,10 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
     if whole_blocks and unit <= step:
         step = step // unit * unit
     each = min(STRIP_BYTES // (threads * row_bytes), -(-(src1 - src0) // (2 * threads))) // unit * unit
-    if (threads > 1 and whole_blocks and each > 0 and src1 - src0 > each
+    if not (threads > 1 and whole_blocks and each > 0 and src1 - src0 > each
             and (src1 - src0) * row_bytes >= THREADED_BYTES):
-        map_in_threads(add, _strips(src0, src1, each), threads)
-    else:
-        for strip_rows in _strips(src0, src1, step):
-            add(strip_rows)
+        threads, each = 1, step
+    map_in_threads(add, _strips(src0, src1, each), threads)
     return out.reshape(rows, cols, bands)
 
 

@@ -17,14 +17,19 @@ import pytest
 import tifffile
 
 import aerofid
+from aerofid import synth
+from aerofid.detect.screen import Candidate
+from aerofid.find import RECENTRED_WINDOW, Measurer, recentred_half
 from aerofid.formats.camera_file import write_camera
 from aerofid.frame import orient as orient_module
 from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.frame.nominal import extra_marks
 from aerofid.frame.profile import learn_profile
 from aerofid.frame.report import frame_html, frame_text
+from aerofid.io.array import open_image
 from aerofid.io.raster import Raster, open_raster
 from aerofid.io.resolution import pixel_size_from_tags
+from aerofid.methods import make_detector
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import arrangement_matrix
 from aerofid.synth_frame import frame_spec, render_frame, wild_rc10_camera, write_frame
@@ -347,6 +352,36 @@ def test_the_frames_method_of_a_tie_does_not_depend_on_the_process():
                               env={**os.environ, "PYTHONHASHSEED": str(seed)}).stdout.strip()
                for seed in range(6)}
     assert answers == {"hough symmetry symmetry"}
+
+
+def _midside_beside_the_data_strip() -> tuple[np.ndarray, tuple[float, float]]:
+    """A Wild midside cross (r = 77 px) on dark film, the ground 130 px above its centre and the data strip's white
+    blocks from 150 px below it (the 11000^2 frames of benchmarks/bench_frames.py, the film lying 270 deg)."""
+    img = np.full((600, 600), 0.06, np.float32)
+    img[:170] = 0.5 + 0.1 * synth.fractal_noise((170, 600), np.random.default_rng(1))
+    for x0 in (40, 150, 330, 440):
+        img[450:, x0:x0 + 90] = 0.95
+    xy = (300.3, 299.6)
+    img = synth.paint_shape(img, xy, synth.mark_shape("ring_cross", 154.0, 0.0, 2.7), 0.95, extent=154.0)
+    return synth.blur(img, 0.8), xy
+
+
+def test_a_mark_the_wider_windows_refuse_is_measured_by_the_frames_method_on_a_tight_one(monkeypatch):
+    """Sized by larger marks found before it (radius 102 px, the corner marks'), the midside cross's wider windows
+    reach the ground and the data strip and symmetry refuses the mark on both; on :data:`TIGHT_WINDOW` it is found,
+    where it is, without ``auto`` on the reduced scan."""
+    img, xy = _midside_beside_the_data_strip()
+    start = Candidate(301.0, 299.0, 102.0, 0.0)
+    with open_image(img) as source:
+        measurer = Measurer(source, make_detector("auto", "auto", {}), ("bright",))
+        alone = measurer.alone("symmetry")
+        for window in (orient_module.ALONE_WINDOW, RECENTRED_WINDOW):
+            assert not alone.at(start.x, start.y, recentred_half(start.radius, window), start).found
+        got = orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0)
+        assert got is not None and got.detection.method == "symmetry"
+        assert math.hypot(got.x - xy[0], got.y - xy[1]) < 0.05
+        monkeypatch.setattr(orient_module, "TIGHT_WINDOW", orient_module.ALONE_WINDOW)
+        assert orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0) is None
 
 
 def test_a_jpeg_frame_whose_whole_decode_fails_is_an_error(tmp_path, monkeypatch):

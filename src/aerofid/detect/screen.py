@@ -27,7 +27,7 @@ stronger kept). A candidate is a hint for the detectors, never an answer.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -130,11 +130,9 @@ def symmetric_energy(g: np.ndarray, radii: tuple[int, ...] = RADII, threads: int
 
     def band(r0: int) -> None:                # a band of rows, every offset: it stays in the cache
         r1 = min(r0 + ENERGY_ROWS, h)
-        t = np.empty((r1 - r0, w), np.float32)
-        for (dx, dy), k in zip(offsets.tolist(), ring_of, strict=True):
-            np.multiply(pad[rmax + dy + r0:rmax + dy + r1, rmax + dx:rmax + dx + w],
-                        pad[rmax - dy + r0:rmax - dy + r1, rmax - dx:rmax - dx + w], out=t)
-            rings[k, r0:r1] += t
+        for (dx, dy), k in zip(offsets.tolist(), ring_of, strict=True):   # one pass per offset: rings += a * b
+            cv2.accumulateProduct(pad[rmax + dy + r0:rmax + dy + r1, rmax + dx:rmax + dx + w],
+                                  pad[rmax - dy + r0:rmax - dy + r1, rmax - dx:rmax - dx + w], rings[k, r0:r1])
 
     map_in_threads(band, range(0, h, ENERGY_ROWS), threads)
     out = 2.0 * np.cumsum(rings, axis=0)
@@ -196,22 +194,21 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
 
 def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RADII,
                      min_strength: float = MIN_STRENGTH, noise_floor: float = 1e-4,
-                     limit: int = 256, threads: int | None = None) -> list[Candidate]:
+                     limit: int = 256, threads: int | None = None) -> Found:
     """The ``limit`` strongest local maxima of the strength of one pyramid level per radius, in input pixels
     (``scale`` input pixels per level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``);
     ``threads``: as :func:`strength_maps`."""
     maps = strength_maps(img, radii, noise_floor=noise_floor, threads=threads)
-    found: list[Candidate] = []
+    found = []
     for r, m in zip(radii, maps, strict=True):
         peak = m == cv2.dilate(m, disc_kernel(r).astype(np.uint8))
         ys, xs = np.nonzero(peak & (m >= min_strength))
         strength = m[ys, xs]
         order = np.argsort(-strength, kind="stable")[:limit]
-        radius = r * scale
-        found.extend(Candidate(x=x, y=y, radius=radius, strength=v, inner=radius) for x, y, v in zip(
-            ((xs[order] + 0.5) * scale - 0.5).tolist(), ((ys[order] + 0.5) * scale - 0.5).tolist(),
-            strength[order].tolist(), strict=True))
-    return found
+        radius = np.full(len(order), r * scale)
+        found.append(Found((xs[order] + 0.5) * scale - 0.5, (ys[order] + 0.5) * scale - 0.5, radius,
+                           strength[order].astype(float), radius))
+    return Found.joined(found)
 
 
 def reduce2(img: np.ndarray) -> np.ndarray:
@@ -267,7 +264,7 @@ def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_rad
     found = map_in_threads(lambda ls: level_candidates(ls[0], ls[1], RADII, min_strength, noise_floor,
                                                        4 * max_candidates, threads),
                            levels, _threads(levels[0][0].size if levels else 0, threads))
-    return merge_candidates([c for candidates in found for c in candidates], max_candidates)
+    return _merged(Found.joined(found), max_candidates)
 
 
 def _threads(pixels: int, threads: int | None) -> int:
@@ -277,52 +274,95 @@ def _threads(pixels: int, threads: int | None) -> int:
     return THREADS if pixels >= THREADED_PIXELS else 1
 
 
+@dataclass(frozen=True)
+class Found:
+    """Candidates as arrays (what :func:`level_candidates` finds, many thousands on a whole frame): centres, radii,
+    strengths and inner radii, float64, in the fields' order of :class:`Candidate`."""
+
+    x: np.ndarray
+    y: np.ndarray
+    radius: np.ndarray
+    strength: np.ndarray
+    inner: np.ndarray
+
+    @classmethod
+    def of(cls, candidates: list[Candidate]) -> Found:
+        columns = np.array([(c.x, c.y, c.radius, c.strength, c.inner) for c in candidates], float).reshape(-1, 5)
+        return cls(*columns.T)
+
+    @classmethod
+    def joined(cls, parts: list[Found]) -> Found:
+        if not parts:
+            return cls.of([])
+        return cls(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("x", "y", "radius", "strength",
+                                                                              "inner")))
+
+
 def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:
     """One candidate per place, strongest first. A weaker candidate is the same structure seen at another scale
     when its centre lies within :data:`MERGE_SHARE` of the larger radius of a stronger one's (a ring and its
     centre dot) or within half the smaller radius (two scales of one blob; not a mark beside the centre of a
     pair of marks, which is itself symmetric): it is merged into the stronger one, which keeps the
-    largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale.
+    largest radius (the whole mark), the smallest (``inner``) and the position of the finest scale."""
+    return _merged(Found.of(found), max_candidates)
 
-    The rule is sequential (a merge moves a kept one, and a kept one that was not there could take the next), but
-    which kept ones each candidate reaches is computed :data:`MERGE_BATCH` candidates at a time against all kept
-    ones, and only the one kept candidate that a merge or an addition changed is tested again for the rest of
-    the batch: the same decisions, with the same arithmetic, as one candidate after another."""
-    ordered = sorted(found, key=lambda c: -c.strength)
-    kept: list[Candidate] = []
+
+def _merged(found: Found, max_candidates: int) -> tuple[Candidate, ...]:
+    """:func:`merge_candidates` on arrays. The rule is sequential (a merge moves a kept one, and a kept one that was
+    not there could take the next), but which kept ones each candidate reaches is computed :data:`MERGE_BATCH`
+    candidates at a time against all kept ones, and only the one kept candidate that a merge or an addition changed
+    is tested again for the rest of the batch: the same decisions, with the same arithmetic, as one candidate after
+    another."""
+    ordered = np.argsort(-found.strength, kind="stable")
+    xs, ys, radii, inners = (getattr(found, f)[ordered] for f in ("x", "y", "radius", "inner"))
+    kx: list[float] = []
+    ky: list[float] = []
+    kr: list[float] = []
+    kin: list[float] = []
+    kept: list[int] = []                                # each kept one's candidate (its strength)
     # the kept ones' centres (as x + iy: |z - z_c| is the distance, np.hypot's), MERGE_SHARE x and half their
     # radii, filled in order; a slot not yet filled is infinitely far
     size = min(len(ordered), max_candidates)
     z, share, half = np.full(size, complex(np.inf, np.inf)), np.zeros(size), np.zeros(size)
     for b0 in range(0, len(ordered), MERGE_BATCH):
-        batch = ordered[b0:b0 + MERGE_BATCH]
-        zc = np.array([complex(c.x, c.y) for c in batch])
+        b1 = min(b0 + MERGE_BATCH, len(ordered))
+        zc = np.empty(b1 - b0, complex)
+        zc.real, zc.imag = xs[b0:b1], ys[b0:b1]
         # MERGE_SHARE max(R, r) and min(R, r) / 2 as the max and min of the products (the same numbers: rounding
         # is monotonic), so that the kept ones' products are computed once
-        radius = np.array([c.radius for c in batch])
+        radius = radii[b0:b1]
         a, h = MERGE_SHARE * radius, 0.5 * radius
         n = len(kept)
-        hits = np.zeros((len(batch), size), bool)
+        hits = np.zeros((b1 - b0, size), bool)
         hits[:, :n] = _reaches(z[:n], share[:n], half[:n], zc[:, None], a[:, None], h[:, None])
-        counts = hits.sum(axis=1)
-        for b, c in enumerate(batch):
+        counts = hits.sum(axis=1).tolist()
+        for b in range(b1 - b0):
+            c = b0 + b
             if counts[b]:
                 i = int(np.argmax(hits[b]))                 # the first kept one within reach
-                k = kept[i]
-                finer = c if c.radius < k.inner else k
-                kept[i] = replace(k, x=finer.x, y=finer.y, radius=max(k.radius, c.radius),
-                                  inner=min(k.inner, c.inner))
+                if radii[c] < kin[i]:                        # the finer scale's position
+                    kx[i], ky[i] = float(xs[c]), float(ys[c])
+                kr[i], kin[i] = max(kr[i], float(radii[c])), min(kin[i], float(inners[c]))
             elif len(kept) < max_candidates:
                 i = len(kept)
                 kept.append(c)
+                kx.append(float(xs[c]))
+                ky.append(float(ys[c]))
+                kr.append(float(radii[c]))
+                kin.append(float(inners[c]))
             else:
                 continue
-            z[i] = complex(kept[i].x, kept[i].y)
-            share[i], half[i] = MERGE_SHARE * kept[i].radius, 0.5 * kept[i].radius
-            now = _reaches(z[i], share[i], half[i], zc[b + 1:], a[b + 1:], h[b + 1:])
-            counts[b + 1:] += now.astype(int) - hits[b + 1:, i]
-            hits[b + 1:, i] = now
-    return tuple(kept)
+            z[i] = complex(kx[i], ky[i])
+            share[i], half[i] = MERGE_SHARE * kr[i], 0.5 * kr[i]
+            if b + 1 < b1 - b0:
+                now = _reaches(z[i], share[i], half[i], zc[b + 1:], a[b + 1:], h[b + 1:])
+                was = hits[b + 1:, i]
+                for j in np.flatnonzero(now != was).tolist():
+                    counts[b + 1 + j] += 1 if now[j] else -1
+                hits[b + 1:, i] = now
+    strength = found.strength[ordered]
+    return tuple(Candidate(x, y, r, float(strength[c]), inner)
+                 for x, y, r, inner, c in zip(kx, ky, kr, kin, kept, strict=True))
 
 
 def _reaches(z: np.ndarray, share: np.ndarray, half: np.ndarray, zc: np.ndarray, a: np.ndarray,

@@ -172,11 +172,10 @@ def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, .
     fids = np.array(list(itertools.permutations(range(n), 2)), int).reshape(-1, 2)
     i1, i2 = np.repeat(points, len(fids), axis=0).T
     j1, j2 = np.tile(fids, (len(points), 1)).T
-    proj, ok = _pair_similarities(px[i1], px[i2] - px[i1], Cp, j1, j2, lim)
-    order = np.flatnonzero(ok)
+    order, proj = _pair_similarities(px[i1], px[i2] - px[i1], Cp, j1, j2, lim)
     if order.size == 0:
         return None
-    D = np.sum((px[None, :, None, :] - proj[order][:, None, :, :]) ** 2, axis=3)   # h x m x n
+    D = np.sum((px[None, :, None, :] - proj[:, None, :, :]) ** 2, axis=3)   # h x m x n
     bound = D.min(axis=2).sum(axis=1)
     solved: list[tuple[float, int, tuple[int, ...]]] = []
     least = np.inf
@@ -203,19 +202,19 @@ def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _pair_similarities(p1: np.ndarray, dm: np.ndarray, Cp: np.ndarray, j1: np.ndarray, j2: np.ndarray,
                        lim: float) -> tuple[np.ndarray, np.ndarray]:
-    """For each hypothesis k, the fiducials ``Cp`` projected into the scan by the similarity that maps fiducials
-    ``j1[k]``, ``j2[k]`` onto the measured pair (first point ``p1[k]``, difference ``dm[k]``): (h x n x 2), and
-    whether it exists and rotates by at most ``lim`` radians."""
+    """The hypotheses k whose similarity, mapping fiducials ``j1[k]``, ``j2[k]`` onto the measured pair (first point
+    ``p1[k]``, difference ``dm[k]``), exists and rotates by at most ``lim`` radians; and for each of them the
+    fiducials ``Cp`` projected into the scan by it (h x n x 2)."""
     dc = Cp[j2] - Cp[j1]
     nc, nm = np.hypot(dc[:, 0], dc[:, 1]), np.hypot(dm[:, 0], dm[:, 1])
     ang = np.arctan2(dm[:, 1], dm[:, 0]) - np.arctan2(dc[:, 1], dc[:, 0])
     ang = (ang + math.pi) % (2 * math.pi) - math.pi
-    ok = (nc > 0) & (nm > 0) & (np.abs(ang) <= lim)
-    k = np.divide(nm, nc, out=np.zeros_like(nm), where=nc > 0)
+    ok = np.flatnonzero((nc > 0) & (nm > 0) & (np.abs(ang) <= lim))
+    k, ang, p1, j1 = nm[ok] / nc[ok], ang[ok], p1[ok], j1[ok]
     c, s = k * np.cos(ang), k * np.sin(ang)
     R = np.stack([np.stack([c, -s], axis=1), np.stack([s, c], axis=1)], axis=1)          # h x 2 x 2
     t = p1 - np.einsum("hij,hj->hi", R, Cp[j1])
-    return np.einsum("nj,hij->hni", Cp, R) + t[:, None, :], ok
+    return ok, np.einsum("nj,hij->hni", Cp, R) + t[:, None, :]
 
 
 def _distinct(fits: list[ArrangementFit]) -> list[ArrangementFit]:

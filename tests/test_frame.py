@@ -366,21 +366,22 @@ def _midside_beside_the_data_strip() -> tuple[np.ndarray, tuple[float, float]]:
     return synth.blur(img, 0.8), xy
 
 
-def test_a_mark_the_wider_windows_refuse_is_measured_by_the_frames_method_on_a_tight_one(monkeypatch):
+def test_a_mark_wider_windows_refuse_is_measured_by_the_frames_method_on_the_tight_one(monkeypatch):
     """Sized by larger marks found before it (radius 102 px, the corner marks'), the midside cross's wider windows
-    reach the ground and the data strip and symmetry refuses the mark on both; on :data:`TIGHT_WINDOW` it is found,
-    where it is, without ``auto`` on the reduced scan."""
+    (1.5 times that radius, and a box's re-centred one) reach the ground and the data strip, where symmetry refuses
+    the mark; on :data:`ALONE_WINDOW`, the mark and little else, it is found where it is, without ``auto`` on the
+    reduced scan."""
     img, xy = _midside_beside_the_data_strip()
     start = Candidate(301.0, 299.0, 102.0, 0.0)
     with open_image(img) as source:
         measurer = Measurer(source, make_detector("auto", "auto", {}), ("bright",))
         alone = measurer.alone("symmetry")
-        for window in (orient_module.ALONE_WINDOW, RECENTRED_WINDOW):
+        for window in ((1.5, 8.0), RECENTRED_WINDOW):
             assert not alone.at(start.x, start.y, recentred_half(start.radius, window), start).found
         got = orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0)
         assert got is not None and got.detection.method == "symmetry"
         assert math.hypot(got.x - xy[0], got.y - xy[1]) < 0.05
-        monkeypatch.setattr(orient_module, "TIGHT_WINDOW", orient_module.ALONE_WINDOW)
+        monkeypatch.setattr(orient_module, "ALONE_WINDOW", (1.5, 8.0))
         assert orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0) is None
 
 

@@ -32,8 +32,8 @@ TEMPLATE_RADIUS = 16.0
 (:func:`reduction_keeping`): the correlation then sees the mark's rings and arms, at a sixteenth of the pixels of an
 11000^2 scan's Wild marks (94 px)."""
 TEMPLATE_REACH = 1.5
-"""A template holds the learnt frame's pixels within this many mark radii of the centre (the method's own window,
-:data:`aerofid.frame.orient.ALONE_WINDOW`, is as wide)."""
+"""A template holds the learnt frame's pixels within this many mark radii of the centre: the mark and a little of
+its ground."""
 MIN_CORRELATION = 0.5
 """Least correlation at which a template's best place is taken as the mark: the synthetic frames' marks correlate
 at 0.9 and more across a roll; aerial texture and the film's edge stay below 0.4."""

@@ -1,6 +1,8 @@
 """frame.layout's hypotheses: every (pair of features, pair of fiducials) whose distances agree at the pixel size,
 in the order the search scores them, against the definition written out plainly."""
 
+from unittest import mock
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -36,3 +38,21 @@ def test_hypotheses_are_the_definition(n, seed, s, grid):
         features = np.round(features / 2000) * 2000 + rng.integers(0, 2, size=(n, 2))
     got = layout._hypotheses(layout._Pairs.of(features), fiducials, s)
     np.testing.assert_array_equal(got, plain_hypotheses(features, fiducials, s))
+
+
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 60), tol=st.sampled_from([0.5, 1.0, 3.0, 7.25, 40.0]),
+       cells=st.sampled_from([None, 1]))
+@settings(max_examples=150, deadline=None)
+def test_the_grid_of_near_features_answers_as_the_tree(seed, n, tol, cells):
+    """:class:`layout._NearFeatures` gives every point the nearest feature within ``tol`` exactly as cKDTree's bounded
+    query does (distance and index; ``inf`` and ``n`` where there is none): points on a coarse grid, so that
+    distances equal to ``tol`` occur, points far outside the features' extent, and the tree alone when the grid would
+    be too large (``cells``: GRID_CELLS of 1)."""
+    from scipy.spatial import cKDTree
+    rng = np.random.default_rng(seed)
+    features = rng.integers(0, 40, (n, 2)) * 0.5
+    points = np.vstack([rng.integers(-20, 60, (300, 2)) * 0.5, rng.uniform(-1e4, 1e4, (20, 2))])
+    with mock.patch.object(layout, "GRID_CELLS", cells or layout.GRID_CELLS):
+        d, idx = layout._NearFeatures(features, tol).query(points)
+    d0, idx0 = cKDTree(features).query(points, distance_upper_bound=tol)
+    assert np.array_equal(d, d0) and np.array_equal(idx, idx0)

@@ -291,7 +291,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     hyp = _hypotheses(pairs, fiducials_mm, s)
     if len(hyp) == 0:
         return None
-    tree = cKDTree(features)
+    near = _NearFeatures(features, tol)
     fit_tol = FIT_TOLERANCE_MM / s + position_error_px
     turned = [fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s  # layout in scan axes, px
               for rot, mir in ARRANGEMENTS]
@@ -302,7 +302,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
             pred = _predict(features, cp, hyp[c0:c0 + CHUNK])
             if pred is None:
                 continue
-            d, idx = tree.query(pred.reshape(-1, 2), distance_upper_bound=tol)
+            d, idx = near.query(pred.reshape(-1, 2))
             d, idx = d.reshape(pred.shape[:2]), idx.reshape(pred.shape[:2])
             hit = np.isfinite(d)
             count = hit.sum(axis=1)
@@ -326,6 +326,44 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
         if best is None or scored[0] > best[0]:      # ties: the first lie
             best = scored
     return best
+
+
+GRID_CELLS = 4_000_000
+"""Most cells of :class:`_NearFeatures`' grid (else the tree answers every point)."""
+
+
+class _NearFeatures:
+    """Each point's nearest feature within ``tol`` px, as ``cKDTree.query`` with ``distance_upper_bound=tol`` gives it
+    (distance ``inf`` and index ``len(features)`` where there is none). Most predictions of chance hypotheses have
+    no feature that near: a grid of cells a little larger than ``tol`` says which cells have a feature within reach
+    of any of their points (a feature's own cell and the 8 around it), and only the points in those cells are looked
+    up in the tree."""
+
+    def __init__(self, features: np.ndarray, tol: float):
+        self.tree, self.n, self.tol = cKDTree(features), len(features), tol
+        self.cell = 1.01 * tol            # points within tol differ by less than one cell: their cells are neighbours
+        self.origin = features.min(axis=0) - 2 * self.cell
+        cells = np.floor((features - self.origin) / self.cell).astype(int)
+        w, h = (cells.max(axis=0) + 3).tolist()
+        self.reach: np.ndarray | None = None
+        if w * h <= GRID_CELLS:
+            self.reach = np.zeros((h, w), bool)
+            for dy in (-1, 0, 1):
+                for dx in (-1, 0, 1):
+                    self.reach[cells[:, 1] + dy, cells[:, 0] + dx] = True
+
+    def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.reach is None:
+            return self.tree.query(points, distance_upper_bound=self.tol)
+        d, idx = np.full(len(points), np.inf), np.full(len(points), self.n)
+        with np.errstate(invalid="ignore"):
+            cells = np.floor((points - self.origin) / self.cell)
+        h, w = self.reach.shape
+        look = np.flatnonzero((cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h))
+        look = look[self.reach[cells[look, 1].astype(int), cells[look, 0].astype(int)]]
+        if look.size:
+            d[look], idx[look] = self.tree.query(points[look], distance_upper_bound=self.tol)
+        return d, idx
 
 
 def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a: int, y_axis: str, tol: float,

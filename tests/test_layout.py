@@ -56,3 +56,16 @@ def test_the_grid_of_near_features_answers_as_the_tree(seed, n, tol, cells):
         d, idx = layout._NearFeatures(features, tol).query(points)
     d0, idx0 = cKDTree(features).query(points, distance_upper_bound=tol)
     assert np.array_equal(d, d0) and np.array_equal(idx, idx0)
+
+
+@given(seed=st.integers(0, 2**31 - 1), scale=st.floats(1e-3, 1e3))
+@settings(max_examples=100, deadline=None)
+def test_the_rotation_limit_reads_as_the_angle(seed, scale):
+    """:func:`layout._within_rotation` keeps exactly the similarities ``np.angle`` puts within MAX_ROTATION_DEG: angles
+    spread all round, and angles within a few ulps of the limit either side."""
+    rng = np.random.default_rng(seed)
+    limit = np.radians(layout.MAX_ROTATION_DEG)
+    angles = np.r_[rng.uniform(-np.pi, np.pi, 500), limit, -limit,
+                   np.nextafter(limit, 0), np.nextafter(limit, 1), limit * (1 + rng.uniform(-1e-8, 1e-8, 200))]
+    z = scale * rng.uniform(0.5, 2.0, len(angles)) * np.exp(1j * angles)
+    assert np.array_equal(layout._within_rotation(z), np.abs(np.angle(z)) <= limit)

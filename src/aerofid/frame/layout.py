@@ -386,13 +386,28 @@ def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarra
     dp = (features[k, 0] - features[i, 0]) + 1j * (features[k, 1] - features[i, 1])
     dc = (cp[l, 0] - cp[j, 0]) + 1j * (cp[l, 1] - cp[j, 1])
     z = dp / dc                                                   # scale x rotation as a complex number
-    keep = np.abs(np.angle(z)) <= math.radians(MAX_ROTATION_DEG)
+    keep = _within_rotation(z)
     if not keep.any():
         return None
     z, i, j = z[keep], i[keep], j[keep]
     c = cp[:, 0] + 1j * cp[:, 1]
     p = (features[i, 0] + 1j * features[i, 1])[:, None] + z[:, None] * (c[None, :] - c[j][:, None])
     return np.stack([p.real, p.imag], axis=2)
+
+
+TAN_MAX_ROTATION = math.tan(math.radians(MAX_ROTATION_DEG))
+
+
+def _within_rotation(z: np.ndarray) -> np.ndarray:
+    """``|angle(z)| <= MAX_ROTATION_DEG``, as ``np.angle`` reads it: the angle computed only where the cheap test
+    ``|Im z| <= tan(MAX_ROTATION_DEG) Re z`` is within rounding of its limit (most hypotheses turn the frame far more,
+    and ``np.angle`` is an arctan2 per hypothesis)."""
+    re, im = np.abs(z.real), np.abs(z.imag)
+    near = (z.real > 0) & (im <= TAN_MAX_ROTATION * (1 + 1e-9) * re)
+    keep = near & (im <= TAN_MAX_ROTATION * (1 - 1e-9) * re)
+    doubt = np.flatnonzero(near & ~keep)
+    keep[doubt] = np.abs(np.angle(z[doubt])) <= math.radians(MAX_ROTATION_DEG)
+    return keep
 
 
 def _refine(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, rot: int, mir: bool, y_axis: str,
@@ -435,13 +450,13 @@ def layout_at(points: np.ndarray, fiducials_mm: np.ndarray, rotation_deg: int, m
 
 
 def _nearest(features: np.ndarray, pred: np.ndarray, tol: float) -> tuple[int | None, ...]:
-    """For each prediction the nearest feature within ``tol``, each feature taken once (nearest pairs first)."""
+    """For each prediction the nearest feature within ``tol``, each feature taken once (nearest pairs first; of equal
+    distances, the prediction's and then the feature's order)."""
     d = np.hypot(*(pred[:, None, :] - features[None, :, :]).transpose(2, 0, 1))
+    within = np.flatnonzero(d <= tol)
     out: list[int | None] = [None] * len(pred)
     taken: set[int] = set()
-    for f, k in zip(*np.unravel_index(np.argsort(d, axis=None), d.shape), strict=True):
-        if d[f, k] > tol:
-            break
+    for f, k in zip(*np.unravel_index(within[np.argsort(d.flat[within], kind="stable")], d.shape), strict=True):
         if out[f] is None and int(k) not in taken:
             out[f] = int(k)
             taken.add(int(k))

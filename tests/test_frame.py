@@ -369,8 +369,8 @@ def _midside_beside_the_data_strip() -> tuple[np.ndarray, tuple[float, float]]:
 def test_a_mark_wider_windows_refuse_is_measured_by_the_frames_method_on_the_tight_one(monkeypatch):
     """Sized by larger marks found before it (radius 102 px, the corner marks'), the midside cross's wider windows
     (1.5 times that radius, and a box's re-centred one) reach the ground and the data strip, where symmetry refuses
-    the mark; on :data:`ALONE_WINDOW`, the mark and little else, it is found where it is, without ``auto`` on the
-    reduced scan."""
+    the mark; on the first of :data:`ALONE_WINDOWS`, the mark and little else, it is found where it is, without
+    ``auto`` on the reduced scan."""
     img, xy = _midside_beside_the_data_strip()
     start = Candidate(301.0, 299.0, 102.0, 0.0)
     with open_image(img) as source:
@@ -381,7 +381,7 @@ def test_a_mark_wider_windows_refuse_is_measured_by_the_frames_method_on_the_tig
         got = orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0)
         assert got is not None and got.detection.method == "symmetry"
         assert math.hypot(got.x - xy[0], got.y - xy[1]) < 0.05
-        monkeypatch.setattr(orient_module, "ALONE_WINDOW", (1.5, 8.0))
+        monkeypatch.setattr(orient_module, "ALONE_WINDOWS", ((1.5, 8.0),))
         assert orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0) is None
 
 

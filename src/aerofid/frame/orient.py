@@ -95,15 +95,18 @@ MIN_TOLERANCE_PX = 8.0
 FRAME_METHOD_TOLERANCE_MM = 0.3
 """How far (film mm) a mark measured by the frame's own method alone may lie from its prediction by the found
 marks: the scanner's affinity across an edge a similarity cannot follow, 0.1 % of the frame."""
-ALONE_WINDOW = (1.0, 8.0)
-"""The window (half-size: times the marks' radius, plus px) a mark is measured on by the frame's method alone: the
-mark and little else, tighter than a box's re-centred window (:data:`aerofid.find.RECENTRED_WINDOW`, 2.5 times),
-whose ground around the mark is there for ``auto`` to see a second mark. The marks' radius is that of the marks
-found so far, which may be of another, larger kind (the Wild cameras' corner marks beside their midside crosses):
-a wider window then reaches the mark's surroundings (the film's edge, the data strip), where symmetry may refuse
-it. On the 23 synthetic 11000^2 frames of ``benchmarks/bench_frames.py`` (session 22, against 1.5 times the
-radius): error RMS 0.0086 px against 0.011, the same share of errors within 3 sigma, a fifth less time per frame
-(the cost of symmetry falls with the area)."""
+ALONE_WINDOWS = ((1.0, 8.0), (1.5, 8.0))
+"""The windows (half-size: times the marks' radius, plus px) a mark is measured on by the frame's method alone, in
+turn: the mark and little else, then a little of its ground; both tighter than a box's re-centred window
+(:data:`aerofid.find.RECENTRED_WINDOW`, 2.5 times), whose ground around the mark is there for ``auto`` to see a
+second mark. The marks' radius is that of the marks found so far, which may be of another, larger kind (the Wild
+cameras' corner marks beside their midside crosses): a wider window then reaches the mark's surroundings (the film's
+edge, the data strip), where symmetry may refuse it. On the 23 synthetic 11000^2 frames of
+``benchmarks/bench_frames.py`` (session 22, against the 1.5 times alone): error RMS 0.0086 px against 0.011, the same
+share of errors within 3 sigma, a fifth less time per frame (the cost of symmetry falls with the area). The real RC20
+frame's marks are mostly refused on the first (a busy border) and measured on the second as before: where neither
+takes them, the re-centred window (corner P3 there lies 0.27 px from its centre on the second and from the person's
+click)."""
 COARSE_RADIUS = 16.0
 """The first mark's ``auto`` runs on the scan reduced (by a power of two) so that the marks' radius stays at least
 this many px (:func:`_coarse_first`): ``auto`` tries every method, and its cost grows with the window's area."""
@@ -555,13 +558,13 @@ def _by_method(measurer: Measurer, name: str, start: Candidate, at: tuple[float,
                tolerance: float) -> Located | None:
     """A mark measured by the method ``name`` alone (the marks of one frame, or of one roll, are alike), on the
     window the marks' extent (``start.radius``) sizes at ``start`` (the prediction, or a coarse answer):
-    :data:`ALONE_WINDOW`, else a box's re-centred window (:data:`aerofid.find.RECENTRED_WINDOW`: where a mark's
-    extent was underestimated the tight window cuts it, and symmetry refuses it); re-centred and with
+    :data:`ALONE_WINDOWS` in turn, else a box's re-centred window (:data:`aerofid.find.RECENTRED_WINDOW`: the real
+    RC20 frame's marks, on a busy border, are refused on some of the tight ones); re-centred and with
     its window term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within ``tolerance`` px of the
     prediction ``at``, else None (then ``auto`` measures it). The geometry of the marks found (or the layout) is what
     replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross."""
     alone = measurer.alone(name)
-    for window in (ALONE_WINDOW, RECENTRED_WINDOW):
+    for window in (*ALONE_WINDOWS, RECENTRED_WINDOW):
         got = _alone(alone, start, at, tolerance, window)
         if got is not None:
             return got
@@ -620,7 +623,7 @@ def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0,
         return start
     view = ReducedView(measurer.source, f)
     small = _reduced(start, view)
-    half = recentred_half(small.radius, ALONE_WINDOW) + reach / view.factor
+    half = recentred_half(small.radius, ALONE_WINDOWS[0]) + reach / view.factor
     coarse = replace(measurer.alone(name), source=view).at(small.x, small.y, half, small)
     return _full(coarse, view) if coarse.found else start
 

@@ -1,9 +1,11 @@
 """frame.layout's hypotheses: every (pair of features, pair of fiducials) whose distances agree at the pixel size,
-in the order the search scores them, against the definition written out plainly."""
+in the order the search scores them, against the definition written out plainly; and its fast tests of them (the
+features near a prediction, the rotation limit) against the plain ones."""
 
 from unittest import mock
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -68,4 +70,17 @@ def test_the_rotation_limit_reads_as_the_angle(seed, scale):
     angles = np.r_[rng.uniform(-np.pi, np.pi, 500), limit, -limit,
                    np.nextafter(limit, 0), np.nextafter(limit, 1), limit * (1 + rng.uniform(-1e-8, 1e-8, 200))]
     z = scale * rng.uniform(0.5, 2.0, len(angles)) * np.exp(1j * angles)
+    special = np.array([0j, complex(-0.0, 0.0), complex(np.inf, np.inf), complex(np.inf, 0), complex(np.nan, 0),
+                        complex(100 * 5e-324, 7 * 5e-324), complex(1e-300, 7e-302), complex(5e-324, 0)])
+    z = np.r_[z, special]
     assert np.array_equal(layout._within_rotation(z), np.abs(np.angle(z)) <= limit)
+
+
+@pytest.mark.parametrize("tol", [1e-20, 0.0, -1.0])
+def test_near_features_with_a_tolerance_too_small_for_a_grid_ask_the_tree(tol):
+    features = np.array([[0.0, 0.0], [10.0, 5.0], [2000.0, 3000.0]])
+    points = np.array([[0.0, 0.0], [10.0, 5.0 + 1e-21], [7.0, 7.0]])
+    from scipy.spatial import cKDTree
+    d, idx = layout._NearFeatures(features, tol).query(points)
+    d0, idx0 = cKDTree(features).query(points, distance_upper_bound=tol)
+    assert np.array_equal(d, d0) and np.array_equal(idx, idx0)

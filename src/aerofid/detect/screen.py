@@ -49,7 +49,7 @@ median t of the larger of two half-normals solves (2 Phi(t) - 1)^2 = 1/2, t = 1.
 MERGE_SHARE = 0.25
 """Two candidates closer than this share of the larger radius are one structure (module docstring)."""
 MERGE_BATCH = 64
-"""Candidates whose reach to every kept one :func:`merge_candidates` computes at once."""
+"""Candidates whose reach to every kept one the merge (:func:`merge_candidates`, :func:`_merged`) computes at once."""
 ENERGY_ROWS = 128
 """Rows of a level that :func:`symmetric_energy` sums over every offset before the next (a band that stays in the
 cache: 1.6 times faster on a 688 px level than whole levels, with the same sums)."""

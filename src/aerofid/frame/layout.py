@@ -337,20 +337,22 @@ class _NearFeatures:
     (distance ``inf`` and index ``len(features)`` where there is none). Most predictions of chance hypotheses have
     no feature that near: a grid of cells a little larger than ``tol`` says which cells have a feature within reach
     of any of their points (a feature's own cell and the 8 around it), and only the points in those cells are looked
-    up in the tree."""
+    up in the tree. The points are finite (the tree refuses others: here they would be misses)."""
 
     def __init__(self, features: np.ndarray, tol: float):
         self.tree, self.n, self.tol = cKDTree(features), len(features), tol
         self.cell = 1.01 * tol            # points within tol differ by less than one cell: their cells are neighbours
+        self.reach: np.ndarray | None = None
+        span = (np.ptp(features, axis=0) / self.cell + 5) if tol > 0 else np.full(2, np.inf)
+        if not float(np.prod(span)) <= GRID_CELLS:        # a tolerance too small (or not positive) for a grid
+            return
         self.origin = features.min(axis=0) - 2 * self.cell
         cells = np.floor((features - self.origin) / self.cell).astype(int)
         w, h = (cells.max(axis=0) + 3).tolist()
-        self.reach: np.ndarray | None = None
-        if w * h <= GRID_CELLS:
-            self.reach = np.zeros((h, w), bool)
-            for dy in (-1, 0, 1):
-                for dx in (-1, 0, 1):
-                    self.reach[cells[:, 1] + dy, cells[:, 0] + dx] = True
+        self.reach = np.zeros((h, w), bool)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                self.reach[cells[:, 1] + dy, cells[:, 0] + dx] = True
 
     def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.reach is None:
@@ -401,11 +403,13 @@ TAN_MAX_ROTATION = math.tan(math.radians(MAX_ROTATION_DEG))
 def _within_rotation(z: np.ndarray) -> np.ndarray:
     """``|angle(z)| <= MAX_ROTATION_DEG``, as ``np.angle`` reads it: the angle computed only where the cheap test
     ``|Im z| <= tan(MAX_ROTATION_DEG) Re z`` is within rounding of its limit (most hypotheses turn the frame far more,
-    and ``np.angle`` is an arctan2 per hypothesis)."""
+    and ``np.angle`` is an arctan2 per hypothesis), or where ``z`` is not a finite number well above underflow (zero,
+    subnormal, infinite or NaN: none of a similarity between distinct points)."""
     re, im = np.abs(z.real), np.abs(z.imag)
+    plain = np.isfinite(re) & np.isfinite(im) & (np.maximum(re, im) > 1e-290)
     near = (z.real > 0) & (im <= TAN_MAX_ROTATION * (1 + 1e-9) * re)
-    keep = near & (im <= TAN_MAX_ROTATION * (1 - 1e-9) * re)
-    doubt = np.flatnonzero(near & ~keep)
+    keep = plain & near & (im <= TAN_MAX_ROTATION * (1 - 1e-9) * re)
+    doubt = np.flatnonzero((near | ~plain) & ~keep)
     keep[doubt] = np.abs(np.angle(z[doubt])) <= math.radians(MAX_ROTATION_DEG)
     return keep
 
@@ -451,7 +455,8 @@ def layout_at(points: np.ndarray, fiducials_mm: np.ndarray, rotation_deg: int, m
 
 def _nearest(features: np.ndarray, pred: np.ndarray, tol: float) -> tuple[int | None, ...]:
     """For each prediction the nearest feature within ``tol``, each feature taken once (nearest pairs first; of equal
-    distances, the prediction's and then the feature's order)."""
+    distances, the prediction's and then the feature's order); a prediction that is not finite (a degenerate fit)
+    matches none."""
     d = np.hypot(*(pred[:, None, :] - features[None, :, :]).transpose(2, 0, 1))
     within = np.flatnonzero(d <= tol)
     out: list[int | None] = [None] * len(pred)

@@ -612,7 +612,9 @@ def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0,
     """Where a later mark is measured at full resolution: ``start`` (its prediction, sized like the marks) moved
     to the centre and extent the method ``name`` finds there on the scan reduced by :func:`_coarse_factor`, so
     that the full-resolution window is the re-centred one at once (:func:`_by_method`); ``start`` when the marks
-    are too small to reduce or the coarse measurement finds nothing. ``reach``: how far (px) the mark may lie from
+    are too small to reduce or the coarse measurement finds nothing. The reduced window is the first of
+    :data:`ALONE_WINDOWS` (the mark and little else; 1.5 times the radius before session 22, whose change of both
+    is measured in docs/benchmarks_frames.md). ``reach``: how far (px) the mark may lie from
     ``start``, added to the window's half-size (then marks too small to reduce are sought so too, unreduced); there
     the mark's learnt ``template`` is tried first (:func:`_matched`)."""
     matched = _matched(measurer, template, start, reach) if template is not None else None

@@ -164,7 +164,8 @@ def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, .
     the similarities defined by a pair of each (rotation within ``lim`` radians); of equal costs (within
     :data:`TIE`), the first hypothesis's (pairs of points in order, then ordered pairs of fiducials).
 
-    Every hypothesis's projection is computed at once (:func:`_pair_similarities`); the optimal assignment of one
+    The projections of every hypothesis within the rotation limit are computed at once (:func:`_pair_similarities`);
+    the optimal assignment of one
     (Hungarian method) costs at least the sum of each point's least squared distance, so hypotheses are solved in
     the order of that bound and the rest skipped once the bound exceeds the least cost found."""
     m, n = len(px), len(Cp)

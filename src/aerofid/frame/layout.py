@@ -343,16 +343,18 @@ class _NearFeatures:
         self.tree, self.n, self.tol = cKDTree(features), len(features), tol
         self.cell = 1.01 * tol            # points within tol differ by less than one cell: their cells are neighbours
         self.reach: np.ndarray | None = None
-        span = (np.ptp(features, axis=0) / self.cell + 5) if tol > 0 else np.full(2, np.inf)
-        if not float(np.prod(span)) <= GRID_CELLS:        # a tolerance too small (or not positive) for a grid
+        if not tol > 0:
             return
         self.origin = features.min(axis=0) - 2 * self.cell
-        cells = np.floor((features - self.origin) / self.cell).astype(int)
+        cells = np.floor((features - self.origin) / self.cell)
         w, h = (cells.max(axis=0) + 3).tolist()
-        self.reach = np.zeros((h, w), bool)
+        if not w * h <= GRID_CELLS:                       # a tolerance too small for a grid
+            return
+        ix, iy = cells.astype(int).T
+        self.reach = np.zeros((int(h), int(w)), bool)
         for dy in (-1, 0, 1):
             for dx in (-1, 0, 1):
-                self.reach[cells[:, 1] + dy, cells[:, 0] + dx] = True
+                self.reach[iy + dy, ix + dx] = True
 
     def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.reach is None:

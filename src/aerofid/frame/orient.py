@@ -102,11 +102,11 @@ turn: the mark and little else, then a little of its ground; both tighter than a
 second mark. The marks' radius is that of the marks found so far, which may be of another, larger kind (the Wild
 cameras' corner marks beside their midside crosses): a wider window then reaches the mark's surroundings (the film's
 edge, the data strip), where symmetry may refuse it. On the 23 synthetic 11000^2 frames of
-``benchmarks/bench_frames.py`` (session 22, against the 1.5 times alone): error RMS 0.0086 px against 0.011, the same
-share of errors within 3 sigma, a fifth less time per frame (the cost of symmetry falls with the area). The real RC20
-frame's marks are mostly refused on the first (a busy border) and measured on the second as before: where neither
-takes them, the re-centred window (corner P3 there lies 0.27 px from its centre on the second and from the person's
-click)."""
+``benchmarks/bench_frames.py`` (session 22, against the 1.5 times alone): error RMS per axis 0.0086 px against
+0.011, the same share of errors within 3 sigma, a fifth less time per frame (the cost of symmetry falls with the
+area). The real RC20 frame's marks are mostly refused on the first (a busy border) and measured on the second as
+before; where neither takes them, the re-centred window (corner P3 there lies 0.27 px from its centre on the second
+and from the person's click)."""
 COARSE_RADIUS = 16.0
 """The first mark's ``auto`` runs on the scan reduced (by a power of two) so that the marks' radius stays at least
 this many px (:func:`_coarse_first`): ``auto`` tries every method, and its cost grows with the window's area."""

@@ -4,13 +4,31 @@ the package's one point-asymmetry measure (``symmetry``'s ``max_asymmetry``, ``l
 
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 
 
 def patch(img: np.ndarray, x: float, y: float, k: int) -> np.ndarray:
     """The (2k+1) x (2k+1) patch centred exactly on (x, y), bilinear (edge pixels replicated)."""
-    return cv2.getRectSubPix(img.astype(np.float32), (2 * k + 1, 2 * k + 1), (float(x), float(y)))
+    return cv2.getRectSubPix(np.ascontiguousarray(img, np.float32), (2 * k + 1, 2 * k + 1), (float(x), float(y)))
+
+
+@functools.lru_cache(maxsize=64)
+def disc_mask(k: int, radius: float) -> np.ndarray:
+    """The offsets of the (2k+1)-square within ``radius`` of its centre (``hypot(dx, dy) <= radius``), a
+    read-only mask made once per size (every measurement of a mark of one size asks for the same one).
+
+    Examples
+    --------
+    >>> disc_mask(2, 1.0).astype(int).tolist()
+    [[0, 0, 0, 0, 0], [0, 0, 1, 0, 0], [0, 1, 1, 1, 0], [0, 0, 1, 0, 0], [0, 0, 0, 0, 0]]
+    """
+    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+    m = np.hypot(xx, yy) <= radius
+    m.setflags(write=False)
+    return m
 
 
 def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: float) -> float:
@@ -30,8 +48,7 @@ def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: f
     """
     k = int(np.ceil(radius))
     p = patch(img, x, y, k).astype(np.float64)
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    disc = np.hypot(xx, yy) <= radius
+    disc = disc_mask(k, float(radius))
     # bilinear resampling at a fractional phase averages neighbouring pixels: less noise than the window's
     fx, fy = x - np.floor(x), y - np.floor(y)
     gain = np.sqrt(((1 - fx) ** 2 + fx ** 2) * ((1 - fy) ** 2 + fy ** 2))
@@ -43,4 +60,4 @@ def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: f
     return float(max(0.0, (dd * dd).mean() - 2.0 * n * n) / (2.0 * sig))
 
 
-__all__ = ["patch", "point_asymmetry"]
+__all__ = ["disc_mask", "patch", "point_asymmetry"]

@@ -43,6 +43,7 @@ Deviations from, and readings of, the paper are marked "Reading:" in the docs of
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
@@ -536,8 +537,11 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     if p.point_refine:
         t.centre_eq15 = (xs, ys)
         xs, ys = _refine(img, xs, ys, r, p)
-    score = _verify_centre(img, xs, ys, r, noise, p, t)
-    cov = centre_covariance(img, xs, ys, r, noise, p.sigma_inefficiency, p.sigma_floor)
+    # the final centre's checks and covariance interpolate the same part of the window: its coefficients once
+    part, x0, y0 = near(img, xs, ys, r + 1 + NEAR_REACH)
+    coeffs = cubic_coefficients(part)
+    score = _verify_centre(img, xs, ys, r, noise, p, t, (part, x0, y0, coeffs))
+    cov = centre_covariance(part, xs - x0, ys - y0, r, noise, p.sigma_inefficiency, p.sigma_floor, coeffs)
     # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
     t.sigma_x = float(np.hypot(np.sqrt(cov[0, 0]), xs - x15))
     t.sigma_y = float(np.hypot(np.sqrt(cov[1, 1]), ys - y15))
@@ -694,10 +698,16 @@ def _refine(img: np.ndarray, xs: float, ys: float, r: int, p: SymmetryParams,
 
 
 def _verify_centre(img: np.ndarray, xs: float, ys: float, r: int, noise: float, p: SymmetryParams,
-                   t: _Trace) -> float:
+                   t: _Trace, spline: tuple[np.ndarray, int, int, np.ndarray] | None = None) -> float:
     """The checks at the final centre: self-diagnosis (seed 3.3), point symmetry (``p.max_asymmetry``, ours)
-    and faintness (seed 3.4); returns ``R_self`` there."""
-    subs = _resample(img, xs, ys, r)
+    and faintness (seed 3.4); returns ``R_self`` there. ``spline``: a part of ``img`` around the centre, its
+    origin and its :func:`~aerofid.detect.spline.cubic_coefficients`, if known (the part must hold the
+    :data:`~aerofid.detect.spline.NEAR_REACH` the resampling needs)."""
+    if spline is None:
+        subs = _resample(img, xs, ys, r)
+    else:
+        part, x0, y0, coeffs = spline
+        subs = _resample(part, xs - x0, ys - y0, r, coeffs)
     diag = self_diagnosis(subs)
     t.R_self, t.R_parts = diag.r_self, diag
     _check_self_diagnosis(diag, p, "sub-pixel", xs, ys)
@@ -705,8 +715,7 @@ def _verify_centre(img: np.ndarray, xs: float, ys: float, r: int, noise: float, 
     if not asym <= p.max_asymmetry:
         raise Refused(f"the pattern is not centrally symmetric about ({xs:.2f}, {ys:.2f}): the 180-degree "
                        f"residual holds {asym:.2f} of its structure (limit {p.max_asymmetry})")
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
-    spread = float(subs[xx * xx + yy * yy <= r * r].std())
+    spread = float(subs[_disc(r)].std())
     t.neighbourhood_std, t.signal_std = spread, float(np.sqrt(max(spread * spread - noise * noise, 0.0)))
     t.faint_limit = max(p.min_std, p.faint_snr * noise)
     if t.signal_std < t.faint_limit:
@@ -843,9 +852,14 @@ def simplified_log(img: np.ndarray, inner: int = 2, gap: int = 3, outer: int = 4
 
     n1 = (2 * inner + 1) ** 2
     n2 = (2 * outer + 1) ** 2 - (2 * gap - 1) ** 2
-    s_out = boxsum(outer)
-    s_gap = boxsum(gap - 1) if gap >= 1 else np.zeros_like(f)
-    return ((s_out - s_gap) / n2 - boxsum(inner) / n1).astype(np.float32)
+    out = boxsum(outer)
+    if gap >= 1:
+        out -= boxsum(gap - 1)
+    out /= n2
+    s_in = boxsum(inner)
+    s_in /= n1
+    out -= s_in
+    return out
 
 
 @dataclass(frozen=True)
@@ -883,14 +897,23 @@ def symmetry_accumulation(i2: np.ndarray, row: int, r: int, d: int, xs: np.ndarr
     Columns ``x - r .. x + r`` must lie inside ``i2``. ``diffs`` (:func:`mirror_differences` of ``i2`` and ``r``
     for columns including ``xs``) saves recomputing the sum over ``u``.
     """
-    k = np.arange(-(d + r), d + r + 1)
-    wts = np.convolve(np.ones(2 * d + 1), np.ones(2 * r + 1))
-    rows = row + k
-    ok = (rows >= 0) & (rows < i2.shape[0])
+    wts = _row_weights(r, d)
+    first, last = row - (d + r), row + d + r           # the rows of the offsets v + v', clipped to the image
+    lo_row, hi_row = max(first, 0), min(last, i2.shape[0] - 1)
+    wts = wts[lo_row - first:hi_row + 1 - first]
     if diffs is None:
         lo = int(np.min(xs))
-        return wts[ok] @ mirror_differences(i2[rows[ok]], r, lo, int(np.max(xs))).values[:, xs - lo]
-    return wts[ok] @ diffs.values[rows[ok]][:, xs - diffs.x0]
+        return wts @ mirror_differences(i2[lo_row:hi_row + 1], r, lo, int(np.max(xs))).values[:, xs - lo]
+    return wts @ diffs.values[lo_row:hi_row + 1][:, xs - diffs.x0]
+
+
+@functools.lru_cache(maxsize=256)
+def _row_weights(r: int, d: int) -> np.ndarray:
+    """How often each row offset ``v + v'`` (``-(d + r) .. d + r``) occurs in :func:`symmetry_accumulation`:
+    the convolution of two boxcars of ``2d + 1`` and ``2r + 1`` ones (read-only, made once per r and d)."""
+    w = np.convolve(np.ones(2 * d + 1), np.ones(2 * r + 1))
+    w.setflags(write=False)
+    return w
 
 
 def high_pass(profile: np.ndarray, d: int) -> np.ndarray:
@@ -907,8 +930,11 @@ def moving_mean(profile: np.ndarray, d: int) -> np.ndarray:
     >>> moving_mean(np.array([0.0, 3.0, 0.0, 0.0]), 1).tolist()
     [1.0, 1.0, 1.0, 0.0]
     """
-    p = np.pad(np.asarray(profile, np.float64), d, mode="edge")
-    c = np.concatenate([[0.0], np.cumsum(p)])
+    a = np.asarray(profile, np.float64)
+    c = np.empty(len(a) + 2 * d + 1)                     # 0, then the cumulative sums of the edge-extended profile
+    c[0] = 0.0
+    c[1:d + 1], c[d + 1:len(a) + d + 1], c[len(a) + d + 1:] = a[0], a, a[-1]
+    np.cumsum(c[1:], out=c[1:])
     return (c[2 * d + 1:] - c[:-2 * d - 1]) / (2 * d + 1)
 
 
@@ -936,14 +962,22 @@ def self_diagnosis(sub: np.ndarray) -> SelfDiagnosis:
     """Eqs. (8)-(13) on a square sub-image ``I6`` centred on the candidate centre.
 
     ``S1 = I6 + mirror_x(I6)``, ``S2 = I6 + mirror_y(I6)`` (eqs. 8-9), ``S3 = Rot90(S1)``, ``S4 = Rot90(S2)``
-    (eqs. 10-11) and ``R_self = (R12 + R34 + R13 + R24) / 4`` (eq. 13). Note that rotating both images does
-    not change their correlation, so ``R34 == R12``; we keep the seed's formula as written.
+    (eqs. 10-11) and ``R_self = (R12 + R34 + R13 + R24) / 4`` (eq. 13). Rotating both images does not change
+    their correlation, so ``R34 == R12`` (the seed's formula is kept as written, its term not computed twice);
+    nor does it change an image's mean and norm, so each correlation is one sum of products of the two images
+    less their means (:func:`ncc`'s values, within rounding).
     """
-    s1 = sub + sub[:, ::-1]
-    s2 = sub + sub[::-1, :]
-    s3 = np.rot90(s1)
-    s4 = np.rot90(s2)
-    return SelfDiagnosis(R12=ncc(s1, s2), R34=ncc(s3, s4), R13=ncc(s1, s3), R24=ncc(s2, s4))
+    s1 = (sub + sub[:, ::-1]).astype(np.float64)
+    s2 = (sub + sub[::-1, :]).astype(np.float64)
+    s1 -= s1.mean()
+    s2 -= s2.mean()
+    n1, n2 = float((s1 * s1).sum()), float((s2 * s2).sum())
+
+    def r(a: np.ndarray, b: np.ndarray, den: float) -> float:
+        return float((a * b).sum() / den) if den > 0 else 0.0
+
+    r12 = r(s1, s2, math.sqrt(n1 * n2))
+    return SelfDiagnosis(R12=r12, R34=r12, R13=r(s1, np.rot90(s1), n1), R24=r(s2, np.rot90(s2), n2))
 
 
 # --- stage 4: sub-pixel location ---------------------------------------------------------------------------
@@ -1073,12 +1107,23 @@ def _mirror_step(img: np.ndarray, xc: float, yc: float, r: int, order: int,
     """One Gauss-Newton step (x, y) towards the mirror-symmetric centre of the (2r+1)-square around (xc, yc),
     resampled with spline ``order``: minimises sum (J - mirror(J))^2 over a shift of the centre."""
     j = square_grid(img, xc, yc, r, order, coeffs)
-    gy, gx = np.gradient(j)
+    gy, gx = _gradient(j, 0), _gradient(j, 1)
     out = []
     for dd, dg in ((j - j[:, ::-1], gx - gx[:, ::-1]), (j - j[::-1], gy - gy[::-1])):
         den = float((dg * dg).sum())
         out.append(-float((dd * dg).sum()) / den if den > 0 else 0.0)
     return np.array(out)
+
+
+def _gradient(j: np.ndarray, axis: int) -> np.ndarray:
+    """``np.gradient(j, axis=axis)`` (unit spacing: central differences, one-sided at the ends; the same
+    operations, so the same values), without its generality's cost on a measuring window."""
+    a = j if axis == 0 else j.T
+    g = np.empty_like(a)
+    g[1:-1] = (a[2:] - a[:-2]) / 2.0
+    g[0] = a[1] - a[0]
+    g[-1] = a[-1] - a[-2]
+    return g if axis == 0 else g.T
 
 
 HUBER_K = 1.5
@@ -1090,6 +1135,24 @@ REFINE_DRIFT = 4
 with this much room for the centre to move before they are made again around it."""
 
 
+@functools.lru_cache(maxsize=32)
+def _disc(r: int) -> np.ndarray:
+    """The offsets (dx, dy) of the (2r+1)-square with ``dx^2 + dy^2 <= r^2`` (read-only, made once per radius)."""
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    m = xx * xx + yy * yy <= r * r
+    m.setflags(write=False)
+    return m
+
+
+@functools.lru_cache(maxsize=32)
+def _half_disc(r: int) -> np.ndarray:
+    """The half of :func:`_disc` that pairs with the other by a half turn: ``dy > 0``, or ``dy == 0 < dx``."""
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    m = ((yy > 0) | ((yy == 0) & (xx > 0))) & _disc(r)
+    m.setflags(write=False)
+    return m
+
+
 def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tuple[float, float] | None:
     """The centre (x, y) about which the window best equals its 180-degree rotation, by Gauss-Newton from
     (xc, yc): minimises ``sum_u (I(c + u) - I(c - u))^2`` over the offsets u in one half of the disc of radius
@@ -1098,8 +1161,7 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
     h, w = img.shape
     if r < 2:
         return None
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
-    half = ((yy > 0) | ((yy == 0) & (xx > 0))) & (xx * xx + yy * yy <= r * r)
+    half = _half_disc(r)
     step, start = np.inf, None
     for _ in range(REFINE_ITERATIONS):
         if not (r <= xc <= w - 1 - r and r <= yc <= h - 1 - r):
@@ -1150,7 +1212,7 @@ def centre_sigma(img: np.ndarray, xc: float, yc: float, r: int, noise: float, in
 
 
 def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: float, inefficiency: float,
-                      floor: float) -> np.ndarray:
+                      floor: float, coeffs: np.ndarray | None = None) -> np.ndarray:
     """Covariance of the centre (2 x 2, px^2): per axis the variances below, and between the axes the
     noise part's covariance.
 
@@ -1170,10 +1232,14 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
     (white noise adds nothing to ``sum I_x I_y``); it scales the noise parts of the two standard deviations
     (the sampling and floor terms are independent per axis). A mark that is long along a diagonal (a '+'
     with one long arm at 45 degrees) has gradients across that arm, and its centre's x and y errors correlate.
+
+    ``coeffs``: :func:`~aerofid.detect.spline.cubic_coefficients` of ``img``, if known (then ``img`` is already
+    the part of the window around the centre that the resampling needs); else those of that part.
     """
-    part, x0, y0 = near(img, xc, yc, r + 1 + NEAR_REACH)
-    img, xc, yc = part, xc - x0, yc - y0
-    coeffs = cubic_coefficients(img)
+    if coeffs is None:
+        part, x0, y0 = near(img, xc, yc, r + 1 + NEAR_REACH)
+        img, xc, yc = part, xc - x0, yc - y0
+        coeffs = cubic_coefficients(img)
     sub = _resample(img, xc, yc, r + 1, coeffs).astype(np.float64)
     gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])
     gy = 0.5 * (sub[2:, 1:-1] - sub[:-2, 1:-1])

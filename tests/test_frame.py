@@ -10,6 +10,7 @@ import subprocess
 import sys
 from dataclasses import replace
 from pathlib import Path
+from unittest import mock
 
 import cv2
 import numpy as np
@@ -151,6 +152,28 @@ def test_chance_matches_in_dense_clutter_lose_to_the_layout_that_fits():
     m = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
     assert m is not None
     assert _farthest(m.predicted, marks) < 10
+
+
+def test_a_mark_that_screening_missed_ends_the_search_with_the_others():
+    """7 of the 8 marks among 512 features: no hypothesis has every fiducial on a feature, and the first chunk's
+    with all but one, refined, ends the search (one chunk scored, not all) on the layout the whole search finds,
+    which predicts the missed mark too."""
+    from aerofid.frame import layout
+
+    rng = np.random.default_rng(12)
+    s = 0.0227
+    marks = CAMERA.xy_mm * [1, -1] / s + 5500
+    features = np.vstack([marks[:7] + rng.normal(0, 3, (7, 2)), rng.uniform(0, 11000, (505, 2))])
+    assert len(layout._hypotheses(layout._Pairs.of(features), CAMERA.xy_mm, s)) > 2 * layout.CHUNK
+    with mock.patch.object(layout, "_predict", wraps=layout._predict) as predict:
+        m = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
+    assert predict.call_count == len(layout.ARRANGEMENTS)                       # the first chunk only
+    assert m is not None and m.n_matched == 7
+    assert _farthest(m.predicted, marks) < 10
+    with mock.patch.object(layout, "SETTLING_FIDUCIALS", 8):                   # no early end: the whole search
+        whole = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
+    assert whole is not None and whole.matched == m.matched
+    assert np.array_equal(whole.predicted, m.predicted)
 
 
 def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():

@@ -276,6 +276,37 @@ def test_self_diagnosis_is_one_for_symmetric_and_low_for_noise():
     assert self_diagnosis(np.random.default_rng(0).normal(size=(31, 31)).astype(np.float32)).r_self < 0.5
 
 
+def _ncc(a: np.ndarray, b: np.ndarray) -> float:
+    """Eq. (12) as the seed writes it: the normalised cross-correlation of two images."""
+    a, b = a.astype(np.float64) - a.mean(), b.astype(np.float64) - b.mean()
+    den = np.sqrt((a * a).sum() * (b * b).sum())
+    return float((a * b).sum() / den) if den > 0 else 0.0
+
+
+@given(seed=st.integers(0, 2**32 - 1), half=st.integers(1, 20), flat=st.booleans())
+@settings(max_examples=60, deadline=None)
+def test_self_diagnosis_is_the_seeds_four_correlations(seed, half, flat):
+    """Eqs. (8)-(13) literally: S1, S2 the mirror additions, S3, S4 their quarter turns, the four correlations of
+    eq. (12) (a constant image correlates 0)."""
+    n = 2 * half + 1
+    sub = (np.zeros((n, n)) if flat else np.random.default_rng(seed).normal(size=(n, n))).astype(np.float32)
+    s1, s2 = sub + sub[:, ::-1], sub + sub[::-1, :]
+    s3, s4 = np.rot90(s1), np.rot90(s2)
+    got = self_diagnosis(sub)
+    for name, want in (("R12", _ncc(s1, s2)), ("R34", _ncc(s3, s4)), ("R13", _ncc(s1, s3)), ("R24", _ncc(s2, s4))):
+        assert getattr(got, name) == pytest.approx(want, abs=1e-12), name
+
+
+@given(seed=st.integers(0, 2**32 - 1), rows=st.integers(2, 12), cols=st.integers(2, 12))
+@settings(max_examples=40, deadline=None)
+def test_the_gradient_is_numpys(seed, rows, cols):
+    from aerofid.detect.symmetry import _gradient
+
+    j = np.random.default_rng(seed).normal(size=(rows, cols))
+    gy, gx = np.gradient(j)
+    assert np.array_equal(_gradient(j, 0), gy) and np.array_equal(_gradient(j, 1), gx)
+
+
 def test_simplified_log_is_zero_on_ramps_and_flat():
     yy, xx = np.mgrid[0:40, 0:40].astype(np.float32)
     assert np.abs(simplified_log(0.01 * xx + 0.02 * yy)[5:-5, 5:-5]).max() < 1e-5

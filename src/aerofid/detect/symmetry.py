@@ -950,14 +950,6 @@ def axis_peak(i2: np.ndarray, row: int, r: int, d: int, lo: int, hi: int,
 
 # --- stage 3: self-diagnosis -------------------------------------------------------------------------------
 
-def ncc(a: np.ndarray, b: np.ndarray) -> float:
-    """Normalised cross-correlation ``R{a, b}`` of eq. (12) (0 when either image is constant)."""
-    a = a.astype(np.float64) - a.mean()
-    b = b.astype(np.float64) - b.mean()
-    den = np.sqrt((a * a).sum() * (b * b).sum())
-    return float((a * b).sum() / den) if den > 0 else 0.0
-
-
 def self_diagnosis(sub: np.ndarray) -> SelfDiagnosis:
     """Eqs. (8)-(13) on a square sub-image ``I6`` centred on the candidate centre.
 
@@ -965,7 +957,7 @@ def self_diagnosis(sub: np.ndarray) -> SelfDiagnosis:
     (eqs. 10-11) and ``R_self = (R12 + R34 + R13 + R24) / 4`` (eq. 13). Rotating both images does not change
     their correlation, so ``R34 == R12`` (the seed's formula is kept as written, its term not computed twice);
     nor does it change an image's mean and norm, so each correlation is one sum of products of the two images
-    less their means (:func:`ncc`'s values, within rounding).
+    less their means (eq. 12's values, within rounding).
     """
     s1 = (sub + sub[:, ::-1]).astype(np.float64)
     s2 = (sub + sub[::-1, :]).astype(np.float64)
@@ -1255,6 +1247,6 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
 
 __all__ = ["DEFAULT", "METHOD", "AxisProfile", "FiducialArea", "MirrorDifferences", "Profiles", "SelfDiagnosis",
            "SubpixelStage", "SymmetryParams", "SymmetryResult", "axis_peak", "centre_covariance", "centre_sigma",
-           "detect", "enlargement", "fiducial_area", "high_pass", "kernel_radius", "mirror_differences", "ncc",
+           "detect", "enlargement", "fiducial_area", "high_pass", "kernel_radius", "mirror_differences",
            "point_symmetry_centre", "remeasure", "search_range", "self_diagnosis", "simplified_log", "subpixel_centre",
            "symmetry_accumulation", "symmetry_profile"]

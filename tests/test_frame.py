@@ -176,6 +176,33 @@ def test_a_mark_that_screening_missed_ends_the_search_with_the_others():
     assert np.array_equal(whole.predicted, m.predicted)
 
 
+def test_a_mark_the_frames_method_misses_is_sought_like_the_first_from_its_own_feature(monkeypatch):
+    """Where the frame's method alone finds a later mark nowhere, ``auto`` seeks it on the window its screening
+    feature sizes, as it sought the first mark (not the marks' extent so far, which a '+' measured on a ring and
+    cross makes a third of the ring's radius): the marks are still measured and the frame is ok."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    sized: list[Candidate] = []
+    first_window = orient_module._first_window
+
+    def recorded(c: Candidate) -> Candidate:
+        sized.append(first_window(c))
+        return sized[-1]
+
+    starts: list[Candidate] = []
+    coarse_first = orient_module._coarse_first
+
+    def seen(measurer, start, at, tolerance):
+        starts.append(start)
+        return coarse_first(measurer, start, at, tolerance)
+
+    monkeypatch.setattr(orient_module, "_first_window", recorded)
+    monkeypatch.setattr(orient_module, "_coarse_first", seen)
+    monkeypatch.setattr(orient_module, "_by_method", lambda *args: None)
+    res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
+    assert res.status == "ok" and len(res.found) >= 7, res.reasons          # as without the monkeypatch
+    assert sum(s in sized for s in starts) >= 7                                 # all but a mark without a feature
+
+
 def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():
     nominal = Camera.from_dict({"name": "nominal", "fiducials": {
         f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}})

@@ -277,9 +277,9 @@ def _hypotheses(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> np.ndarray
     b = np.repeat(np.arange(len(d_mm)), counts)
     a = pairs.by_distance[np.arange(counts.sum()) + np.repeat(lo - np.cumsum(counts) + counts, counts)]
     keep = np.abs(d_px[a] - d_mm[b]) <= SCALE_TOLERANCE * d_mm[b]   # the band's ends exactly as the test reads
-    a, b = a[keep], b[keep]
-    first = np.argsort(a * len(d_mm) + b)[:MAX_HYPOTHESES]          # by a, then b (one key, unique: lexsort's order)
-    a, b = a[first], b[first]
+    # by a, then b: one key each, unique, so the keys sorted are lexsort's order (and sort faster than argsort)
+    first = np.sort(a[keep] * len(d_mm) + b[keep])[:MAX_HYPOTHESES]
+    a, b = np.divmod(first, len(d_mm))
     return np.stack([pairs.i[a], pairs.k[a], j[b], l[b]], axis=1)
 
 

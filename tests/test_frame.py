@@ -10,7 +10,6 @@ import subprocess
 import sys
 from dataclasses import replace
 from pathlib import Path
-from unittest import mock
 
 import cv2
 import numpy as np
@@ -154,32 +153,29 @@ def test_chance_matches_in_dense_clutter_lose_to_the_layout_that_fits():
     assert _farthest(m.predicted, marks) < 10
 
 
-def test_a_mark_that_screening_missed_ends_the_search_with_the_others():
-    """7 of the 8 marks among 512 features: no hypothesis has every fiducial on a feature, and the first chunk's
-    with all but one, refined, ends the search (one chunk scored, not all) on the layout the whole search finds,
-    which predicts the missed mark too."""
-    from aerofid.frame import layout
-
-    rng = np.random.default_rng(12)
-    s = 0.0227
-    marks = CAMERA.xy_mm * [1, -1] / s + 5500
-    features = np.vstack([marks[:7] + rng.normal(0, 3, (7, 2)), rng.uniform(0, 11000, (505, 2))])
-    assert len(layout._hypotheses(layout._Pairs.of(features), CAMERA.xy_mm, s)) > 2 * layout.CHUNK
-    with mock.patch.object(layout, "_predict", wraps=layout._predict) as predict:
-        m = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
-    assert predict.call_count == len(layout.ARRANGEMENTS)                       # the first chunk only
-    assert m is not None and m.n_matched == 7
+def test_a_chance_fit_of_all_fiducials_but_one_does_not_end_the_search():
+    """Six fiducials, all six marks among ~500 features: among the clutter, five features fit five fiducials within
+    the fit's tolerance by chance; the search must still find the complete layout (an early end on all but one,
+    tried in session 23, stopped on such a chance fit 4 200 px off; found by a review)."""
+    rng = np.random.default_rng(206)
+    fid = CAMERA.xy_mm[[0, 1, 2, 3, 4, 6]]
+    s = float(rng.uniform(0.02, 0.025))
+    rot, mir = int(rng.choice([0, 90, 180, 270])), bool(rng.random() < 0.5)
+    marks = fid @ np.linalg.inv(arrangement_matrix(rot, mir, "up")).T * [1, -1] / s + 5500 + rng.uniform(-300, 300, 2)
+    rng.choice([0, 0, 1, 1, 2])
+    keep = rng.permutation(6)
+    clutter = int(rng.integers(100, 513)) - len(keep)
+    features = np.vstack([marks[keep] + rng.normal(0, 3, (6, 2)), rng.uniform(0, 11000, (clutter, 2))])
+    rng.random()
+    m = match_layout(features[rng.permutation(len(features))], fid, pixel_size_mm=s, position_error_px=48)
+    assert m is not None and m.complete
     assert _farthest(m.predicted, marks) < 10
-    with mock.patch.object(layout, "SETTLING_FIDUCIALS", 8):                   # no early end: the whole search
-        whole = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
-    assert whole is not None and whole.matched == m.matched
-    assert np.array_equal(whole.predicted, m.predicted)
 
 
-def test_a_mark_the_frames_method_misses_is_sought_like_the_first_from_its_own_feature(monkeypatch):
-    """Where the frame's method alone finds a later mark nowhere, ``auto`` seeks it on the window its screening
-    feature sizes, as it sought the first mark (not the marks' extent so far, which a '+' measured on a ring and
-    cross makes a third of the ring's radius): the marks are still measured and the frame is ok."""
+def test_a_mark_the_frames_method_misses_is_sought_at_least_as_large_as_its_feature(monkeypatch):
+    """Where the frame's method alone finds a later mark nowhere, ``auto`` seeks it at its prediction on a window at
+    least as large as its screening feature sizes, not only the marks' extent so far (which a '+' measured on a ring
+    and cross makes a third of the ring's radius; here all marks seem 3 px): the marks are measured, the frame ok."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     sized: list[Candidate] = []
     first_window = orient_module._first_window
@@ -188,19 +184,24 @@ def test_a_mark_the_frames_method_misses_is_sought_like_the_first_from_its_own_f
         sized.append(first_window(c))
         return sized[-1]
 
-    starts: list[Candidate] = []
+    later: list[tuple[Candidate, Candidate, tuple[float, float]]] = []
     coarse_first = orient_module._coarse_first
+    windows_seen = [0]
 
     def seen(measurer, start, at, tolerance):
-        starts.append(start)
+        if windows_seen[0] and len(sized) > windows_seen[0]:    # a later mark with a feature
+            later.append((start, sized[-1], at))
+        windows_seen[0] = len(sized)
         return coarse_first(measurer, start, at, tolerance)
 
     monkeypatch.setattr(orient_module, "_first_window", recorded)
     monkeypatch.setattr(orient_module, "_coarse_first", seen)
     monkeypatch.setattr(orient_module, "_by_method", lambda *args: None)
+    monkeypatch.setattr(orient_module, "_median_extent", lambda out, done: 3.0)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
-    assert res.status == "ok" and len(res.found) >= 7, res.reasons          # as without the monkeypatch
-    assert sum(s in sized for s in starts) >= 7                                 # all but a mark without a feature
+    assert res.status == "ok" and len(res.found) >= 7, res.reasons
+    assert len(later) >= 6
+    assert all(start.radius >= size.radius and (start.x, start.y) == at for start, size, at in later)
 
 
 def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():

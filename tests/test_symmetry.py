@@ -307,6 +307,24 @@ def test_the_gradient_is_numpys(seed, rows, cols):
     assert np.array_equal(_gradient(j, 0), gy) and np.array_equal(_gradient(j, 1), gx)
 
 
+@given(seed=st.integers(0, 2**32 - 1), rows=st.integers(1, 12), r=st.integers(1, 4), d=st.integers(0, 3),
+       row=st.integers(-12, 24), known=st.booleans())
+@settings(max_examples=80, deadline=None)
+def test_the_accumulation_is_eqs_4_and_6_with_rows_outside_skipped(seed, rows, r, d, row, known):
+    """I4(x) = sum over v in -d..d, v' in -r..r, u in 1..r of |I2(x + u, row + v + v') - I2(x - u, row + v + v')|,
+    rows outside the image skipped (none inside: 0), the row anywhere, with or without the mirror differences."""
+    i2 = np.random.default_rng(seed).random((rows, 30)).astype(np.float32)
+    xs = np.arange(r, 30 - r)
+    want = np.zeros(len(xs))
+    for v in range(-d, d + 1):
+        for w in range(-r, r + 1):
+            y = row + v + w
+            if 0 <= y < rows:
+                want += sum(np.abs(i2[y, xs + u].astype(float) - i2[y, xs - u]) for u in range(1, r + 1))
+    diffs = mirror_differences(i2, r, int(xs[0]), int(xs[-1])) if known else None
+    assert symmetry_accumulation(i2, row, r, d, xs, diffs) == pytest.approx(want, rel=1e-5, abs=1e-5)
+
+
 def test_simplified_log_is_zero_on_ramps_and_flat():
     yy, xx = np.mgrid[0:40, 0:40].astype(np.float32)
     assert np.abs(simplified_log(0.01 * xx + 0.02 * yy)[5:-5, 5:-5]).max() < 1e-5

@@ -897,14 +897,14 @@ def symmetry_accumulation(i2: np.ndarray, row: int, r: int, d: int, xs: np.ndarr
     Columns ``x - r .. x + r`` must lie inside ``i2``. ``diffs`` (:func:`mirror_differences` of ``i2`` and ``r``
     for columns including ``xs``) saves recomputing the sum over ``u``.
     """
-    wts = _row_weights(r, d)
-    first, last = row - (d + r), row + d + r           # the rows of the offsets v + v', clipped to the image
-    lo_row, hi_row = max(first, 0), min(last, i2.shape[0] - 1)
-    wts = wts[lo_row - first:hi_row + 1 - first]
+    first = row - (d + r)                               # the rows of the offsets v + v', clipped to the image
+    lo_row = min(max(first, 0), i2.shape[0])
+    n_rows = max(min(row + d + r, i2.shape[0] - 1) + 1 - lo_row, 0)
+    wts = _row_weights(r, d)[lo_row - first:lo_row - first + n_rows]
     if diffs is None:
         lo = int(np.min(xs))
-        return wts @ mirror_differences(i2[lo_row:hi_row + 1], r, lo, int(np.max(xs))).values[:, xs - lo]
-    return wts @ diffs.values[lo_row:hi_row + 1][:, xs - diffs.x0]
+        return wts @ mirror_differences(i2[lo_row:lo_row + n_rows], r, lo, int(np.max(xs))).values[:, xs - lo]
+    return wts @ diffs.values[lo_row:lo_row + n_rows][:, xs - diffs.x0]
 
 
 @functools.lru_cache(maxsize=256)

@@ -57,13 +57,7 @@ SHORTLIST = 64
 DECISIVE = 4
 """Hypotheses of a chunk with every fiducial on a feature (within the loose tolerance) refined at once, the closest
 first: one that keeps every fiducial within :data:`FIT_TOLERANCE_MM` after its refit ends the search (no chance
-match does that on the benchmark's frames; the true layout is usually among the first chunks). Then, where no
-such one does and the camera has more than :data:`SETTLING_FIDUCIALS` fiducials, as many with all fiducials but
-one on a feature: one that keeps all but one within that tolerance ends it too (a mark that screening missed,
-among hundreds of stronger features of the image, left every hypothesis incomplete and the search scored them all:
-0.6-0.8 s of a frame). Its matches over-determine the affine fit by at least 4 coordinates to a few reduced px,
-which no chance match does either; a complete layout, which the true one is when every mark is a feature, is
-refined first in its chunk."""
+match does that on the benchmark's frames; the true layout is usually among the first chunks)."""
 PRIOR_SPAN = 0.85
 """Share of a scan's longer side that its fiducials usually span (a 23 cm frame's marks 212-226 mm apart, scanned
 with a margin): the pixel size tried first when the scan says none (:func:`prior_order`)."""
@@ -293,8 +287,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     texture offers chance matches for all 8 fiducials (tests/test_frame.py: 512 features with 6 true marks),
     while the true features fit a transformation to a few reduced pixels. The hypotheses are scored a chunk at
     a time, pairs of strong features first; a refined hypothesis that puts every fiducial within that tight
-    tolerance of a feature ends the search, or, where none in its chunk does, one that puts all but one there
-    (:data:`DECISIVE`)."""
+    tolerance of a feature ends the search (:data:`DECISIVE`)."""
     hyp = _hypotheses(pairs, fiducials_mm, s)
     if len(hyp) == 0:
         return None
@@ -303,10 +296,8 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     turned = [fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s  # layout in scan axes, px
               for rot, mir in ARRANGEMENTS]
     shortlist: dict[tuple[int, ...], tuple[int, float, int, np.ndarray]] = {}
-    n = len(fiducials_mm)
     for c0 in range(0, len(hyp), CHUNK):
-        # the hypotheses with every fiducial on a feature, and with all but one (cameras of many fiducials)
-        by_missing: tuple[list[tuple[float, int, np.ndarray]], ...] = ([], []) if n - 1 >= SETTLING_FIDUCIALS else ([],)
+        complete: list[tuple[float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
             pred = _predict(features, cp, hyp[c0:c0 + CHUNK])
             if pred is None:
@@ -323,29 +314,18 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
                 key = (*match, a)
                 if key not in shortlist or (c, md, a) < shortlist[key][:3]:
                     shortlist[key] = (c, md, a, pred[h])
-                if n + c < len(by_missing):
-                    by_missing[n + c].append((md, a, pred[h]))
-        for missing, group in enumerate(by_missing):
-            decided = _decisive(features, fiducials_mm, group, n - missing, y_axis, tol, fit_tol)
-            if decided is not None:
-                return decided
+                if c == -len(fiducials_mm):
+                    complete.append((md, a, pred[h]))
+        for _, a, pred_h in sorted(complete, key=lambda c: c[:2])[:DECISIVE]:
+            scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
+            if scored[0][0] == len(fiducials_mm):
+                return scored
     best: tuple[tuple[int, float], LayoutMatch] | None = None
     for _, _, a, pred_h in sorted(shortlist.values(), key=lambda g: g[:3])[:SHORTLIST]:
         scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
         if best is None or scored[0] > best[0]:      # ties: the first lie
             best = scored
     return best
-
-
-def _decisive(features: np.ndarray, fiducials_mm: np.ndarray, group: list[tuple[float, int, np.ndarray]], need: int,
-              y_axis: str, tol: float, fit_tol: float) -> tuple[tuple[int, float], LayoutMatch] | None:
-    """The first of ``group``'s :data:`DECISIVE` closest hypotheses (mean distance, lie, prediction) that keeps at
-    least ``need`` fiducials within ``fit_tol`` of a feature once refined (:func:`_scored`), or None."""
-    for _, a, pred_h in sorted(group, key=lambda c: c[:2])[:DECISIVE]:
-        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
-        if scored[0][0] >= need:
-            return scored
-    return None
 
 
 GRID_CELLS = 4_000_000

@@ -444,10 +444,10 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     where the method settles at the cost of its stage 1: :func:`_alone`); if that fails,
     like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
-    :data:`REFINED_TOLERANCE_MM`), from the window its own screening feature sizes where it has one (the marks'
-    extent so far can be another style's: a '+' that ``hough`` measured on a ring and cross gives its arms' half
-    length, a third of the ring's radius that a ring and X in the corners has). The adjustment's blunder tests
-    check them all. A roll ``profile`` gives the
+    :data:`REFINED_TOLERANCE_MM`), on a window at least as large as its own screening feature sizes where it has
+    one (the marks' extent so far can be another style's: a '+' that ``hough`` measured on a ring and cross gives
+    its arms' half length, a third of the ring's radius that a ring and X in the corners has). The adjustment's
+    blunder tests check them all. A roll ``profile`` gives the
     polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film
     may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
     shift from theirs, and each is sought first where its learnt template correlates best within the layout's
@@ -496,8 +496,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             quick = _by_method(measurer, name, near, at, alone_tolerance)
         if quick is None:
             m = layout.matched[k]
-            if done and m is not None and radii is None and profile is None:
-                start = _first_window(features[m])      # sized like the first mark: by its own feature
+            if done and m is not None and radii is None and profile is None:   # at least its own feature's size
+                start = replace(start, radius=max(start.radius, _first_window(features[m]).radius))
             quick = _coarse_first(measurer, start, at, tolerance)
         out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
         if out[k][0] is not None and len(measurer.polarities) > 1:

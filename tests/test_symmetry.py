@@ -325,6 +325,16 @@ def test_the_accumulation_is_eqs_4_and_6_with_rows_outside_skipped(seed, rows, r
     assert symmetry_accumulation(i2, row, r, d, xs, diffs) == pytest.approx(want, rel=1e-5, abs=1e-5)
 
 
+def test_the_disc_of_an_integer_radius_is_the_integer_test():
+    """The symmetry method's discs (``disc_mask(r, r)``, ``np.hypot`` <= r) are ``dx^2 + dy^2 <= r^2`` for every
+    kernel radius a window up to MAX_HALF allows."""
+    from aerofid.detect.asymmetry import disc_mask
+
+    for r in range(0, 321):
+        yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+        assert np.array_equal(disc_mask(r, float(r)), xx * xx + yy * yy <= r * r), r
+
+
 def test_simplified_log_is_zero_on_ramps_and_flat():
     yy, xx = np.mgrid[0:40, 0:40].astype(np.float32)
     assert np.abs(simplified_log(0.01 * xx + 0.02 * yy)[5:-5, 5:-5]).max() < 1e-5

@@ -53,7 +53,7 @@ import cv2
 import numpy as np
 
 from aerofid.conventions import FOUND
-from aerofid.detect.asymmetry import point_asymmetry
+from aerofid.detect.asymmetry import disc_mask, point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
@@ -715,7 +715,7 @@ def _verify_centre(img: np.ndarray, xs: float, ys: float, r: int, noise: float, 
     if not asym <= p.max_asymmetry:
         raise Refused(f"the pattern is not centrally symmetric about ({xs:.2f}, {ys:.2f}): the 180-degree "
                        f"residual holds {asym:.2f} of its structure (limit {p.max_asymmetry})")
-    spread = float(subs[_disc(r)].std())
+    spread = float(subs[disc_mask(r, float(r))].std())
     t.neighbourhood_std, t.signal_std = spread, float(np.sqrt(max(spread * spread - noise * noise, 0.0)))
     t.faint_limit = max(p.min_std, p.faint_snr * noise)
     if t.signal_std < t.faint_limit:
@@ -1128,19 +1128,11 @@ with this much room for the centre to move before they are made again around it.
 
 
 @functools.lru_cache(maxsize=32)
-def _disc(r: int) -> np.ndarray:
-    """The offsets (dx, dy) of the (2r+1)-square with ``dx^2 + dy^2 <= r^2`` (read-only, made once per radius)."""
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
-    m = xx * xx + yy * yy <= r * r
-    m.setflags(write=False)
-    return m
-
-
-@functools.lru_cache(maxsize=32)
 def _half_disc(r: int) -> np.ndarray:
-    """The half of :func:`_disc` that pairs with the other by a half turn: ``dy > 0``, or ``dy == 0 < dx``."""
+    """The half of the disc of radius ``r`` (:func:`~aerofid.detect.asymmetry.disc_mask`) that pairs with the other
+    by a half turn: ``dy > 0``, or ``dy == 0 < dx`` (read-only, made once per radius)."""
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
-    m = ((yy > 0) | ((yy == 0) & (xx > 0))) & _disc(r)
+    m = ((yy > 0) | ((yy == 0) & (xx > 0))) & disc_mask(r, float(r))
     m.setflags(write=False)
     return m
 

@@ -38,8 +38,49 @@ def test_hypotheses_are_the_definition(n, seed, s, grid):
     features = rng.uniform(0, 12000, size=(n, 2))
     if grid:                                   # many equal distances: ties in the order
         features = np.round(features / 2000) * 2000 + rng.integers(0, 2, size=(n, 2))
-    got = layout._hypotheses(layout._Pairs.of(features), fiducials, s)
+    got = hypotheses(features, fiducials, s)
     np.testing.assert_array_equal(got, plain_hypotheses(features, fiducials, s))
+
+
+def hypotheses(features: np.ndarray, fiducials_mm: np.ndarray, s: float) -> np.ndarray:
+    """The chunks of :func:`layout._hypothesis_chunks` joined, each (but the last) CHUNK long, their pair indices those
+    of their features."""
+    pairs = layout._Pairs.of(features)
+    chunks = list(layout._hypothesis_chunks(pairs, fiducials_mm, s))
+    assert all(len(h) == layout.CHUNK for h, _ in chunks[:-1]) and all(0 < len(h) <= layout.CHUNK for h, _ in chunks)
+    for h, a in chunks:
+        np.testing.assert_array_equal(h[:, :2], np.c_[pairs.i[a], pairs.k[a]])
+    return np.vstack([h for h, _ in chunks]) if chunks else np.zeros((0, 4), int)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 40), seed=st.integers(0, 2**16), s=st.floats(0.01, 0.05), chunk=st.integers(1, 300),
+       block=st.integers(1, 200), most=st.integers(1, 3000))
+def test_hypotheses_are_the_definition_in_chunks_of_any_size_and_cut_anywhere(n, seed, s, chunk, block, most):
+    """Chunks, blocks of pairs and the cut at MAX_HYPOTHESES of any size give the definition's first hypotheses."""
+    rng = np.random.default_rng(seed)
+    fiducials = np.array([[-106, -106], [106, 106], [-106, 106], [106, -106], [0, 110], [110, 0]], float)
+    features = np.round(rng.uniform(0, 12000, size=(n, 2)) / 2000) * 2000 + rng.integers(0, 2, size=(n, 2))
+    with mock.patch.multiple(layout, CHUNK=chunk, PAIR_BLOCK=block, MAX_HYPOTHESES=most):
+        got = hypotheses(features, fiducials, s)
+    np.testing.assert_array_equal(got, plain_hypotheses(features, fiducials, s)[:most])
+
+
+@given(seed=st.integers(0, 2**31 - 1), scale=st.floats(1e-3, 1e3))
+@settings(max_examples=100, deadline=None)
+def test_the_directions_prefilter_keeps_every_hypothesis_within_the_rotation_limit(seed, scale):
+    """:func:`layout._may_turn_within` keeps every similarity :func:`layout._within_rotation` keeps (it only saves
+    computing the others): pairs turned by angles all round and within a few ulps of the limit, in any direction."""
+    rng = np.random.default_rng(seed)
+    limit = np.radians(layout.MAX_ROTATION_DEG)
+    turn = np.r_[rng.uniform(-np.pi, np.pi, 300), limit, -limit, np.nextafter(limit, 0), np.nextafter(limit, 1),
+                 limit * (1 + rng.uniform(-1e-8, 1e-8, 200)), -limit * (1 + rng.uniform(-1e-8, 1e-8, 200))]
+    dc = scale * rng.uniform(0.5, 2.0, len(turn)) * np.exp(1j * rng.uniform(-np.pi, np.pi, len(turn)))
+    dp = dc * np.exp(1j * turn) * rng.uniform(0.9, 1.1, len(turn)) * 1000
+    kept = layout._may_turn_within(np.angle(dp), np.angle(dc))
+    exact = layout._within_rotation(dp / dc)
+    assert not (exact & ~kept).any()
+    assert not (kept & (np.abs(turn) > limit + 1e-6)).any()
 
 
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 60), tol=st.sampled_from([0.5, 1.0, 3.0, 7.25, 40.0]),
@@ -84,3 +125,36 @@ def test_near_features_with_a_tolerance_too_small_for_a_grid_ask_the_tree(tol):
     d, idx = layout._NearFeatures(features, tol).query(points)
     d0, idx0 = cKDTree(features).query(points, distance_upper_bound=tol)
     assert np.array_equal(d, d0) and np.array_equal(idx, idx0)
+
+
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 30), twice=st.integers(0, 3),
+       tol=st.sampled_from([1e-9, 0.5, 40.0, 300.0]))
+@settings(max_examples=60, deadline=None)
+def test_the_predictions_on_their_own_features_answer_as_the_tree(seed, n, twice, tol):
+    """:meth:`layout._NearFeatures.query_predictions` gives every prediction of the search's hypotheses the nearest
+    feature within ``tol`` exactly as cKDTree's bounded query of every point does (fiducials j and l, predicted on
+    features i and k, are answered without it): the layout's marks (turned, moved, a little off) among ``n`` chance
+    features, some features given twice (the tree's choice between them is its own) or a hair's breadth apart, and
+    tolerances below the rounding of l's prediction."""
+    from scipy.spatial import cKDTree
+    rng = np.random.default_rng(seed)
+    fiducials = np.array([[-106, -106], [106, 106], [-106, 106], [106, -106], [0, 110]], float)
+    s = 0.05
+    turn = np.radians(rng.uniform(-3, 3))
+    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    marks = fiducials / s @ rot.T + rng.uniform(3000, 6000, 2) + rng.normal(0, 2, (len(fiducials), 2))
+    features = np.vstack([marks, rng.uniform(0, 9000, size=(n, 2))])
+    for _ in range(twice):                                      # a feature twice, or a hair's breadth apart
+        a, b = rng.integers(0, len(features), 2)
+        features[a] = features[b] + rng.choice([0.0, 1e-12, 1e-3], size=2)
+    near = layout._NearFeatures(features, tol)
+    checked = 0
+    for hyp, _ in layout._hypothesis_chunks(layout._Pairs.of(features), fiducials, s):
+        pred, kept = layout._predict(features, fiducials / s, hyp)
+        if pred is None:
+            continue
+        d, idx = near.query_predictions(pred, hyp[kept])
+        d0, idx0 = cKDTree(features).query(pred.reshape(-1, 2), distance_upper_bound=tol)
+        assert np.array_equal(d, d0.reshape(d.shape)) and np.array_equal(idx, idx0.reshape(idx.shape))
+        checked += len(pred)
+    assert checked >= len(fiducials) * (len(fiducials) - 1) // 2 or twice     # every pair of marks, the right way

@@ -22,7 +22,9 @@ and the layouts found are ranked alike (:func:`layout_candidates`).
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -236,13 +238,13 @@ def scale_grid(size_range: tuple[float, float]) -> list[float]:
 
 @dataclass(frozen=True)
 class _Pairs:
-    """Every pair of features (i < k), pairs of strong features first, with their distances (px), and the order
-    that sorts the distances: what :func:`_hypotheses` needs at every pixel size."""
+    """Every pair of features (i < k), pairs of strong features first, with their distances (px) and directions
+    (radians, from i to k): what :func:`_hypothesis_chunks` and the rotation limit need at every pixel size."""
 
     i: np.ndarray
     k: np.ndarray
     d_px: np.ndarray
-    by_distance: np.ndarray
+    direction: np.ndarray
 
     @classmethod
     def of(cls, features: np.ndarray) -> _Pairs:
@@ -252,29 +254,40 @@ class _Pairs:
         first, count = s // 2 + 1, np.minimum(s, n - 1) - s // 2
         k = np.arange(count.sum()) + np.repeat(first - np.cumsum(count) + count, count)
         i = np.repeat(s, count) - k
-        d_px = np.hypot(*(features[k] - features[i]).T)
-        # the order of equal distances is free: _hypotheses takes each fiducial pair's band of them as a set
-        return cls(i, k, d_px, np.argsort(d_px))
+        dx, dy = (features[k] - features[i]).T
+        return cls(i, k, np.hypot(dx, dy), np.arctan2(dy, dx))
 
 
-def _hypotheses(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> np.ndarray:
+PAIR_BLOCK = 4096
+"""Pairs of features whose hypotheses are formed at once (:func:`_hypothesis_chunks`): the search usually ends in its
+first chunks, so the hypotheses of later pairs are not formed."""
+
+
+def _hypothesis_chunks(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """(i, k, j, l) with |features i-k| * s within :data:`SCALE_TOLERANCE` of |fiducials j-l|, pairs of strong
-    features first, then by (j, l) (the first :data:`MAX_HYPOTHESES`). Each fiducial pair's band of distances is
-    looked up in the sorted feature distances."""
+    features first, then by (j, l) (the first :data:`MAX_HYPOTHESES`), :data:`CHUNK` at a time, each with the index
+    of its pair of features; formed :data:`PAIR_BLOCK` pairs at a time, as the search asks for them."""
     j, l = np.nonzero(~np.eye(len(fiducials_mm), dtype=bool))
     d_mm = np.hypot(*(fiducials_mm[l] - fiducials_mm[j]).T)
-    d_px = pairs.d_px * s
-    sorted_px = d_px[pairs.by_distance]
-    lo = np.searchsorted(sorted_px, d_mm * (1 - SCALE_TOLERANCE) * (1 - 1e-12), side="left")
-    hi = np.searchsorted(sorted_px, d_mm * (1 + SCALE_TOLERANCE) * (1 + 1e-12), side="right")
-    counts = hi - lo
-    b = np.repeat(np.arange(len(d_mm)), counts)
-    a = pairs.by_distance[np.arange(counts.sum()) + np.repeat(lo - np.cumsum(counts) + counts, counts)]
-    keep = np.abs(d_px[a] - d_mm[b]) <= SCALE_TOLERANCE * d_mm[b]   # the band's ends exactly as the test reads
-    # by a, then b: one key each, unique, so the keys sorted are lexsort's order (and sort faster than argsort)
-    first = np.sort(a[keep] * len(d_mm) + b[keep])[:MAX_HYPOTHESES]
-    a, b = np.divmod(first, len(d_mm))
-    return np.stack([pairs.i[a], pairs.k[a], j[b], l[b]], axis=1)
+    band = SCALE_TOLERANCE * d_mm
+    held: list[np.ndarray] = []              # pair indices and fiducial pairs not yet given out, in order
+    n_held = given = 0
+    for a0 in range(0, len(pairs.d_px), PAIR_BLOCK):
+        a, b = np.nonzero(np.abs((pairs.d_px[a0:a0 + PAIR_BLOCK] * s)[:, None] - d_mm) <= band)
+        a = a[:MAX_HYPOTHESES - given - n_held]
+        held.append(np.stack([a + a0, b[:len(a)]]))
+        n_held += len(a)
+        last = given + n_held >= MAX_HYPOTHESES or a0 + PAIR_BLOCK >= len(pairs.d_px)
+        if n_held < CHUNK and not last:
+            continue
+        ab = np.concatenate(held, axis=1)
+        cut = n_held if last else n_held - n_held % CHUNK
+        for c0 in range(0, cut, CHUNK):
+            a_c, b_c = ab[:, c0:min(c0 + CHUNK, cut)]
+            yield np.stack([pairs.i[a_c], pairs.k[a_c], j[b_c], l[b_c]], axis=1), a_c
+        held, n_held, given = [ab[:, cut:]], n_held - cut, given + cut
+        if last:
+            return
 
 
 def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarray, y_axis: str, s: float,
@@ -288,22 +301,23 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     while the true features fit a transformation to a few reduced pixels. The hypotheses are scored a chunk at
     a time, pairs of strong features first; a refined hypothesis that puts every fiducial within that tight
     tolerance of a feature ends the search (:data:`DECISIVE`)."""
-    hyp = _hypotheses(pairs, fiducials_mm, s)
-    if len(hyp) == 0:
-        return None
-    near = _NearFeatures(features, tol)
+    near: _NearFeatures | None = None
     fit_tol = FIT_TOLERANCE_MM / s + position_error_px
     turned = [fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s  # layout in scan axes, px
               for rot, mir in ARRANGEMENTS]
+    j, l = np.nonzero(~np.eye(len(fiducials_mm), dtype=bool))
+    directions = [np.arctan2(*(cp[l] - cp[j]).T[::-1]) for cp in turned]       # each lie's fiducial pairs'
     shortlist: dict[tuple[int, ...], tuple[int, float, int, np.ndarray]] = {}
-    for c0 in range(0, len(hyp), CHUNK):
+    for hyp, pair in _hypothesis_chunks(pairs, fiducials_mm, s):
+        near = near or _NearFeatures(features, tol)
+        fid_pair = hyp[:, 2] * (len(fiducials_mm) - 1) + hyp[:, 3] - (hyp[:, 3] > hyp[:, 2])
         complete: list[tuple[float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
-            pred = _predict(features, cp, hyp[c0:c0 + CHUNK])
+            turning = hyp[_may_turn_within(pairs.direction[pair], directions[a][fid_pair])]
+            pred, kept = _predict(features, cp, turning)
             if pred is None:
                 continue
-            d, idx = near.query(pred.reshape(-1, 2))
-            d, idx = d.reshape(pred.shape[:2]), idx.reshape(pred.shape[:2])
+            d, idx = near.query_predictions(pred, turning[kept])
             hit = np.isfinite(d)
             count = hit.sum(axis=1)
             mean_d = np.where(hit, d, 0.0).sum(axis=1) / np.maximum(count, 1)
@@ -320,12 +334,22 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
             scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
             if scored[0][0] == len(fiducials_mm):
                 return scored
+    if near is None:                                            # no hypotheses
+        return None
     best: tuple[tuple[int, float], LayoutMatch] | None = None
     for _, _, a, pred_h in sorted(shortlist.values(), key=lambda g: g[:3])[:SHORTLIST]:
         scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
         if best is None or scored[0] > best[0]:      # ties: the first lie
             best = scored
     return best
+
+
+@functools.lru_cache(maxsize=8)
+def _others(n: int) -> np.ndarray:
+    """For each ordered pair of n fiducials (j, l) in row-major order, the n - 2 others, in order."""
+    j, l = np.nonzero(~np.eye(n, dtype=bool))
+    keep = (np.arange(n) != j[:, None]) & (np.arange(n) != l[:, None])
+    return np.nonzero(keep)[1].reshape(len(j), n - 2)
 
 
 GRID_CELLS = 4_000_000
@@ -340,7 +364,9 @@ class _NearFeatures:
     up in the tree. The points are finite (the tree refuses others: here they would be misses)."""
 
     def __init__(self, features: np.ndarray, tol: float):
-        self.tree, self.n, self.tol = cKDTree(features), len(features), tol
+        self.tree, self.n, self.tol, self.features = cKDTree(features), len(features), tol, features
+        # each feature's distance to its nearest other feature (0 for a feature given twice)
+        self.clearance = self.tree.query(features, k=2)[0][:, 1] if len(features) > 1 else np.zeros(len(features))
         self.cell = 1.01 * tol            # points within tol differ by less than one cell: their cells are neighbours
         self.reach: np.ndarray | None = None
         if not tol > 0:
@@ -355,6 +381,32 @@ class _NearFeatures:
         for dy in (-1, 0, 1):
             for dx in (-1, 0, 1):
                 self.reach[iy + dy, ix + dx] = True
+
+    def query_predictions(self, pred: np.ndarray, hyp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`query` of every fiducial a hypothesis predicts (``pred``, h x n x 2, of hypotheses ``hyp``: i, k, j,
+        l), as h x n arrays. Fiducials j and l are predicted on features i and k (j exactly, l to rounding): their
+        answers are those features, at the distance the tree computes (the square root of the sum of squared
+        coordinate differences), without a look-up, wherever that is what the tree answers: within the tolerance,
+        and no other feature as near (i's nearest other feature further than 0, k's further than twice the distance
+        to l); the tree answers the rest."""
+        h, n = pred.shape[:2]
+        rows = np.arange(h)
+        i, k, j, l = hyp.T
+        dx, dy = (pred[rows, l] - self.features[k]).T
+        d_l = np.sqrt(dx * dx + dy * dy)
+        plain = (d_l < self.tol) & (self.clearance[i] > 0) & (self.clearance[k] > 2 * d_l)
+        d, idx = np.empty(h * n), np.empty(h * n, np.intp)
+        if plain.all():                    # each row's other fiducials (of the n - 2 that are neither j nor l)
+            ask = (rows[:, None] * n + _others(n)[j * (n - 1) + l - (l > j)]).ravel()
+        else:
+            ask = np.ones((h, n), bool)
+            ask[rows[plain], j[plain]] = ask[rows[plain], l[plain]] = False
+            ask = np.flatnonzero(ask)
+        d[ask], idx[ask] = self.query(pred.reshape(-1, 2)[ask])
+        d, idx = d.reshape(h, n), idx.reshape(h, n)
+        d[rows[plain], j[plain]], idx[rows[plain], j[plain]] = 0.0, i[plain]
+        d[rows[plain], l[plain]], idx[rows[plain], l[plain]] = d_l[plain], k[plain]
+        return d, idx
 
     def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.reach is None:
@@ -382,24 +434,37 @@ def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a:
             replace(m, complete=len(close) == len(fiducials_mm)))
 
 
-def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> np.ndarray | None:
+def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
     """Each hypothesis's prediction of every fiducial (h x n x 2 px): the similarity mapping fiducials j, l
     (``cp``: the layout turned by the lie, in px) onto features i, k; hypotheses that rotate the frame more
-    than :data:`MAX_ROTATION_DEG` are dropped (NaN predictions)."""
+    than :data:`MAX_ROTATION_DEG` are dropped, and which were kept is the second answer (None and no hypothesis
+    when none is)."""
     i, k, j, l = hyp.T
     dp = (features[k, 0] - features[i, 0]) + 1j * (features[k, 1] - features[i, 1])
     dc = (cp[l, 0] - cp[j, 0]) + 1j * (cp[l, 1] - cp[j, 1])
     z = dp / dc                                                   # scale x rotation as a complex number
     keep = _within_rotation(z)
     if not keep.any():
-        return None
+        return None, keep
     z, i, j = z[keep], i[keep], j[keep]
     c = cp[:, 0] + 1j * cp[:, 1]
     p = (features[i, 0] + 1j * features[i, 1])[:, None] + z[:, None] * (c[None, :] - c[j][:, None])
-    return np.stack([p.real, p.imag], axis=2)
+    return np.stack([p.real, p.imag], axis=2), keep
 
 
 TAN_MAX_ROTATION = math.tan(math.radians(MAX_ROTATION_DEG))
+ANGLE_MARGIN = 1e-9
+"""Radians beyond :data:`MAX_ROTATION_DEG` that :func:`_may_turn_within` lets through (the rounding of two arctangents
+and their difference is some 1e-15): :func:`_within_rotation` decides."""
+
+
+def _may_turn_within(feature_direction: np.ndarray, fiducial_direction: np.ndarray) -> np.ndarray:
+    """Whether hypotheses may turn the frame by at most :data:`MAX_ROTATION_DEG` (their pair of features' and pair of
+    fiducials' directions, radians): a superset of :func:`_within_rotation`'s, from the directions' difference, so
+    that the similarity is computed only for the few (a 90th of the hypotheses of a lie) that can pass."""
+    turn = np.abs(feature_direction - fiducial_direction)                  # in [0, 2 pi]: either way round
+    limit = math.radians(MAX_ROTATION_DEG) + ANGLE_MARGIN
+    return (turn <= limit) | (turn >= 2 * math.pi - limit)
 
 
 def _within_rotation(z: np.ndarray) -> np.ndarray:

@@ -3,6 +3,7 @@ scanner (4 rotations x 2 sides), each tested and the best kept only when it is s
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -168,26 +169,38 @@ def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, .
     the optimal assignment of one
     (Hungarian method) costs at least the sum of each point's least squared distance, so hypotheses are solved in
     the order of that bound and the rest skipped once the bound exceeds the least cost found."""
-    m, n = len(px), len(Cp)
-    points = np.array(list(itertools.combinations(range(m), 2)), int).reshape(-1, 2)
-    fids = np.array(list(itertools.permutations(range(n), 2)), int).reshape(-1, 2)
-    i1, i2 = np.repeat(points, len(fids), axis=0).T
-    j1, j2 = np.tile(fids, (len(points), 1)).T
-    order, proj = _pair_similarities(px[i1], px[i2] - px[i1], Cp, j1, j2, lim)
+    order, proj = _pair_similarities(px, Cp, lim)
     if order.size == 0:
         return None
-    D = np.sum((px[None, :, None, :] - proj[:, None, :, :]) ** 2, axis=3)   # h x m x n
-    bound = D.min(axis=2).sum(axis=1)
+    dx = px[:, None, None, 0] - proj[:, :, 0].T
+    dy = px[:, None, None, 1] - proj[:, :, 1].T
+    D = dx * dx + dy * dy                            # m x n x h: the hypotheses last, so that each reduction is
+    nearest = D.argmin(axis=1)                       # elementwise across whole rows of them
+    bound = np.take_along_axis(D, nearest[:, None], axis=1)[:, 0].sum(axis=0)
+    ranked = np.sort(nearest, axis=0)
+    plain = (ranked[1:] != ranked[:-1]).all(axis=0)          # each point's nearest fiducial its own: cost = bound
     solved: list[tuple[float, int, tuple[int, ...]]] = []
     least = np.inf
-    for h in np.argsort(bound, kind="stable"):
+    for h in np.argsort(bound, kind="stable").tolist():
         if bound[h] > least + TIE * max(least, 1.0):
             break
-        rows, cols = _assignment(D[h])
-        cost = float(D[h][rows, cols].sum())
+        if plain[h]:
+            cost, cols = float(bound[h]), nearest[:, h]
+        else:
+            rows, cols = _assignment(np.ascontiguousarray(D[:, :, h]))
+            cost, cols = float(D[rows, cols, h].sum()), cols[np.argsort(rows)]
         least = min(least, cost)
-        solved.append((cost, int(order[h]), tuple(int(c) for c in cols[np.argsort(rows)])))
+        solved.append((cost, int(order[h]), tuple(cols.tolist())))
     return min((k, a) for c, k, a in solved if c <= least + TIE * max(least, 1.0))[1]
+
+
+@functools.lru_cache(maxsize=32)
+def _index_pairs(m: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair of the m measured points (i1 < i2, in order) and every ordered pair of the n fiducials (j1, j2): a
+    hypothesis is one of each, pairs of points first."""
+    points = np.array(list(itertools.combinations(range(m), 2)), int).reshape(-1, 2)
+    fids = np.array(list(itertools.permutations(range(n), 2)), int).reshape(-1, 2)
+    return points, fids
 
 
 def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -201,21 +214,23 @@ def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return scipy.optimize.linear_sum_assignment(D)
 
 
-def _pair_similarities(p1: np.ndarray, dm: np.ndarray, Cp: np.ndarray, j1: np.ndarray, j2: np.ndarray,
-                       lim: float) -> tuple[np.ndarray, np.ndarray]:
-    """The hypotheses k whose similarity, mapping fiducials ``j1[k]``, ``j2[k]`` onto the measured pair (first point
-    ``p1[k]``, difference ``dm[k]``), exists and rotates by at most ``lim`` radians; and for each of them the
-    fiducials ``Cp`` projected into the scan by it (h x n x 2)."""
-    dc = Cp[j2] - Cp[j1]
-    nc, nm = np.hypot(dc[:, 0], dc[:, 1]), np.hypot(dm[:, 0], dm[:, 1])
-    ang = np.arctan2(dm[:, 1], dm[:, 0]) - np.arctan2(dc[:, 1], dc[:, 0])
-    ang = (ang + math.pi) % (2 * math.pi) - math.pi
-    ok = np.flatnonzero((nc > 0) & (nm > 0) & (np.abs(ang) <= lim))
-    k, ang, p1, j1 = nm[ok] / nc[ok], ang[ok], p1[ok], j1[ok]
-    c, s = k * np.cos(ang), k * np.sin(ang)
-    R = np.stack([np.stack([c, -s], axis=1), np.stack([s, c], axis=1)], axis=1)          # h x 2 x 2
-    t = p1 - np.einsum("hij,hj->hi", R, Cp[j1])
-    return ok, np.einsum("nj,hij->hni", Cp, R) + t[:, None, :]
+def _pair_similarities(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[np.ndarray, np.ndarray]:
+    """The hypotheses k (:func:`_index_pairs`) whose similarity, mapping the pair of fiducials ``Cp`` onto the pair of
+    measured points ``px``, exists and rotates by at most ``lim`` radians; and for each of them the fiducials
+    projected into the scan by it (h x n x 2). Each pair's length and direction is computed once."""
+    points, fids = _index_pairs(len(px), len(Cp))
+    dm, dc = px[points[:, 1]] - px[points[:, 0]], Cp[fids[:, 1]] - Cp[fids[:, 0]]
+    nm, nc = np.hypot(dm[:, 0], dm[:, 1]), np.hypot(dc[:, 0], dc[:, 1])
+    ang = np.arctan2(dm[:, 1], dm[:, 0])[:, None] - np.arctan2(dc[:, 1], dc[:, 0])
+    ang = ((ang + math.pi) % (2 * math.pi) - math.pi).ravel()
+    ok = np.flatnonzero(((nm[:, None] > 0) & (nc > 0)).ravel() & (np.abs(ang) <= lim))
+    ip, jf = np.divmod(ok, len(fids))
+    k, ang, p1, j1 = nm[ip] / nc[jf], ang[ok], px[points[ip, 0]], fids[jf, 0]
+    c, s = (k * np.cos(ang))[:, None], (k * np.sin(ang))[:, None]                # the rotation [[c, -s], [s, c]]
+    x, y = Cp[:, 0], Cp[:, 1]
+    x1, y1 = x[j1][:, None], y[j1][:, None]
+    tx, ty = p1[:, :1] - (c * x1 + -s * y1), p1[:, 1:] - (s * x1 + c * y1)
+    return ok, np.stack([c * x + -s * y + tx, s * x + c * y + ty], axis=2)    # h x n x 2
 
 
 def _distinct(fits: list[ArrangementFit]) -> list[ArrangementFit]:

@@ -340,9 +340,12 @@ def _merged(found: Found, max_candidates: int) -> tuple[Candidate, ...]:
             c = b0 + b
             if counts[b]:
                 i = int(np.argmax(hits[b]))                 # the first kept one within reach
-                if radii[c] < kin[i]:                        # the finer scale's position
+                moved, grew = radii[c] < kin[i], radii[c] > kr[i]
+                if moved:                                   # the finer scale's position
                     kx[i], ky[i] = float(xs[c]), float(ys[c])
                 kr[i], kin[i] = max(kr[i], float(radii[c])), min(kin[i], float(inners[c]))
+                if not (moved or grew):                     # its reach is as it was
+                    continue
             elif len(kept) < max_candidates:
                 i = len(kept)
                 kept.append(c)

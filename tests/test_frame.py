@@ -32,7 +32,7 @@ from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.methods import make_detector
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import arrangement_matrix
-from aerofid.synth_frame import frame_spec, render_frame, wild_rc10_camera, write_frame
+from aerofid.synth_frame import frame_spec, frame_truth, render_frame, wild_rc10_camera, write_frame
 
 CAMERA = wild_rc10_camera()
 COARSE_MM = 0.08
@@ -202,6 +202,49 @@ def test_a_mark_the_frames_method_misses_is_sought_at_least_as_large_as_its_feat
     assert res.status == "ok" and len(res.found) >= 7, res.reasons
     assert len(later) >= 6
     assert all(start.radius >= size.radius and (start.x, start.y) == at for start, size, at in later)
+
+
+@pytest.mark.parametrize("displaced", [True, False])
+def test_a_fiducial_missed_where_the_layout_put_it_is_sought_where_the_orientation_puts_it(monkeypatch, displaced):
+    """A layout whose lie the adjustment overturns (a nearly symmetric layout fits mirrored too) predicts one
+    fiducial far from where the orientation of the others puts it, and the mark is not found there: it is sought
+    again where the orientation puts it and measured at its true centre (``displaced``). Where the layout put it
+    where the orientation does, it was sought there already: no second search, the mark stays missing."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    k = 2
+    layouts = orient_module._layouts
+
+    def moved(*args, **kwargs):
+        found = layouts(*args, **kwargs)
+        if not displaced:
+            return found
+        return [replace(m, predicted=m.predicted + np.where(np.arange(len(m.predicted))[:, None] == k, 40.0, 0.0))
+                for m in found]
+
+    measure = orient_module.measure_marks
+
+    def missed(*args, **kwargs):
+        out = measure(*args, **kwargs)
+        out[k] = (None, "no mark (test)")
+        return out
+
+    sought: list[tuple[float, float]] = []
+    where_oriented = orient_module._sought_where_oriented
+
+    def recorded(measurer, res, at, tolerance):
+        sought.append(at)
+        return where_oriented(measurer, res, at, tolerance)
+
+    monkeypatch.setattr(orient_module, "_layouts", moved)
+    monkeypatch.setattr(orient_module, "measure_marks", missed)
+    monkeypatch.setattr(orient_module, "_sought_where_oriented", recorded)
+    res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
+    missing = [f for f in res.fiducials if f.status == "not_found"]
+    if displaced:
+        assert len(sought) == 1 and missing == [] and res.status == "ok", res.reasons
+        assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
+    else:
+        assert sought == [] and [f.reason for f in missing] == ["no mark (test)"]
 
 
 def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():

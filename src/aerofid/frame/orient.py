@@ -275,7 +275,8 @@ class _Search:
             return None
         best: FrameOrientation | None = None
         for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts):
-            res = judged(layout, measure_marks(self.measurer, layout, fid_mm, self.features, self.profile))
+            located = measure_marks(self.measurer, layout, fid_mm, self.features, self.profile)
+            res = second_look(self.measurer, layout, located, judged(layout, located), judged)
             if best is None or _standing(res) > _standing(best):
                 best = res
             if res.ok or (self.nominal and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
@@ -510,29 +511,16 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
 def measure_extra_marks(measurer: Measurer, res: FrameOrientation,
                         extras: dict[str, tuple[float, float]]) -> tuple[FiducialFinding, ...]:
     """The marks of the film's format that the camera file does not list (``extras``: name -> nominal film mm,
-    :func:`aerofid.frame.nominal.extra_marks`), each measured like a later fiducial of :func:`measure_marks` (the
-    frame's method alone from its coarse answer, else :func:`measure_fiducial`) from where the frame's
-    orientation puts its nominal position, sized like the frame's marks, in their polarity first, within
+    :func:`aerofid.frame.nominal.extra_marks`), each measured like a later fiducial of :func:`measure_marks`
+    (:func:`_sought_where_oriented`) from where the frame's orientation puts its nominal position, within
     :data:`EXTRA_TOLERANCE_MM` of it. They are not used in the adjustment (their positions are not calibrated): a
     finding's ``predicted_x, predicted_y`` is the nominal position, ``residual_px`` the mark's distance from it."""
     assert res.orientation is not None
-    marks: list[tuple[Located | None, str]] = [(f.located, "") for f in res.fiducials
-                                               if f.status == FOUND_MARK and f.located is not None]
-    done = list(range(len(marks)))
-    radius = _median_extent(marks, done)
-    name = _frame_method(marks, done)
-    other: Polarity | None = None
-    if len(measurer.polarities) > 1:
-        polarity = marks[0][0].polarity  # type: ignore[union-attr]
-        measurer, other = replace(measurer, polarities=(polarity,)), opposite(polarity)
     tolerance = max(EXTRA_TOLERANCE_MM / adjusted_pixel_mm(res.orientation), MIN_TOLERANCE_PX)
     out = []
     for mark, p in zip(extras, res.orientation.to_pixel(list(extras.values())), strict=True):
         at = (float(p[0]), float(p[1]))
-        start = Candidate(at[0], at[1], radius, 0.0)
-        got = (None if name is None or _outside(measurer, at)
-               else _by_method(measurer, name, _coarse(measurer, name, start), at, tolerance))
-        got, why = (got, "") if got is not None else measure_fiducial(measurer, start, at, tolerance, other)
+        got, why = _sought_where_oriented(measurer, res, at, tolerance)
         if got is None:
             out.append(FiducialFinding(mark, MISSING_MARK, None, None, None, None, *at, reason=why))
             continue
@@ -541,6 +529,55 @@ def measure_extra_marks(measurer: Measurer, res: FrameOrientation,
                                    residual_px=math.hypot(got.x - at[0], got.y - at[1]), method=d.method,
                                    located=got))
     return tuple(out)
+
+
+def _sought_where_oriented(measurer: Measurer, res: FrameOrientation, at: tuple[float, float],
+                           tolerance: float) -> tuple[Located | None, str]:
+    """A mark sought at ``at``, where the frame's orientation ``res`` puts it, like a later fiducial of
+    :func:`measure_marks`: sized like the frame's found marks, in their polarity first, by the frame's method alone
+    from its coarse answer, else :func:`measure_fiducial` within ``tolerance`` px; and why not where it is not
+    found."""
+    marks: list[tuple[Located | None, str]] = [(f.located, "") for f in res.fiducials
+                                               if f.status == FOUND_MARK and f.located is not None]
+    done = list(range(len(marks)))
+    name = _frame_method(marks, done)
+    other: Polarity | None = None
+    if len(measurer.polarities) > 1:
+        polarity = marks[0][0].polarity  # type: ignore[union-attr]
+        measurer, other = replace(measurer, polarities=(polarity,)), opposite(polarity)
+    start = Candidate(at[0], at[1], _median_extent(marks, done), 0.0)
+    got = (None if name is None or _outside(measurer, at)
+           else _by_method(measurer, name, _coarse(measurer, name, start), at, tolerance))
+    return (got, "") if got is not None else measure_fiducial(measurer, start, at, tolerance, other)
+
+
+def second_look(measurer: Measurer, layout: LayoutMatch, located: list[tuple[Located | None, str]],
+                res: FrameOrientation,
+                judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]], FrameOrientation]
+                ) -> FrameOrientation:
+    """``res`` (the frame judged on ``layout``'s marks ``located``) or, better (:func:`_standing`), the frame judged
+    again with the fiducials it left unfound sought where its orientation puts them (:func:`_sought_where_oriented`,
+    within the refined tolerance), wherever that is further than the refined tolerance from where the layout put
+    them: the layout's lie is a hypothesis that the adjustment's F test may overturn (a nearly symmetric layout fits
+    mirrored too, all its marks but one within the layout's tolerance), and a fiducial sought where the wrong lie
+    predicts it is then not found, although the orientation of the others puts it plainly elsewhere. A new mark goes
+    to the layout's fiducial nearest it (the adjustment names the marks again); the adjustment's blunder tests check
+    it with the others."""
+    if res.orientation is None:
+        return res
+    tolerance = max(REFINED_TOLERANCE_MM / adjusted_pixel_mm(res.orientation), MIN_TOLERANCE_PX)
+    again, added = list(located), False
+    for f in res.fiducials:
+        if f.status != MISSING_MARK:
+            continue
+        at = (f.predicted_x, f.predicted_y)
+        k = int(np.argmin(np.hypot(*(layout.predicted - at).T)))
+        if again[k][0] is not None or math.hypot(*(layout.predicted[k] - at)) <= tolerance:
+            continue                                            # sought there already, or its place is taken
+        got, _ = _sought_where_oriented(measurer, res, at, tolerance)
+        if got is not None:
+            again[k], added = (got, ""), True
+    return res if not added or _standing(second := judged(layout, again)) <= _standing(res) else second
 
 
 def _xy(m: Located | None) -> tuple[float, float]:

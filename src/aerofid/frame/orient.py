@@ -749,17 +749,10 @@ def _outside(measurer: Measurer, at: tuple[float, float]) -> str:
 
 def _nearest_mark(measurer: Measurer, area: Box, at: tuple[float, float], tolerance: float,
                   radius: float) -> Located | None:
-    """The predicted area searched like a region: the found mark nearest ``at`` within ``tolerance``. Only the
-    candidates whose own disc reaches within ``tolerance`` of ``at`` are measured: a candidate lies within a third of
-    its radius of the structure it stands for (its level's pixel is a third of its smallest radius), so a mark within
-    the tolerance has one; the others, in the margin that lets screening see whole marks at the area's edge, are
-    the marks and clutter around it (a frame whose mark is missing: 8 of them, 0.5-0.8 mm away, took 3.3 s)."""
+    """The predicted area searched like a region: the found mark nearest ``at`` within ``tolerance``."""
     cands, f = screen_region(measurer.source, area, measurer.colour, measurer.polarities[0], 2.0,
                              max(4.0 * radius, 8.0), AREA_CANDIDATES)
-    near = tuple(c for c in cands if math.hypot(c.x - at[0], c.y - at[1]) <= tolerance + c.radius)
-    if not near:
-        return None
-    marks = [m for m in search(measurer, area, near, f).marks if math.hypot(m.x - at[0], m.y - at[1]) <= tolerance]
+    marks = [m for m in search(measurer, area, cands, f).marks if math.hypot(m.x - at[0], m.y - at[1]) <= tolerance]
     return min(marks, key=lambda m: math.hypot(m.x - at[0], m.y - at[1]), default=None)
 
 

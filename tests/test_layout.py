@@ -128,7 +128,7 @@ def test_near_features_with_a_tolerance_too_small_for_a_grid_ask_the_tree(tol):
 
 
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 30), twice=st.integers(0, 3),
-       tol=st.sampled_from([1e-9, 0.5, 40.0, 300.0]))
+       tol=st.sampled_from([1e-300, 1e-170, 1e-9, 0.5, 40.0, 300.0]))
 @settings(max_examples=60, deadline=None)
 def test_the_predictions_on_their_own_features_answer_as_the_tree(seed, n, twice, tol):
     """:meth:`layout._NearFeatures.query_predictions` gives every prediction of the search's hypotheses the nearest

@@ -267,7 +267,7 @@ def _hypothesis_chunks(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> Ite
     """(i, k, j, l) with |features i-k| * s within :data:`SCALE_TOLERANCE` of |fiducials j-l|, pairs of strong
     features first, then by (j, l) (the first :data:`MAX_HYPOTHESES`), :data:`CHUNK` at a time, each with the index
     of its pair of features; formed :data:`PAIR_BLOCK` pairs at a time, as the search asks for them."""
-    j, l = np.nonzero(~np.eye(len(fiducials_mm), dtype=bool))
+    j, l = _fiducial_pairs(len(fiducials_mm))
     d_mm = np.hypot(*(fiducials_mm[l] - fiducials_mm[j]).T)
     band = SCALE_TOLERANCE * d_mm
     held: list[np.ndarray] = []              # pair indices and fiducial pairs not yet given out, in order
@@ -305,12 +305,12 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     fit_tol = FIT_TOLERANCE_MM / s + position_error_px
     turned = [fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s  # layout in scan axes, px
               for rot, mir in ARRANGEMENTS]
-    j, l = np.nonzero(~np.eye(len(fiducials_mm), dtype=bool))
+    j, l = _fiducial_pairs(len(fiducials_mm))
     directions = [np.arctan2(*(cp[l] - cp[j]).T[::-1]) for cp in turned]       # each lie's fiducial pairs'
     shortlist: dict[tuple[int, ...], tuple[int, float, int, np.ndarray]] = {}
     for hyp, pair in _hypothesis_chunks(pairs, fiducials_mm, s):
         near = near or _NearFeatures(features, tol)
-        fid_pair = hyp[:, 2] * (len(fiducials_mm) - 1) + hyp[:, 3] - (hyp[:, 3] > hyp[:, 2])
+        fid_pair = _pair_index(hyp[:, 2], hyp[:, 3], len(fiducials_mm))
         complete: list[tuple[float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
             turning = hyp[_may_turn_within(pairs.direction[pair], directions[a][fid_pair])]
@@ -345,9 +345,21 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
 
 
 @functools.lru_cache(maxsize=8)
-def _others(n: int) -> np.ndarray:
-    """For each ordered pair of n fiducials (j, l) in row-major order, the n - 2 others, in order."""
+def _fiducial_pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every ordered pair (j, l) of n fiducials, j != l, in row-major order (:func:`_pair_index` numbers them)."""
     j, l = np.nonzero(~np.eye(n, dtype=bool))
+    return j, l
+
+
+def _pair_index(j: np.ndarray, l: np.ndarray, n: int) -> np.ndarray:
+    """The number of each ordered pair (j, l) of n fiducials in :func:`_fiducial_pairs`' order."""
+    return j * (n - 1) + l - (l > j)
+
+
+@functools.lru_cache(maxsize=8)
+def _others(n: int) -> np.ndarray:
+    """For each ordered pair of n fiducials (j, l) in :func:`_fiducial_pairs`' order, the n - 2 others, in order."""
+    j, l = _fiducial_pairs(n)
     keep = (np.arange(n) != j[:, None]) & (np.arange(n) != l[:, None])
     return np.nonzero(keep)[1].reshape(len(j), n - 2)
 
@@ -393,11 +405,13 @@ class _NearFeatures:
         rows = np.arange(h)
         i, k, j, l = hyp.T
         dx, dy = (pred[rows, l] - self.features[k]).T
-        d_l = np.sqrt(dx * dx + dy * dy)
-        plain = (d_l < self.tol) & (self.clearance[i] > 0) & (self.clearance[k] > 2 * d_l)
+        square = dx * dx + dy * dy
+        d_l = np.sqrt(square)
+        # within the tolerance as the tree tests it, on squares (a tolerance whose square underflows holds nothing)
+        plain = (square < self.tol * self.tol) & (self.clearance[i] > 0) & (self.clearance[k] > 2 * d_l)
         d, idx = np.empty(h * n), np.empty(h * n, np.intp)
         if plain.all():                    # each row's other fiducials (of the n - 2 that are neither j nor l)
-            ask = (rows[:, None] * n + _others(n)[j * (n - 1) + l - (l > j)]).ravel()
+            ask = (rows[:, None] * n + _others(n)[_pair_index(j, l, n)]).ravel()
         else:
             ask = np.ones((h, n), bool)
             ask[rows[plain], j[plain]] = ask[rows[plain], l[plain]] = False

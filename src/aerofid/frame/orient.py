@@ -276,7 +276,7 @@ class _Search:
         best: FrameOrientation | None = None
         for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts):
             located = measure_marks(self.measurer, layout, fid_mm, self.features, self.profile)
-            res = second_look(self.measurer, layout, located, judged(layout, located), judged)
+            res = _second_look(self.measurer, layout, located, judged(layout, located), judged)
             if best is None or _standing(res) > _standing(best):
                 best = res
             if res.ok or (self.nominal and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
@@ -539,6 +539,8 @@ def _sought_where_oriented(measurer: Measurer, res: FrameOrientation, at: tuple[
     found."""
     marks: list[tuple[Located | None, str]] = [(f.located, "") for f in res.fiducials
                                                if f.status == FOUND_MARK and f.located is not None]
+    if not marks:
+        return None, "no mark of the frame found to measure it like"
     done = list(range(len(marks)))
     name = _frame_method(marks, done)
     other: Polarity | None = None
@@ -551,33 +553,39 @@ def _sought_where_oriented(measurer: Measurer, res: FrameOrientation, at: tuple[
     return (got, "") if got is not None else measure_fiducial(measurer, start, at, tolerance, other)
 
 
-def second_look(measurer: Measurer, layout: LayoutMatch, located: list[tuple[Located | None, str]],
-                res: FrameOrientation,
-                judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]], FrameOrientation]
-                ) -> FrameOrientation:
-    """``res`` (the frame judged on ``layout``'s marks ``located``) or, better (:func:`_standing`), the frame judged
-    again with the fiducials it left unfound sought where its orientation puts them (:func:`_sought_where_oriented`,
-    within the refined tolerance), wherever that is further than the refined tolerance from where the layout put
-    them: the layout's lie is a hypothesis that the adjustment's F test may overturn (a nearly symmetric layout fits
-    mirrored too, all its marks but one within the layout's tolerance), and a fiducial sought where the wrong lie
-    predicts it is then not found, although the orientation of the others puts it plainly elsewhere. A new mark goes
-    to the layout's fiducial nearest it (the adjustment names the marks again); the adjustment's blunder tests check
-    it with the others."""
+def _second_look(measurer: Measurer, layout: LayoutMatch, located: list[tuple[Located | None, str]],
+                 res: FrameOrientation,
+                 judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]], FrameOrientation]
+                 ) -> FrameOrientation:
+    """``res`` (the frame judged on ``layout``'s marks ``located``) or the frame judged again with the fiducials it
+    left unfound sought where its orientation puts them (:func:`_sought_where_oriented`, within the refined
+    tolerance), wherever that is further than the refined tolerance from where the layout put them: the layout's lie
+    is a hypothesis that the adjustment's F test may overturn, and its fit to coarse features may put a fiducial beyond
+    the tolerance of its mark, which is then not found, although the orientation of the others puts it plainly
+    elsewhere. A new mark goes to the layout's fiducial nearest it (of the camera's: ``res``'s fiducials come first in
+    a layout with the format's other marks), whose prediction becomes the orientation's; the adjustment names the
+    marks again and its blunder tests check the new one with the others. The new frame is kept only where it stands
+    as well (:func:`_standing`) and has more marks found and used (a mark the blunder tests reject is not one)."""
     if res.orientation is None:
         return res
     tolerance = max(REFINED_TOLERANCE_MM / adjusted_pixel_mm(res.orientation), MIN_TOLERANCE_PX)
-    again, added = list(located), False
+    marks, predicted, added = list(located), layout.predicted.copy(), False
+    n = len(res.fiducials)
     for f in res.fiducials:
         if f.status != MISSING_MARK:
             continue
         at = (f.predicted_x, f.predicted_y)
-        k = int(np.argmin(np.hypot(*(layout.predicted - at).T)))
-        if again[k][0] is not None or math.hypot(*(layout.predicted[k] - at)) <= tolerance:
+        k = int(np.argmin(np.hypot(*(layout.predicted[:n] - at).T)))
+        if marks[k][0] is not None or math.hypot(*(layout.predicted[k] - at)) <= tolerance:
             continue                                            # sought there already, or its place is taken
         got, _ = _sought_where_oriented(measurer, res, at, tolerance)
         if got is not None:
-            again[k], added = (got, ""), True
-    return res if not added or _standing(second := judged(layout, again)) <= _standing(res) else second
+            marks[k], predicted[k], added = (got, ""), at, True
+    if not added:
+        return res
+    second = judged(replace(layout, predicted=predicted), marks)
+    used = sum(f.status == FOUND_MARK for f in second.fiducials) > sum(f.status == FOUND_MARK for f in res.fiducials)
+    return second if used and _standing(second) >= _standing(res) else res
 
 
 def _xy(m: Located | None) -> tuple[float, float]:

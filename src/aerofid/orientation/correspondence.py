@@ -176,7 +176,9 @@ def _best_assignment(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[int, .
     dy = px[:, None, None, 1] - proj[:, :, 1].T
     D = dx * dx + dy * dy                            # m x n x h: the hypotheses last, so that each reduction is
     nearest = D.argmin(axis=1)                       # elementwise across whole rows of them
-    bound = np.take_along_axis(D, nearest[:, None], axis=1)[:, 0].sum(axis=0)
+    # each hypothesis's least distances summed along a row of its own, as np.sum adds a point's (the order of the
+    # terms decides ties at the TIE band's edge)
+    bound = np.ascontiguousarray(np.take_along_axis(D, nearest[:, None], axis=1)[:, 0].T).sum(axis=1)
     ranked = np.sort(nearest, axis=0)
     plain = (ranked[1:] != ranked[:-1]).all(axis=0)          # each point's nearest fiducial its own: cost = bound
     solved: list[tuple[float, int, tuple[int, ...]]] = []

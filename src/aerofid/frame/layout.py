@@ -239,12 +239,16 @@ def scale_grid(size_range: tuple[float, float]) -> list[float]:
 @dataclass(frozen=True)
 class _Pairs:
     """Every pair of features (i < k), pairs of strong features first, with their distances (px) and directions
-    (radians, from i to k): what :func:`_hypothesis_chunks` and the rotation limit need at every pixel size."""
+    (radians, from i to k): what :func:`_hypothesis_chunks` and the rotation limit need at every pixel size; and the
+    features' k-d tree and each one's distance to its nearest other (0 for a feature given twice), which
+    :class:`_NearFeatures` needs at every pixel size."""
 
     i: np.ndarray
     k: np.ndarray
     d_px: np.ndarray
     direction: np.ndarray
+    tree: cKDTree
+    clearance: np.ndarray
 
     @classmethod
     def of(cls, features: np.ndarray) -> _Pairs:
@@ -255,7 +259,13 @@ class _Pairs:
         k = np.arange(count.sum()) + np.repeat(first - np.cumsum(count) + count, count)
         i = np.repeat(s, count) - k
         dx, dy = (features[k] - features[i]).T
-        return cls(i, k, np.hypot(dx, dy), np.arctan2(dy, dx))
+        tree = cKDTree(features)
+        return cls(i, k, np.hypot(dx, dy), np.arctan2(dy, dx), tree, _clearance(tree))
+
+
+def _clearance(tree: cKDTree) -> np.ndarray:
+    """Each of the tree's points' distance to its nearest other point (0 for a point given twice)."""
+    return tree.query(tree.data, k=2)[0][:, 1] if tree.n > 1 else np.zeros(tree.n)
 
 
 PAIR_BLOCK = 4096
@@ -309,7 +319,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     directions = [np.arctan2(*(cp[l] - cp[j]).T[::-1]) for cp in turned]       # each lie's fiducial pairs'
     shortlist: dict[tuple[int, ...], tuple[int, float, int, np.ndarray]] = {}
     for hyp, pair in _hypothesis_chunks(pairs, fiducials_mm, s):
-        near = near or _NearFeatures(features, tol)
+        near = near or _NearFeatures(features, tol, pairs)
         fid_pair = _pair_index(hyp[:, 2], hyp[:, 3], len(fiducials_mm))
         complete: list[tuple[float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
@@ -375,10 +385,11 @@ class _NearFeatures:
     of any of their points (a feature's own cell and the 8 around it), and only the points in those cells are looked
     up in the tree. The points are finite (the tree refuses others: here they would be misses)."""
 
-    def __init__(self, features: np.ndarray, tol: float):
-        self.tree, self.n, self.tol, self.features = cKDTree(features), len(features), tol, features
-        # each feature's distance to its nearest other feature (0 for a feature given twice)
-        self.clearance = self.tree.query(features, k=2)[0][:, 1] if len(features) > 1 else np.zeros(len(features))
+    def __init__(self, features: np.ndarray, tol: float, pairs: _Pairs | None = None):
+        """``pairs``: the features' :class:`_Pairs`, whose tree and clearances serve every pixel size (else made)."""
+        self.tree = pairs.tree if pairs is not None else cKDTree(features)
+        self.clearance = pairs.clearance if pairs is not None else _clearance(self.tree)
+        self.n, self.tol, self.features = len(features), tol, features
         self.cell = 1.01 * tol            # points within tol differ by less than one cell: their cells are neighbours
         self.reach: np.ndarray | None = None
         if not tol > 0:
@@ -475,7 +486,8 @@ and their difference is some 1e-15): :func:`_within_rotation` decides."""
 def _may_turn_within(feature_direction: np.ndarray, fiducial_direction: np.ndarray) -> np.ndarray:
     """Whether hypotheses may turn the frame by at most :data:`MAX_ROTATION_DEG` (their pair of features' and pair of
     fiducials' directions, radians): a superset of :func:`_within_rotation`'s, from the directions' difference, so
-    that the similarity is computed only for the few (a 90th of the hypotheses of a lie) that can pass."""
+    that the similarity is computed only for the few that can pass (1 in 16 of a lie's hypotheses on a frame's 512
+    features)."""
     turn = np.abs(feature_direction - fiducial_direction)                  # in [0, 2 pi]: either way round
     limit = math.radians(MAX_ROTATION_DEG) + ANGLE_MARGIN
     return (turn <= limit) | (turn >= 2 * math.pi - limit)

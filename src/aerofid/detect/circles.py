@@ -234,7 +234,9 @@ def hough_circles(x: np.ndarray, y: np.ndarray, radius: float, shape: tuple[int,
 
 
 VOTES_PER_CHUNK = 1_000_000
-"""Votes cast at once by :func:`hough_centres` (about 40 MB of temporaries)."""
+"""Votes cast at once by :func:`hough_centres` (their indices and weights: 16 MB)."""
+VOTES_PER_BLOCK = 1 << 16
+"""Votes whose pixel :func:`hough_centres` computes at once (its float temporaries stay in the processor's cache)."""
 
 
 def hough_centres(ep: EdgePoints, r_min: float, r_max: float, shape: tuple[int, int]) -> np.ndarray:
@@ -250,27 +252,35 @@ def hough_centres(ep: EdgePoints, r_min: float, r_max: float, shape: tuple[int, 
     # and dropped with it (cheaper than selecting the votes inside; each pixel's sum is the same)
     acc = np.zeros((h + 2) * (w + 2))
     step = max(1, VOTES_PER_CHUNK // d.size)  # bounded memory: the votes of a few thousand edge points at a time
-    wt = 1.0 / np.abs(d)
+    chunk = min(step, ep.x.size)
+    weights = np.tile(1.0 / np.abs(d), chunk)       # a chunk's votes' weights, point after point
+    index = np.empty((chunk, d.size), np.int64)
+    block = max(1, VOTES_PER_BLOCK // d.size)
+    row, col = np.empty((block, d.size)), np.empty((block, d.size))
     for i in range(0, ep.x.size, step):
-        sl = slice(i, i + step)
-        # the index in the bordered accumulator, (row + 1) (w + 2) + column + 1, in floating point (exact for these
-        # integers) and in place
-        index = _rounded_votes(ep.y[sl], ep.ny[sl], d, h)
-        index += 1.0
-        index *= w + 2
-        index += _rounded_votes(ep.x[sl], ep.nx[sl], d, w)
-        index += 1.0
-        votes = np.broadcast_to(wt, index.shape).ravel()
-        acc += np.bincount(index.astype(np.int64).ravel(), weights=votes, minlength=acc.size)
+        n = min(step, ep.x.size - i)
+        for j in range(0, n, block):
+            sl, m = slice(i + j, i + min(j + block, n)), min(block, n - j)
+            # the index in the bordered accumulator, (row + 1) (w + 2) + column + 1, in floating point (exact for
+            # these integers) and in place
+            y = _rounded_votes(ep.y[sl], ep.ny[sl], d, h, row[:m])
+            x = _rounded_votes(ep.x[sl], ep.nx[sl], d, w, col[:m])
+            y += 1.0
+            y *= w + 2
+            y += x
+            y += 1.0
+            index[j:j + m] = y
+        acc += np.bincount(index[:n].ravel(), weights=weights[:n * d.size], minlength=acc.size)
     return acc.reshape(h + 2, w + 2)[1:-1, 1:-1] / (2 * np.pi)
 
 
-def _rounded_votes(c: np.ndarray, n: np.ndarray, d: np.ndarray, size: int) -> np.ndarray:
-    """The pixel coordinate (rounded, clipped to -1 .. ``size``) of the points ``c + d n``, a row per point."""
-    v = np.multiply.outer(n, d)
-    v += c[:, None]
-    np.rint(v, out=v)
-    return np.clip(v, -1, size, out=v)
+def _rounded_votes(c: np.ndarray, n: np.ndarray, d: np.ndarray, size: int, out: np.ndarray) -> np.ndarray:
+    """The pixel coordinate (rounded, clipped to -1 .. ``size``) of the points ``c + d n``, a row per point, in
+    ``out``."""
+    np.multiply.outer(n, d, out=out)
+    out += c[:, None]
+    np.rint(out, out=out)
+    return np.clip(out, -1, size, out=out)
 
 
 def _smooth(acc: np.ndarray, sigma: float = 1.0) -> np.ndarray:

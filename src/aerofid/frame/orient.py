@@ -24,7 +24,7 @@ import math
 import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -447,7 +447,12 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
     :data:`REFINED_TOLERANCE_MM`), on a window at least as large as its own screening feature sizes where it has
     one (the marks' extent so far can be another style's: a '+' that ``hough`` measured on a ring and cross gives
-    its arms' half length, a third of the ring's radius that a ring and X in the corners has). The adjustment's
+    its arms' half length, a third of the ring's radius that a ring and X in the corners has). A mark not found
+    there either is sought in its area (:func:`measure_fiducial`), but before :data:`MIN_REFIT` marks are found
+    only after the fiducials that follow it have been measured (then sought again first, by their method and
+    polarity where the others put it, unless none of them was found): a feature that is no mark (an erased or
+    hidden corner's clutter) is the strongest one on some frames, and its area, searched in both polarities within
+    the layout's tolerance, took seconds that the refined prediction and tolerance save. The adjustment's
     blunder tests check them all. A roll ``profile`` gives the
     polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film
     may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
@@ -462,35 +467,19 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     if profile is not None and len(measurer.polarities) > 1:
         measurer = replace(measurer, polarities=(profile.polarity,))
         other = opposite(profile.polarity)
-    for k in order:
+    later: dict[int, tuple[int, Candidate, str]] = {}   # an area search put off: the marks found then, start, why
+    for k in order:                             # (a put-off fiducial is appended to ``order``)
         done = [j for j in range(n) if out[j][0] is not None]
-        name = profile.method if profile is not None else None
-        if len(done) >= MIN_REFIT:
-            found = np.array([_xy(out[j][0]) for j in done])
-            p = layout.predict_from(fiducials_mm, done, found)[k]
-            at = (float(p[0]), float(p[1]))
-            start = Candidate(at[0], at[1], radii[k] if radii is not None else _median_extent(out, done), 0.0)
-            tolerance = max(REFINED_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
-            name = name or _frame_method(out, done)
-            alone_tolerance = max(FRAME_METHOD_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX)
-        else:
-            moved = [np.subtract(_xy(out[j][0]), layout.predicted[j]) for j in done] if follow else []
-            shift = np.mean(moved, axis=0) if moved else np.zeros(2)
-            at = (float(layout.predicted[k][0] + shift[0]), float(layout.predicted[k][1] + shift[1]))
-            m = layout.matched[k]
-            start = (Candidate(at[0], at[1], radii[k], 0.0) if radii is not None
-                     else Candidate(at[0], at[1], profile.mark_radius_px(layout.pixel_size_mm), 0.0)
-                     if profile is not None
-                     else Candidate(at[0], at[1], _median_extent(out, done), 0.0) if done
-                     else _first_window(features[m]) if m is not None
-                     else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
-            tolerance = alone_tolerance = layout.tolerance_px
-            name = name or (_frame_method(out, done) if done else None)
+        at, start, tolerance, alone_tolerance, name = _sought(k, out, done, layout, fiducials_mm, features, profile,
+                                                              follow, radii)
         if outside := _outside(measurer, at):
             out[k] = (None, outside)
             continue
+        if k in later and later[k][0] == len(done):  # no mark found since: the same measurements would fail again
+            out[k] = _in_area(measurer, later[k][1], at, tolerance, later[k][2])
+            continue
         reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
-        quick = None
+        quick, why = None, ""
         if name is not None and len(measurer.polarities) == 1:
             template = templates[k] if templates and reach > 0 else None
             near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
@@ -500,12 +489,56 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             if done and m is not None and radii is None and profile is None:   # at least its own feature's size
                 start = replace(start, radius=max(start.radius, _first_window(features[m]).radius))
             quick = _coarse_first(measurer, start, at, tolerance)
-        out[k] = (quick, "") if quick is not None else measure_fiducial(measurer, start, at, tolerance, other)
+        if quick is None:
+            quick, why = _at_start(measurer, start, tolerance, at, other)
+            if quick is None and len(done) < MIN_REFIT and k not in later and k != order[-1]:
+                later[k] = (len(done), start, why)  # sought in its area after the others (:data:`MIN_REFIT`)
+                order.append(k)
+                continue
+        out[k] = (quick, "") if quick is not None else _in_area(measurer, start, at, tolerance, why)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
             measurer = replace(measurer, polarities=(polarity,))
             other = opposite(polarity)
     return out
+
+
+class _Sought(NamedTuple):
+    """Where and how :func:`measure_marks` seeks a fiducial: the prediction, the window's centre and size, the
+    tolerances (px) of any method and of the frame's method alone, and that method (None: not known yet)."""
+
+    at: tuple[float, float]
+    start: Candidate
+    tolerance: float
+    alone_tolerance: float
+    name: str | None
+
+
+def _sought(k: int, out: list[tuple[Located | None, str]], done: list[int], layout: LayoutMatch,
+            fiducials_mm: np.ndarray, features: tuple[Candidate, ...], profile: RollProfile | None, follow: bool,
+            radii: Sequence[float] | None) -> _Sought:
+    """:func:`measure_marks`' :class:`_Sought` for fiducial ``k`` once the marks ``done`` are found (``out``)."""
+    name = profile.method if profile is not None else None
+    if len(done) >= MIN_REFIT:
+        found = np.array([_xy(out[j][0]) for j in done])
+        p = layout.predict_from(fiducials_mm, done, found)[k]
+        at = (float(p[0]), float(p[1]))
+        start = Candidate(at[0], at[1], radii[k] if radii is not None else _median_extent(out, done), 0.0)
+        return _Sought(at, start, max(REFINED_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX),
+                       max(FRAME_METHOD_TOLERANCE_MM / layout.pixel_size_mm, MIN_TOLERANCE_PX),
+                       name or _frame_method(out, done))
+    moved = [np.subtract(_xy(out[j][0]), layout.predicted[j]) for j in done] if follow else []
+    shift = np.mean(moved, axis=0) if moved else np.zeros(2)
+    at = (float(layout.predicted[k][0] + shift[0]), float(layout.predicted[k][1] + shift[1]))
+    m = layout.matched[k]
+    start = (Candidate(at[0], at[1], radii[k], 0.0) if radii is not None
+             else Candidate(at[0], at[1], profile.mark_radius_px(layout.pixel_size_mm), 0.0)
+             if profile is not None
+             else Candidate(at[0], at[1], _median_extent(out, done), 0.0) if done
+             else _first_window(features[m]) if m is not None
+             else Candidate(at[0], at[1], _median_radius(layout, features), 0.0))
+    return _Sought(at, start, layout.tolerance_px, layout.tolerance_px,
+                   name or (_frame_method(out, done) if done else None))
 
 
 def measure_extra_marks(measurer: Measurer, res: FrameOrientation,
@@ -730,6 +763,14 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
     outside = _outside(measurer, at)
     if outside:
         return None, outside
+    got, why = _at_start(measurer, start, tolerance, at, other_polarity)
+    return (got, "") if got is not None else _in_area(measurer, start, at, tolerance, why)
+
+
+def _at_start(measurer: Measurer, start: Candidate, tolerance: float, at: tuple[float, float],
+              other_polarity: Polarity | None) -> tuple[Located | None, str]:
+    """:func:`measure_fiducial`'s measurements from ``start`` (in the measurer's polarities, then in
+    ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there."""
     got = measurer.candidate(start)
     if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
         return got, ""
@@ -737,13 +778,19 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
         again = replace(measurer, polarities=(other_polarity,)).candidate(start)
         if again.found and math.hypot(again.x - at[0], again.y - at[1]) <= tolerance:
             return again, ""
+    return None, got.detection.reason or "no mark"
+
+
+def _in_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,
+             why: str) -> tuple[Located | None, str]:
+    """:func:`measure_fiducial`'s area search: the mark nearest ``at`` within ``tolerance`` px in the area around
+    it, else None and why not (``why``: why not at ``start``)."""
     half = tolerance + AREA_MARGIN * start.radius
     area, _ = clip_box((at[0] - half, at[1] - half, at[0] + half + 1, at[1] + half + 1), measurer.source.width,
                        measurer.source.height)
     nearest = _nearest_mark(measurer, area, at, tolerance, start.radius)
     if nearest is not None:
         return nearest, ""
-    why = got.detection.reason or "no mark"
     return None, (f"no mark within {tolerance:.0f} px of the predicted ({at[0]:.0f}, {at[1]:.0f}) in the area "
                   f"{area[0]},{area[1]},{area[2]},{area[3]} (at the prediction: {why})")
 

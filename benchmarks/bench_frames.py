@@ -7,7 +7,9 @@ on the real RC20 frame, one run.
 Synthetic frames (:mod:`aerofid.synth_frame`, the Wild RC10-like test camera with 8 marks, the film shifted up to
 3 mm and turned up to 0.5 degrees in the scanner): ``--size`` px square (11000 by default: 22.7 um pixels),
 as a tiled TIFF (512 px tiles), a striped TIFF or a JPEG, clean, noisy (grain and noise), faded (a fifth of
-the contrast) or JPEG-blocky (quality 20), the film in each of the 8 lies (:data:`FRAMES`). ``--quick``: four
+the contrast), JPEG-blocky (quality 20) or damaged (two marks painted over, :data:`DAMAGE_MM`: they must be
+reported not found, and a frame ok with either found is ok but wrong), the film in each of the 8 lies
+(:data:`FRAMES`). ``--quick``: four
 frames of 2500 px. Frames are written once to the cache folder (``--cache``, by default
 ``~/.cache/aerofid-bench/frames``, never the repository), named by their parameters and the hash of
 synth_frame.py. Their TIFFs carry the pixel size as resolution tags; the JPEGs carry none.
@@ -70,8 +72,13 @@ LIES = tuple((rot, mir) for mir in (False, True) for rot in (0, 90, 180, 270))
 FRAMES = ([("tiled", "clean", lie) for lie in LIES]
           + [("tiled", d, lie) for d in ("noisy", "faded", "jpeg") for lie in ((90, False), (180, True))]
           + [("striped", d, lie) for d, lie in (("clean", (270, True)), ("noisy", (0, False)))]
-          + [("jpeg", d, lie) for d, lie in (("clean", (90, True)), ("noisy", (180, False)))])
+          + [("jpeg", d, lie) for d, lie in (("clean", (90, True)), ("noisy", (180, False)))]
+          + [("tiled", "damaged", lie) for lie in ((0, False), (270, True))])
 """(file kind, degradation, lie) of the full run: every lie on clean tiled TIFFs, each degradation twice."""
+DAMAGE_MM = 3.0
+"""A ``damaged`` frame is a clean one with a corner mark and a midside mark painted over: a square of this half-size
+(film mm) around each, a little off its centre, filled with the square's median grey (a blot of the scan or the
+film; the marks are 4 and 3.5 mm across)."""
 ROLL = [("tiled", "clean", (90, True))] * 5
 """A roll: frames of one lie (each film shifted and turned anew); a profile learnt from the first orients the rest."""
 ROLL_SEED = 100
@@ -162,11 +169,36 @@ def make_frames(plan, size: int, cache: Path, first_seed: int = 0) -> tuple[list
 def generate(path: str, kind: str, deg: str, rot: str, mir: str, size: str, seed: str) -> dict:
     """Worker: write one frame, report its truth, time and peak memory."""
     n = int(size)
-    spec = synth_frame.frame_spec(synth_frame.wild_rc10_camera(), FILM_MM / n, np.random.default_rng(int(seed)),
-                                  rotation_deg=int(rot), mirrored=bool(int(mir)), size_px=n, degradation=deg)
+    rng = np.random.default_rng(int(seed))
+    spec = synth_frame.frame_spec(synth_frame.wild_rc10_camera(), FILM_MM / n, rng, rotation_deg=int(rot),
+                                  mirrored=bool(int(mir)), size_px=n,
+                                  degradation="clean" if deg == "damaged" else deg)
     t = time.perf_counter()
-    truth = synth_frame.write_frame(spec, path, kind)
-    return {"truth": truth.to_dict(), "time_s": time.perf_counter() - t, "maxrss_mb": maxrss_mb()}
+    truth = synth_frame.write_frame(spec, path, kind).to_dict()
+    if deg == "damaged":
+        truth["damaged"] = damage(path, truth, rng)
+    return {"truth": truth, "time_s": time.perf_counter() - t, "maxrss_mb": maxrss_mb()}
+
+
+def damage(path: str, truth: dict, rng: np.random.Generator) -> list[str]:
+    """Paint over a corner mark and a midside mark of the tiled TIFF at ``path`` (:data:`DAMAGE_MM`), rewritten
+    with its tags; their names."""
+    import tifffile  # the benchmark's frames only
+
+    styles = synth_frame.default_styles(synth_frame.wild_rc10_camera())
+    names = [str(rng.choice([n for n in truth["marks"] if styles[n].style == kind]))
+             for kind in ("ring_x_dot", "ring_cross")]
+    with tifffile.TiffFile(path) as tif:
+        page = tif.pages[0]
+        image, resolution, tile = page.asarray(), page.resolution, (page.tilelength, page.tilewidth)
+    half = DAMAGE_MM / truth["pixel_size_mm"]
+    for name in names:
+        x, y = np.asarray(truth["marks"][name]) + rng.uniform(-0.2, 0.2, 2) * half
+        x0, y0, x1, y1 = (int(round(v)) for v in (x - half, y - half, x + half, y + half))
+        patch = image[max(0, y0):y1, max(0, x0):x1]
+        patch[...] = np.median(patch)
+    tifffile.imwrite(path, image, photometric="minisblack", resolution=resolution, resolutionunit="INCH", tile=tile)
+    return names
 
 
 def hipp_templates(image: Path, centres: dict[str, tuple[float, float]], folder: Path, half: int) -> None:
@@ -247,7 +279,7 @@ def run_hipp(hipp: str, frame: Frame, repeats: int) -> dict:
     marks = frame.truth["marks"]
     folder = frame.path.with_suffix(".hipp")
     styles = synth_frame.default_styles(synth_frame.wild_rc10_camera())
-    first = {styles[n].style: n for n in reversed(list(marks))}
+    first = {styles[n].style: n for n in reversed(list(marks)) if n not in frame.truth.get("damaged", [])}
     hipp_templates(frame.path, {"corner": marks[first["ring_x_dot"]], "midside": marks[first["ring_cross"]]},
                    folder, round(HIPP_HALF_MM / frame.truth["pixel_size_mm"]))
     out = run_repeats([hipp, "-c", HIPP_WORKER, str(frame.path), str(folder)], repeats)
@@ -261,13 +293,15 @@ def run_hipp(hipp: str, frame: Frame, repeats: int) -> dict:
 # --- scoring and the report ---------------------------------------------------------------------------------
 
 def score(truth: dict, out: dict) -> dict:
-    """Errors (dx, dy) of the found marks, whether each is wrong, the lie recovered, 'ok but wrong'."""
+    """Errors (dx, dy) of the found marks, whether each is wrong (a mark of a damaged frame that was painted over
+    is wrong wherever it is found), the lie recovered, 'ok but wrong'."""
     if "error" in out:
         return {"errors": [], "found": 0, "wrong": 0, "lie_ok": False, "status": "error", "ok_wrong": False}
     named = out.get("assigned", {})
+    gone = set(truth.get("damaged", []))
     err = [(xy[0] - truth["marks"][named.get(k, k)][0], xy[1] - truth["marks"][named.get(k, k)][1])
-           for k, xy in out["marks"].items()]
-    wrong = sum(np.hypot(*e) > WRONG for e in err)
+           for k, xy in out["marks"].items() if named.get(k, k) not in gone]
+    wrong = sum(np.hypot(*e) > WRONG for e in err) + sum(named.get(k, k) in gone for k in out["marks"])
     lie_ok = out.get("lie") is not None and tuple(out["lie"]) == (truth["rotation_deg"], truth["mirrored"])
     return {"errors": err, "found": len(err), "wrong": int(wrong), "lie_ok": lie_ok, "status": out["status"],
             "ok_wrong": out["status"] == "ok" and (wrong > 0 or (out.get("lie") is not None and not lie_ok))}
@@ -282,7 +316,7 @@ def summary_row(label: str, who: str, runs: list[tuple[Frame, dict, dict]]) -> s
     rms = f"{np.sqrt(np.mean(np.sum(err ** 2, axis=1))):.3f}" if len(err) else "-"
     mean = f"{err[:, 0].mean():+.3f}, {err[:, 1].mean():+.3f}" if len(err) else "-"
     found = sum(s["found"] for _, _, s in runs)
-    total = sum(len(f.truth["marks"]) for f, _, _ in runs)
+    total = sum(len(f.truth["marks"]) - len(f.truth.get("damaged", [])) for f, _, _ in runs)
     wrong = sum(s["wrong"] for _, _, s in runs)
     statuses = [s["status"] for _, _, s in runs]
     verdicts = "/".join(str(statuses.count(k)) for k in ("ok", "doubtful", "failed"))

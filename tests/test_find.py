@@ -21,7 +21,15 @@ from aerofid import synth
 from aerofid.detect import screen as screen_module
 from aerofid.detect.registry import METHODS
 from aerofid.detect.screen import MERGE_SHARE, Candidate, local_noise, merge_candidates, screen
-from aerofid.find import Measurer, recentred_half, reduction_for, window_ladder, with_window_term
+from aerofid.find import (
+    MAX_HALF,
+    Measurer,
+    recentred_half,
+    reduction_for,
+    window_half,
+    window_ladder,
+    with_window_term,
+)
 from aerofid.io.array import open_image
 from aerofid.methods import AutoDetector, make_detector
 
@@ -162,6 +170,30 @@ def test_window_ladder_runs_from_the_whole_mark_to_its_core():
     ladder = window_ladder(48.0, 3.0)
     assert ladder[0] == pytest.approx(2.5 * 48 + 8) and ladder[-1] >= 12
     assert all(b < a for a, b in zip(ladder, ladder[1:], strict=False))
+
+
+def test_a_ladder_s_rungs_beyond_the_largest_window_measure_it_once():
+    """A candidate larger than the largest window (a blot's edges screened at a large scale): its ladder's first rungs
+    all read the window of half-size MAX_HALF, measured once (the same pixels give the same answer), then the
+    smaller ones; the answer is the one measuring every rung gives."""
+    rng = np.random.default_rng(4)
+    img = (0.3 + 0.05 * rng.standard_normal((900, 900))).astype(np.float32)
+    c = Candidate(450.0, 450.0, 400.0, 0.0, 120.0)
+    halves = [window_half(h) for h in window_ladder(c.radius, c.inner)]
+    assert halves.count(MAX_HALF) >= 2                         # the case: rungs that clip to the same window
+    seen: list[tuple[int, int]] = []
+    det = make_detector("symmetry", "auto", {})
+
+    def counted(grey):
+        seen.append(grey.shape)
+        return det(grey)
+
+    with open_image(img) as source:
+        got = Measurer(source, counted, ("bright",)).candidate(c)
+        every = [Measurer(source, det, ("bright",)).at(c.x, c.y, h, c) for h in window_ladder(c.radius, c.inner)]
+    assert len(seen) == len(set(halves)) and len(set(seen)) == len(seen)
+    assert not got.found and not any(e.found for e in every)
+    assert got.detection.reason == every[0].detection.reason
 
 
 # --- locate: tight, loose, box-independent ---------------------------------------------------------------------

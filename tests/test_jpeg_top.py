@@ -55,6 +55,22 @@ def test_top_rows_are_the_whole_decode_s_rows(tmp_path, encoding):
         np.testing.assert_array_equal(top, whole[:rows])
 
 
+@pytest.mark.parametrize("limit", [20_000, 10_000])
+def test_a_scan_beyond_pillows_decompression_bomb_limit_gives_its_rows_without_a_warning(tmp_path, monkeypatch,
+                                                                                         limit):
+    """Pillow warns about an image of more than its ``MAX_IMAGE_PIXELS`` (89 million: a 9500 px square scan) and
+    refuses one of twice that; the top rows of such a scan decode all the same, with no warning (warnings are errors
+    here): aerofid's decode budget is the guard. The limit lowered to a small image's 2x or 4x its size."""
+    from PIL import Image
+
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", limit)
+    path = _write(tmp_path / "scan.jpg", _texture((203, 157), 1))
+    header = jpeg.read_header(path, "jpeg")
+    top = jpeg_top.decode_top(path, 64, header)
+    assert top is not None
+    np.testing.assert_array_equal(top, _whole(path)[:64])
+
+
 def test_rows_beyond_a_truncated_file_s_data_are_not_given(tmp_path):
     """A file cut short: the rows its data reaches decode; rows beyond them give None (the whole decode tells)."""
     data = (_write(tmp_path / "scan.jpg", _texture((400, 300), 3))).read_bytes()

@@ -196,7 +196,7 @@ class Measurer:
     def _window(self, x: float, y: float, half: float) -> tuple[Box, np.ndarray]:
         """The window of half-size ``half`` (within :data:`MIN_HALF`, :data:`MAX_HALF`) centred on the pixel nearest
         (x, y), clipped to the image, and its samples."""
-        h = int(min(max(math.ceil(half), MIN_HALF), MAX_HALF))
+        h = window_half(half)
         cx, cy = int(round(x)), int(round(y))
         box, _ = clip_box((cx - h, cy - h, cx + h + 1, cy + h + 1), self.source.width, self.source.height)
         return box, self.source.read_window(box)
@@ -212,7 +212,11 @@ class Measurer:
         its smallest (:func:`window_ladder`) until one is found, then (``settle``, and no ``blank``) re-centred
         windows sized by the mark's own extent until the size settles."""
         first: Located | None = None
+        tried: set[int] = set()
         for half in window_ladder(c.radius, c.inner):
+            if window_half(half) in tried:      # the same window as a rung before (both beyond MAX_HALF)
+                continue
+            tried.add(window_half(half))
             got = self.at(c.x, c.y, half, c, blank)
             first = first or got
             if got.found:
@@ -298,6 +302,12 @@ def recentred_half(extent: float, window: tuple[float, float] = RECENTRED_WINDOW
     """Half-size of the window a mark of radius ``extent`` is measured on again: ``window`` = (times the
     extent, plus px), :data:`RECENTRED_WINDOW` by default."""
     return max(window[0] * extent + window[1], MIN_RECENTRED_HALF)
+
+
+def window_half(half: float) -> int:
+    """The half-size (px) of the window :meth:`Measurer.at` reads for ``half``: rounded up, within :data:`MIN_HALF`
+    and :data:`MAX_HALF`."""
+    return int(min(max(math.ceil(half), MIN_HALF), MAX_HALF))
 
 
 def window_ladder(radius: float, inner: float) -> list[float]:

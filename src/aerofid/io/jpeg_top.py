@@ -44,10 +44,12 @@ def decode_top(path: Path, rows: int, header: ImageHeader) -> np.ndarray | None:
     the top rows ends). The image is a numpy array Pillow decodes into (:func:`_shared_image`: no copy out of
     Pillow); its last row is filled with :data:`SENTINEL` first: an error before it, or the end of the file, leaves it
     so, and gives None."""
-    from PIL import Image  # only a window read before the whole decode is done needs it (start-up)
+    from PIL import Image, JpegImagePlugin  # only a window read before the whole decode is done needs it (start-up)
 
     try:
-        with Image.open(path) as im:
+        # the plugin's class, not Image.open: Pillow's guard against decompression bombs would warn on stderr about
+        # a scan of 90 megapixels and refuse one of 180 (the decode budget, checked before, is the guard here)
+        with JpegImagePlugin.JpegImageFile(path) as im:
             if im.format != "JPEG" or len(im.tile) != 1 or im.mode not in SENTINEL or im.size != (header.width,
                                                                                                    header.height):
                 return None

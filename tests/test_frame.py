@@ -254,51 +254,56 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
                                                                                            refused_again):
     """The first fiducial measured (the strongest feature) is not found at its feature (here: refused by the test):
     its area is not searched then, in both polarities within the layout's tolerance, but after the other marks are
-    found: it is measured again where they put it, by the frame's method (found there), or, where that is refused
-    too (``refused_again``), its area is searched then, in the frame's polarity within the refined tolerance."""
+    found: it is measured again where they put it, by ``auto`` as a first mark is (not by the frame's method alone,
+    which lacks ``auto``'s checks), and found there; or, where that is refused too (``refused_again``), its area is
+    searched then, in the frame's polarity within the refined tolerance."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     first: list[tuple[float, float]] = []
+    calls: list[tuple[str, tuple[float, float]]] = []
 
     def near_first(at) -> bool:
         return bool(first) and math.hypot(at[0] - first[0][0], at[1] - first[0][1]) < 30
+
+    def refused(name: str) -> bool:
+        """The first fiducial's measurements by ``name`` are refused the first time (and always: ``refused_again``)."""
+        return near_first(calls[-1][1]) and (refused_again or [c for c, _ in calls].count(name) == 1)
 
     coarse_first, at_start, by_method = (orient_module._coarse_first, orient_module._at_start,
                                          orient_module._by_method)
 
     def refused_coarse(measurer, start, at, tolerance):
-        if not first:
-            first.append(at)
-        return None if near_first(at) else coarse_first(measurer, start, at, tolerance)
+        first[:] = first or [at]
+        calls.append(("coarse_first", at))
+        return None if refused("coarse_first") else coarse_first(measurer, start, at, tolerance)
 
     def refused_start(measurer, start, tolerance, at, other):
-        return (None, "refused (test)") if near_first(at) else at_start(measurer, start, tolerance, at, other)
+        calls.append(("at_start", at))
+        return (None, "refused (test)") if refused("at_start") else at_start(measurer, start, tolerance, at, other)
 
-    def refused_method(measurer, name, start, at, tolerance):
-        return None if refused_again and near_first(at) else by_method(measurer, name, start, at, tolerance)
+    def method_alone(measurer, name, start, at, tolerance):
+        calls.append(("by_method", at))
+        return by_method(measurer, name, start, at, tolerance)
 
     areas: list[tuple[tuple[float, float], float, tuple[str, ...]]] = []
-    measured: list[tuple[float, float]] = []
     in_area = orient_module._in_area
 
     def recorded(measurer, start, at, tolerance, why):
         areas.append((at, tolerance, measurer.polarities))
         return in_area(measurer, start, at, tolerance, why)
 
-    def counted(measurer, name, start, at, tolerance):
-        got = refused_method(measurer, name, start, at, tolerance)
-        if got is not None:
-            measured.append(at)
-        return got
-
     monkeypatch.setattr(orient_module, "_coarse_first", refused_coarse)
     monkeypatch.setattr(orient_module, "_at_start", refused_start)
-    monkeypatch.setattr(orient_module, "_by_method", counted)
+    monkeypatch.setattr(orient_module, "_by_method", method_alone)
     monkeypatch.setattr(orient_module, "_in_area", recorded)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     assert res.status == "ok" and len(res.found) == len(CAMERA.names), res.reasons
     assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
+    mine = [i for i, (_, at) in enumerate(calls) if near_first(at)]
+    others = [i for i, (_, at) in enumerate(calls) if not near_first(at)]
+    assert [calls[i][0] for i in mine[:3]] == ["coarse_first", "at_start", "coarse_first"]   # not the method alone
+    assert mine[1] < others[0] and mine[2] > others[-1]      # put off until the others were measured
     if not refused_again:
-        assert areas == [] and near_first(measured[-1])    # measured last, where the others put it
+        assert areas == []
         return
     (at, tolerance, polarities), = areas                     # once, after the marks that refine the prediction
     assert near_first(at)

@@ -449,10 +449,12 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     one (the marks' extent so far can be another style's: a '+' that ``hough`` measured on a ring and cross gives
     its arms' half length, a third of the ring's radius that a ring and X in the corners has). A mark not found
     there either is sought in its area (:func:`measure_fiducial`), but before :data:`MIN_REFIT` marks are found
-    only after the fiducials that follow it have been measured (then sought again first, by their method and
-    polarity where the others put it, unless none of them was found): a feature that is no mark (an erased or
-    hidden corner's clutter) is the strongest one on some frames, and its area, searched in both polarities within
-    the layout's tolerance, took seconds that the refined prediction and tolerance save. The adjustment's
+    only after the fiducials that follow it have been measured (then sought again first where the others put it,
+    by ``auto`` as the first marks are, in their polarity first: not by the frame's method alone, which lacks
+    ``auto``'s checks and took a square of clutter left where a mark was erased; unless none of them was found): a
+    feature that is no mark (an erased or hidden corner's clutter) is the strongest one on some frames, and its area,
+    searched in both polarities within the layout's tolerance, took seconds that the refined prediction and
+    tolerance save. The adjustment's
     blunder tests check them all. A roll ``profile`` gives the
     polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film
     may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
@@ -480,7 +482,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             continue
         reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
         quick, why = None, ""
-        if name is not None and len(measurer.polarities) == 1:
+        if name is not None and len(measurer.polarities) == 1 and k not in later:
             template = templates[k] if templates and reach > 0 else None
             near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
             quick = _by_method(measurer, name, near, at, alone_tolerance)

@@ -22,6 +22,7 @@ from aerofid.detect.screen import Candidate
 from aerofid.find import RECENTRED_WINDOW, Measurer, recentred_half
 from aerofid.formats.camera_file import write_camera
 from aerofid.frame import orient as orient_module
+from aerofid.frame import verdict as verdict_module
 from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.frame.nominal import extra_marks
 from aerofid.frame.profile import learn_profile
@@ -31,7 +32,7 @@ from aerofid.io.raster import Raster, open_raster
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.methods import make_detector
 from aerofid.orientation.camera import Camera
-from aerofid.orientation.correspondence import arrangement_matrix
+from aerofid.orientation.correspondence import arrangement_matrix, match_fiducials
 from aerofid.synth_frame import frame_spec, frame_truth, render_frame, wild_rc10_camera, write_frame
 
 CAMERA = wild_rc10_camera()
@@ -310,6 +311,31 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
     assert tolerance == pytest.approx(max(orient_module.REFINED_TOLERANCE_MM / COARSE_MM,
                                           orient_module.MIN_TOLERANCE_PX), rel=0.01)   # the layout's pixel size
     assert len(polarities) == 1
+
+
+@pytest.mark.parametrize("lie", [(0, False), (90, True), (270, True), (180, False)])
+def test_one_blunder_does_not_hide_the_lie_that_the_other_marks_tell(lie):
+    """The 8 marks of the test camera tell its lie (the certificate's few hundredths of a mm); one mark 3.6 px off
+    (a mark half hidden by a blot) makes every lie fit equally; left out, the others tell the lie again, and the
+    adjustment under it rejects that mark. A layout that is symmetric (nominal coordinates) stays untold, and so do
+    too few marks."""
+    rng = np.random.default_rng(1)
+    turned = CAMERA.xy_mm @ np.linalg.inv(arrangement_matrix(*lie, CAMERA.y_axis)).T
+    px = turned / COARSE_MM + 1500 + rng.normal(0, 0.03, (8, 2))
+    px[3] += (3.0, -2.0)
+    corr = match_fiducials(px, CAMERA.xy_mm, "affine", y_axis=CAMERA.y_axis, fiducial_names=CAMERA.names)
+    assert corr.status == "ambiguous"
+    got = verdict_module._lie_without_a_blunder(CAMERA, px, "affine", "", corr)
+    assert got is not None
+    io, fit = got
+    assert (fit.rotation_deg, fit.mirrored) == lie
+    assert [f.name for f in io.rejected] == [CAMERA.names[fit.assignment[3]]]
+    nominal = Camera("nominal", tuple(replace(f, x_mm=round(f.x_mm / 10) * 10.0, y_mm=round(f.y_mm / 10) * 10.0)
+                                      for f in CAMERA.fiducials))
+    sym = match_fiducials(px, nominal.xy_mm, "affine", y_axis=nominal.y_axis, fiducial_names=nominal.names)
+    assert sym.status == "ambiguous" and verdict_module._lie_without_a_blunder(nominal, px, "affine", "", sym) is None
+    few = match_fiducials(px[:5], CAMERA.xy_mm, "affine", y_axis=CAMERA.y_axis, fiducial_names=CAMERA.names)
+    assert verdict_module._lie_without_a_blunder(CAMERA, px[:5], "affine", "", few) is None
 
 
 def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():

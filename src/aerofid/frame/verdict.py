@@ -23,7 +23,12 @@ from aerofid.frame.result import (
     FrameOrientation,
 )
 from aerofid.orientation.camera import Camera
-from aerofid.orientation.correspondence import AmbiguousCorrespondenceError, ArrangementFit
+from aerofid.orientation.correspondence import (
+    AmbiguousCorrespondenceError,
+    ArrangementFit,
+    Correspondence,
+    match_fiducials,
+)
 from aerofid.orientation.interior import orient
 from aerofid.orientation.result import REJECTED, InteriorOrientation
 from aerofid.orientation.transform import transform_class
@@ -84,6 +89,8 @@ def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int,
         return io, best
     except AmbiguousCorrespondenceError as e:
         corr = e.correspondence
+    if lie is None and (cleared := _lie_without_a_blunder(cam, px, model, image, corr)) is not None:
+        return cleared
     want = lie if lie is not None else NOMINAL_LIE
     chosen = next((f for f in corr.tied if (f.rotation_deg, f.mirrored) == tuple(want)), None)
     if chosen is None or lie is None:
@@ -95,6 +102,44 @@ def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int,
     names = [cam.names[j] for j in chosen.assignment]
     return orient(cam, dict(zip(names, px.tolist(), strict=True)), model, correspondence="names",
                   image=image), chosen
+
+
+LEAVE_ONE_OUT = 6
+"""Fewest marks from which one is left out to tell the lie (:func:`_lie_without_a_blunder`): five then remain, two
+more than an affine transformation needs."""
+
+
+def _lie_without_a_blunder(cam: Camera, px: np.ndarray, model: str, image: str, corr: Correspondence
+                           ) -> tuple[InteriorOrientation, ArrangementFit] | None:
+    """The lie the marks tell once one blunder is left out, with the adjustment of all of them under it; None when
+    no single mark hides the lie so. The arrangements' F test compares residuals of a few hundredths of a mm (the
+    certificate's departures from a symmetric layout), so one mark measured a few px off (a mark half hidden by a
+    blot, which the adjustment then rejects) makes every lie fit equally. Left out in turn (at least
+    :data:`LEAVE_ONE_OUT` marks), the marks whose absence makes one lie significantly the best must all point to the
+    same lie, and the adjustment of every mark under it must reject each of them as a blunder."""
+    if len(px) < LEAVE_ONE_OUT:
+        return None
+    told: dict[tuple[int, bool], list[int]] = {}
+    for i in range(len(px)):
+        try:
+            c = match_fiducials(np.delete(px, i, axis=0), cam.xy_mm, model, y_axis=cam.y_axis, fiducial_names=cam.names)
+        except AerofidInputError:
+            continue
+        if c.status == "unique":
+            told.setdefault((c.best.rotation_deg, c.best.mirrored), []).append(i)
+    if len(told) != 1:
+        return None
+    (lie, left_out), = told.items()
+    fit = next((f for f in corr.candidates if (f.rotation_deg, f.mirrored) == lie), None)
+    if fit is None:
+        return None
+    names = [cam.names[j] for j in fit.assignment]
+    try:
+        io = orient(cam, dict(zip(names, px.tolist(), strict=True)), model, correspondence="names", image=image)
+    except AerofidInputError:
+        return None
+    used = {f.name for f in io.used}
+    return (io, fit) if all(names[i] not in used for i in left_out) else None
 
 
 def _m(mirrored: bool) -> str:

@@ -277,9 +277,9 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
         calls.append(("coarse_first", at))
         return None if refused("coarse_first") else coarse_first(measurer, start, at, tolerance)
 
-    def refused_start(measurer, start, tolerance, at, other):
+    def refused_start(measurer, start, at, tolerance, other):
         calls.append(("at_start", at))
-        return (None, "refused (test)") if refused("at_start") else at_start(measurer, start, tolerance, at, other)
+        return (None, "refused (test)") if refused("at_start") else at_start(measurer, start, at, tolerance, other)
 
     def method_alone(measurer, name, start, at, tolerance):
         calls.append(("by_method", at))

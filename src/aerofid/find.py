@@ -214,9 +214,10 @@ class Measurer:
         first: Located | None = None
         tried: set[int] = set()
         for half in window_ladder(c.radius, c.inner):
-            if window_half(half) in tried:      # the same window as a rung before (both beyond MAX_HALF)
+            h = window_half(half)
+            if h in tried:                      # the same window as a rung before (both beyond MAX_HALF)
                 continue
-            tried.add(window_half(half))
+            tried.add(h)
             got = self.at(c.x, c.y, half, c, blank)
             first = first or got
             if got.found:

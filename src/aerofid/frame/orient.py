@@ -492,7 +492,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                 start = replace(start, radius=max(start.radius, _first_window(features[m]).radius))
             quick = _coarse_first(measurer, start, at, tolerance)
         if quick is None:
-            quick, why = _at_start(measurer, start, tolerance, at, other)
+            quick, why = _at_start(measurer, start, at, tolerance, other)
             if quick is None and len(done) < MIN_REFIT and k not in later and k != order[-1]:
                 later[k] = (len(done), start, why)  # sought in its area after the others (:data:`MIN_REFIT`)
                 order.append(k)
@@ -765,11 +765,11 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
     outside = _outside(measurer, at)
     if outside:
         return None, outside
-    got, why = _at_start(measurer, start, tolerance, at, other_polarity)
+    got, why = _at_start(measurer, start, at, tolerance, other_polarity)
     return (got, "") if got is not None else _in_area(measurer, start, at, tolerance, why)
 
 
-def _at_start(measurer: Measurer, start: Candidate, tolerance: float, at: tuple[float, float],
+def _at_start(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,
               other_polarity: Polarity | None) -> tuple[Located | None, str]:
     """:func:`measure_fiducial`'s measurements from ``start`` (in the measurer's polarities, then in
     ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there."""

@@ -99,9 +99,13 @@ def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int,
         reasons.append(f"the film's lie cannot be told from the fiducials ({lies} fit equally well): assumed "
                        f"rotation {chosen.rotation_deg} deg{_m(chosen.mirrored)}; give the lie (--lie) if it is "
                        "not")
-    names = [cam.names[j] for j in chosen.assignment]
-    return orient(cam, dict(zip(names, px.tolist(), strict=True)), model, correspondence="names",
-                  image=image), chosen
+    return _oriented_as(cam, px, model, image, chosen), chosen
+
+
+def _oriented_as(cam: Camera, px: np.ndarray, model: str, image: str, fit: ArrangementFit) -> InteriorOrientation:
+    """The adjustment of the marks ``px`` named as the arrangement ``fit`` assigns them."""
+    names = [cam.names[j] for j in fit.assignment]
+    return orient(cam, dict(zip(names, px.tolist(), strict=True)), model, correspondence="names", image=image)
 
 
 LEAVE_ONE_OUT = 6
@@ -133,13 +137,12 @@ def _lie_without_a_blunder(cam: Camera, px: np.ndarray, model: str, image: str, 
     fit = next((f for f in corr.candidates if (f.rotation_deg, f.mirrored) == lie), None)
     if fit is None:
         return None
-    names = [cam.names[j] for j in fit.assignment]
     try:
-        io = orient(cam, dict(zip(names, px.tolist(), strict=True)), model, correspondence="names", image=image)
+        io = _oriented_as(cam, px, model, image, fit)
     except AerofidInputError:
         return None
     used = {f.name for f in io.used}
-    return (io, fit) if all(names[i] not in used for i in left_out) else None
+    return (io, fit) if all(cam.names[fit.assignment[i]] not in used for i in left_out) else None
 
 
 def _m(mirrored: bool) -> str:

@@ -313,6 +313,38 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
     assert len(polarities) == 1
 
 
+@pytest.mark.parametrize("areas_hold_marks", [True, False])
+def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch, areas_hold_marks):
+    """No fiducial is found at its feature (refused by the test). Where the areas hold the marks, every area is
+    searched and the frame is ok (one midside's area search misses its mark here, as before); where they hold none either (a layout matched on features that are not the
+    frame's marks), only :data:`~aerofid.frame.orient.AREA_PROBES` areas are searched before 3 marks are found, and
+    the other fiducials say why theirs were not."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    refused = (None, "refused (test)")
+    monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
+    monkeypatch.setattr(orient_module, "_by_method", lambda *a: None)
+    monkeypatch.setattr(orient_module, "_at_start", lambda *a: refused)
+    areas: list[tuple[float, float]] = []
+    in_area = orient_module._in_area
+
+    def recorded(measurer, start, at, tolerance, why):
+        areas.append(at)
+        return in_area(measurer, start, at, tolerance, why) if areas_hold_marks else refused
+
+    monkeypatch.setattr(orient_module, "_in_area", recorded)
+    res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
+    if areas_hold_marks:
+        assert res.status == "ok" and len(res.found) >= len(CAMERA.names) - 1, res.reasons
+        assert len(areas) == len(CAMERA.names)
+        assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
+        return
+    assert len(areas) == orient_module.AREA_PROBES
+    assert res.status == "failed" and not res.found
+    unsearched = [f for f in res.fiducials if "its area was not searched" in f.reason]
+    assert len(unsearched) == len(CAMERA.names) - orient_module.AREA_PROBES
+    assert all("refused (test)" in f.reason for f in unsearched)
+
+
 @pytest.mark.parametrize("lie", [(0, False), (90, True), (270, True), (180, False)])
 def test_one_blunder_does_not_hide_the_lie_that_the_other_marks_tell(lie):
     """The 8 marks of the test camera tell its lie (the certificate's few hundredths of a mm); one mark 3.6 px off

@@ -84,6 +84,12 @@ AREA_CANDIDATES = 8
 """Candidates measured in a predicted fiducial area."""
 MIN_REFIT = 3
 """Marks found before the others are predicted from them (an affine transformation)."""
+AREA_PROBES = 2
+"""Fiducial areas searched in vain, before :data:`MIN_REFIT` marks are found, after which a layout's other areas
+are not searched (:func:`measure_marks`): the features it matched are not the frame's marks, and each area searched
+around a prediction that wrong costs seconds of failed searches. On the perturbed synthetic frames of session 26's
+review (marks erased, clutter painted on them, bright borders, noise: scratch), no area searched before 3 marks
+were found held one, and frames failed on a wrong layout took 36-68 s, 80 % of it in such areas."""
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
@@ -454,8 +460,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     ``auto``'s checks and took a square of clutter left where a mark was erased; unless none of them was found): a
     feature that is no mark (an erased or hidden corner's clutter) is the strongest one on some frames, and its area,
     searched in both polarities within the layout's tolerance, took seconds that the refined prediction and
-    tolerance save. The adjustment's
-    blunder tests check them all. A roll ``profile`` gives the
+    tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until :data:`AREA_PROBES` of them
+    held no mark; the others are then left unsearched (a layout matched on features that are not the frame's marks:
+    its areas cost tens of seconds of failed searches). The adjustment's blunder tests check them all. A roll ``profile`` gives the
     polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film
     may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
     shift from theirs, and each is sought first where its learnt template correlates best within the layout's
@@ -470,6 +477,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
         measurer = replace(measurer, polarities=(profile.polarity,))
         other = opposite(profile.polarity)
     later: dict[int, tuple[int, Candidate, str]] = {}   # an area search put off: the marks found then, start, why
+    vain: list[int] = []                        # fiducials whose areas held no mark before MIN_REFIT were found
     for k in order:                             # (a put-off fiducial is appended to ``order``)
         done = [j for j in range(n) if out[j][0] is not None]
         at, start, tolerance, alone_tolerance, name = _sought(k, out, done, layout, fiducials_mm, features, profile,
@@ -478,7 +486,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             out[k] = (None, outside)
             continue
         if k in later and later[k][0] == len(done):  # no mark found since: the same measurements would fail again
-            out[k] = _in_area(measurer, later[k][1], at, tolerance, later[k][2])
+            out[k] = _probed_area(measurer, later[k][1], at, tolerance, later[k][2], len(done), vain, k)
             continue
         reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
         quick, why = None, ""
@@ -497,7 +505,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                 later[k] = (len(done), start, why)  # sought in its area after the others (:data:`MIN_REFIT`)
                 order.append(k)
                 continue
-        out[k] = (quick, "") if quick is not None else _in_area(measurer, start, at, tolerance, why)
+        out[k] = (quick, "") if quick is not None else _probed_area(measurer, start, at, tolerance, why, len(done),
+                                                                     vain, k)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
             measurer = replace(measurer, polarities=(polarity,))
@@ -795,6 +804,23 @@ def _in_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tole
         return nearest, ""
     return None, (f"no mark within {tolerance:.0f} px of the predicted ({at[0]:.0f}, {at[1]:.0f}) in the area "
                   f"{area[0]},{area[1]},{area[2]},{area[3]} (at the prediction: {why})")
+
+
+def _probed_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float, why: str,
+                 found: int, vain: list[int], k: int) -> tuple[Located | None, str]:
+    """:func:`_in_area` for fiducial ``k`` of :func:`measure_marks` once ``found`` marks are found: before
+    :data:`MIN_REFIT`, only until :data:`AREA_PROBES` fiducials' areas have held no mark (``vain``: ``k`` is appended
+    when its area holds none), then not searched, and why."""
+    if found >= MIN_REFIT:
+        return _in_area(measurer, start, at, tolerance, why)
+    if len(vain) >= AREA_PROBES:
+        return None, (f"no mark at the predicted ({at[0]:.0f}, {at[1]:.0f}) ({why}); its area was not searched: "
+                      f"the areas of {len(vain)} fiducials held none and {found} marks were found, too few to "
+                      "predict the others (the features the layout matched are probably not the frame's marks)")
+    got = _in_area(measurer, start, at, tolerance, why)
+    if got[0] is None:
+        vain.append(k)
+    return got
 
 
 def _outside(measurer: Measurer, at: tuple[float, float]) -> str:

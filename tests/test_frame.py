@@ -316,9 +316,10 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
 @pytest.mark.parametrize("areas_hold_marks", [True, False])
 def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch, areas_hold_marks):
     """No fiducial is found at its feature (refused by the test). Where the areas hold the marks, every area is
-    searched and the frame is ok (one midside's area search misses its mark here, as before); where they hold none either (a layout matched on features that are not the
-    frame's marks), only :data:`~aerofid.frame.orient.AREA_PROBES` areas are searched before 3 marks are found, and
-    the other fiducials say why theirs were not."""
+    searched and the frame is ok (one midside's area search misses its mark here, as before); where they hold none
+    either (a layout matched on features that are not the frame's marks), only
+    :data:`~aerofid.frame.orient.AREA_PROBES` areas are searched before 3 marks are found, and the other fiducials
+    say why theirs were not."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
     monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)

@@ -463,8 +463,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until :data:`AREA_PROBES` of them
     held no mark; the others are then left unsearched (a layout matched on features that are not the frame's marks:
     its areas cost tens of seconds of failed searches). The adjustment's blunder tests check them all. A roll
-    ``profile`` gives the polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film
-    may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
+    ``profile`` gives the polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's
+    layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
     shift from theirs, and each is sought first where its learnt template correlates best within the layout's
     tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per fiducial: a roll's
     learnt sizes) size each mark's window."""

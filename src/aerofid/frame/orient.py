@@ -464,10 +464,10 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     held no mark; the others are then left unsearched (a layout matched on features that are not the frame's marks:
     its areas cost tens of seconds of failed searches). The adjustment's blunder tests check them all. A roll
     ``profile`` gives the polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's
-    layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the found marks' mean
-    shift from theirs, and each is sought first where its learnt template correlates best within the layout's
-    tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per fiducial: a roll's
-    learnt sizes) size each mark's window."""
+    layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the
+    found marks' mean shift from theirs, and each is sought first where its learnt template correlates best within
+    the layout's tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per
+    fiducial: a roll's learnt sizes) size each mark's window."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))

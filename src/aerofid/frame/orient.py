@@ -87,9 +87,10 @@ MIN_REFIT = 3
 AREA_PROBES = 2
 """Fiducial areas searched in vain, before :data:`MIN_REFIT` marks are found, after which a layout's other areas
 are not searched (:func:`measure_marks`): the features it matched are not the frame's marks, and each area searched
-around a prediction that wrong costs seconds of failed searches. On the perturbed synthetic frames of session 26's
-review (marks erased, clutter painted on them, bright borders, noise: scratch), no area searched before 3 marks
-were found held one, and frames failed on a wrong layout took 36-68 s, 80 % of it in such areas."""
+around a prediction that wrong costs seconds of failed searches. On 120 perturbed synthetic frames (session 25's
+review: marks erased, displaced, covered, clutter painted on them, bright borders, noise; scratch, session 26), none
+of the 140 areas searched before 3 marks were found held one, and the 15 frames that then failed took 7-124 s, 72 %
+of it in those areas."""
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""

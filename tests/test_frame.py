@@ -329,6 +329,30 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
     assert len(polarities) == 1
 
 
+@pytest.mark.parametrize("lost", [True, False])
+def test_a_frame_failed_on_its_screened_features_is_screened_again_finer(monkeypatch, lost):
+    """A noisy frame's thin marks can vanish in the reduction that screens the whole frame (a 3125^2 frame at 80 um
+    with a bright border, session 26): a frame that fails on the features screened there is screened again at half
+    the reduction. Here the first screen's features are only its weakest 20 (``lost``); a frame ok on the first
+    screen is screened once."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    calls: list[int | None] = []
+    screened = orient_module.frame_features
+
+    def first_lost(source, f=None):
+        calls.append(f)
+        features, g = screened(source, f)
+        return (features[-20:] if lost and f is None else features), g
+
+    monkeypatch.setattr(orient_module, "frame_features", first_lost)
+    res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
+    assert res.status == "ok" and len(res.found) >= 7, res.reasons
+    first = orient_module.reduction_for(*spec.size_px, orient_module.FRAME_PIXELS)
+    assert calls == ([None, first // 2] if lost else [None])
+    assert res.reduction == (first // 2 if lost else first)
+    assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
+
+
 @pytest.mark.parametrize("areas_hold_marks", [True, False])
 def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch, areas_hold_marks):
     """No fiducial is found at its feature (refused by the test). Where the areas hold the marks, every area is

@@ -196,6 +196,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         if best is None or not _settled(best):
             features, f = frame_features(source)
             best = _better(best, frame.oriented(features, f, WHOLE_FRAME, extras))
+            if (best is None or best.status == FAILED) and f > 1:     # thin marks lost in a noisy frame's reduction
+                features, f = frame_features(source, f // 2)
+                best = _better(best, frame.oriented(features, f, WHOLE_FRAME, extras))
             _check_decoded(source)
             if best is None:
                 return _no_layout(frame.head(len(features), f, WHOLE_FRAME), len(cam.fiducials), size, size_source)
@@ -430,9 +433,10 @@ def _check_decoded(source: ImageSource) -> None:
         check()
 
 
-def frame_features(source: ImageSource) -> tuple[tuple[Candidate, ...], int]:
-    """Step 1: the :data:`FEATURES` strongest mark-like features of the whole frame, and the reduction."""
-    f = reduction_for(source.width, source.height, FRAME_PIXELS)
+def frame_features(source: ImageSource, f: int | None = None) -> tuple[tuple[Candidate, ...], int]:
+    """Step 1: the :data:`FEATURES` strongest mark-like features of the whole frame read reduced by ``f`` (default:
+    within :data:`FRAME_PIXELS`), and the reduction."""
+    f = f or reduction_for(source.width, source.height, FRAME_PIXELS)
     reduced, step = read_reduced_levels(source, (0, 0, source.width, source.height), f, overview=True)
     grey = reduced.mean(axis=2) if reduced.ndim == 3 else reduced
     threads = 1 if getattr(source, "decoding", False) else None      # a JPEG's whole decode has the other core

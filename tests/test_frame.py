@@ -358,8 +358,8 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
     """No fiducial is found at its feature (refused by the test). Where the areas hold the marks, every area is
     searched and the frame is ok (one midside's area search misses its mark here, as before); where they hold none
     either (a layout matched on features that are not the frame's marks), only
-    :data:`~aerofid.frame.orient.AREA_PROBES` areas are searched before 3 marks are found, and the other fiducials
-    say why theirs were not."""
+    :data:`~aerofid.frame.orient.AREA_PROBES` areas are searched before 3 marks are found (on each screen of the
+    frame, which fails), and the other fiducials say why theirs were not."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
     monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
@@ -379,7 +379,7 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
         assert len(areas) == len(CAMERA.names)
         assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
         return
-    assert len(areas) == orient_module.AREA_PROBES
+    assert len(areas) == 2 * orient_module.AREA_PROBES          # the frame fails: screened again, 2 areas again
     assert res.status == "failed" and not res.found
     unsearched = [f for f in res.fiducials if "its area was not searched" in f.reason]
     assert len(unsearched) == len(CAMERA.names) - orient_module.AREA_PROBES

@@ -162,7 +162,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
     Returns
     -------
     FrameOrientation
-        ``status`` ok / doubtful / failed with its reasons, a finding per fiducial, the orientation.
+        ``status`` ok / doubtful / failed with its reasons, a finding per fiducial, the orientation. A frame that
+        fails on the features screened at its reduction (``reduction``) is screened again at half of it: a noisy
+        frame's thin marks can vanish in the reduction.
 
     Examples
     --------

@@ -196,14 +196,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         extras = {} if nominal is not None else extra_marks(cam)
         best = frame.in_roll_areas()
         if best is None or not _settled(best):
-            features, f = frame_features(source)
-            best = _better(best, frame.oriented(features, f, WHOLE_FRAME, extras))
-            if (best is None or best.status == FAILED) and f > 1:     # thin marks lost in a noisy frame's reduction
-                features, f = frame_features(source, f // 2)
-                best = _better(best, frame.oriented(features, f, WHOLE_FRAME, extras))
-            _check_decoded(source)
+            best, screened = frame.on_whole_frame(extras, best)
             if best is None:
-                return _no_layout(frame.head(len(features), f, WHOLE_FRAME), len(cam.fiducials), size, size_source)
+                return _no_layout(screened, len(cam.fiducials), size, size_source)
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
     if nominal is not None:
@@ -241,6 +236,20 @@ class _Frame:
                            self.profile)
 
         return search.with_format_marks(fid_mm, extras, judged, search.best(fid_mm, judged))
+
+    def on_whole_frame(self, extras: dict[str, tuple[float, float]], best: FrameOrientation | None
+                       ) -> tuple[FrameOrientation | None, dict[str, Any]]:
+        """The better of ``best`` (the roll areas' answer, or None) and steps 1-4 on the whole frame (:meth:`oriented`
+        on :func:`frame_features`), None when neither holds an answer; and the head of the last screen. Where the
+        better one fails, the frame is screened again at half the reduction (a noisy frame's thin marks can vanish
+        in it)."""
+        features, f = frame_features(self.source)
+        best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras))
+        if (best is None or best.status == FAILED) and f > 1:
+            features, f = frame_features(self.source, f // 2)
+            best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras))
+        _check_decoded(self.source)
+        return best, self.head(len(features), f, WHOLE_FRAME)
 
     def in_roll_areas(self) -> FrameOrientation | None:
         """The frame measured on the roll profile's layout (:mod:`aerofid.frame.roll_areas`), nothing screened;

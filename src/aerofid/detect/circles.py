@@ -1006,9 +1006,12 @@ def fit_single_circle(ep: EdgePoints, members: np.ndarray, cx: float, cy: float,
                                     (cx, cy) if fj is None else (fj.x0, fj.y0))
         if fj is None or not np.isfinite([fj.x0, fj.y0]).all():
             raise Refused(f"circle {j} could not be adjusted on its own")
-        m = de_hough(ep, fj.x0, fj.y0, [fj.radii[0]], band, p.radial_cos) == 0
-        if m.sum() < 5:
+        again = de_hough(ep, fj.x0, fj.y0, [fj.radii[0]], band, p.radial_cos) == 0
+        if again.sum() < 5:
             raise Refused(f"circle {j} could not be adjusted on its own")
+        if np.array_equal(again, m):
+            break  # the same points again: the next pass would end where this one did
+        m = again
     assert fj is not None
     return fj
 

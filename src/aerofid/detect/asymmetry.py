@@ -15,6 +15,37 @@ def patch(img: np.ndarray, x: float, y: float, k: int) -> np.ndarray:
     return cv2.getRectSubPix(np.ascontiguousarray(img, np.float32), (2 * k + 1, 2 * k + 1), (float(x), float(y)))
 
 
+def distances(x: float, y: float, shape: tuple[int, int], origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """Distance (px) from (x, y) of the pixel centres of the block of ``shape`` (rows, columns) whose first pixel is
+    column, row ``origin`` of the window: ``hypot(column - x, row - y)``, from one row and one column of offsets
+    (no coordinate grids: a fifth of the time of ``np.mgrid`` on a 200 px window).
+
+    Examples
+    --------
+    >>> distances(1.0, 0.0, (2, 3)).tolist()
+    [[1.0, 0.0, 1.0], [1.4142135623730951, 1.0, 1.4142135623730951]]
+    """
+    h, w = shape
+    x0, y0 = origin
+    return np.hypot(np.arange(x0, x0 + w) - x, (np.arange(y0, y0 + h) - y)[:, None])
+
+
+def disc_box(x: float, y: float, radius: float, shape: tuple[int, int]) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1): the block of a window of ``shape`` that holds every pixel within ``radius`` of (x, y),
+    a pixel to spare on each side (empty when the disc lies outside the window)."""
+    h, w = shape
+    return (max(0, int(np.floor(x - radius)) - 1), max(0, int(np.floor(y - radius)) - 1),
+            min(w, int(np.floor(x + radius)) + 2), min(h, int(np.floor(y + radius)) + 2))
+
+
+def in_disc(x: float, y: float, radius: float, shape: tuple[int, int]) -> tuple[tuple[slice, slice], np.ndarray]:
+    """(block, mask): the block of :func:`disc_box` as slices of the window, and which of its pixels lie within
+    ``radius`` of (x, y) - the window's pixels in the disc, in the window's row-major order."""
+    x0, y0, x1, y1 = disc_box(x, y, radius, shape)
+    x1, y1 = max(x0, x1), max(y0, y1)
+    return (slice(y0, y1), slice(x0, x1)), distances(x, y, (y1 - y0, x1 - x0), (x0, y0)) <= radius
+
+
 @functools.lru_cache(maxsize=64)
 def disc_mask(k: int, radius: float) -> np.ndarray:
     """The offsets of the (2k+1)-square within ``radius`` of its centre (``hypot(dx, dy) <= radius``), a
@@ -60,4 +91,4 @@ def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: f
     return float(max(0.0, (dd * dd).mean() - 2.0 * n * n) / (2.0 * sig))
 
 
-__all__ = ["disc_mask", "patch", "point_asymmetry"]
+__all__ = ["disc_box", "disc_mask", "distances", "in_disc", "patch", "point_asymmetry"]

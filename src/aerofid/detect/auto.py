@@ -68,8 +68,8 @@ import cv2
 import numpy as np
 
 from aerofid.conventions import FOUND, MARKS, Box
+from aerofid.detect.asymmetry import distances, in_disc, point_asymmetry
 from aerofid.detect.asymmetry import patch as _patch
-from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.hough.cross_fit import CrossFit
 from aerofid.detect.hough.detector import HoughResult, Verified, verify_like
 from aerofid.detect.hough.params import HoughParams
@@ -791,11 +791,11 @@ def similar_size(other: float | None, extent: float, params: AutoParams = AutoPa
 
 def ground_level(img: np.ndarray, x: float, y: float, r_in: float, r_out: float) -> float:
     """Median grey level in the annulus r_in..r_out around (x, y) (whole window when it is empty)."""
-    h, w = img.shape
-    yy, xx = np.mgrid[0:h, 0:w]
-    d = np.hypot(xx - x, yy - y)
+    block, _ = in_disc(x, y, r_out, img.shape)
+    near = img[block]
+    d = distances(x, y, near.shape, (block[1].start, block[0].start))
     sel = (d >= r_in) & (d <= r_out)
-    return float(median(img[sel])) if sel.sum() >= 8 else float(median(img))
+    return float(median(near[sel])) if sel.sum() >= 8 else float(median(img))
 
 
 def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: float,
@@ -878,14 +878,12 @@ def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float 
     """A copy of ``img`` with the disc of ``radius`` around (x, y) replaced by ``level`` (default: the ground
     level around it, :func:`ground_level`) plus white noise of std ``noise`` (a fixed seed: deterministic), so
     that the blank looks like plain ground."""
-    h, w = img.shape
-    yy, xx = np.mgrid[0:h, 0:w]
-    d = np.hypot(xx - x, yy - y) <= radius
+    block, d = in_disc(x, y, radius, img.shape)
     out = img.copy()
     fill = np.random.default_rng(SEED).normal(0.0, noise, int(d.sum())) if noise > 0 else 0.0
     if level is None:
         level = ground_level(img, x, y, radius, radius + 5)
-    out[d] = np.asarray(level + fill, np.float32)
+    out[block][d] = np.asarray(level + fill, np.float32)
     return out
 
 
@@ -911,8 +909,8 @@ def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, ext
     a speck. None left means the box holds nothing but the mark and plain ground."""
     sm0, g, thr = _significance(img, x, y, extent, noise)
     h, w = img.shape
-    yy, xx = np.mgrid[0:h, 0:w]
-    own = int(((np.abs(sm0 - g) > thr) & (np.hypot(xx - x, yy - y) <= extent + edge_margin)).sum())
+    block, near = in_disc(x, y, extent + edge_margin, img.shape)
+    own = int(((np.abs(sm0[block] - g) > thr) & near).sum())
     sig = (np.abs(cv2.GaussianBlur(blanked, (0, 0), 1.0) - g) > thr).astype(np.uint8)
     n, _, stats, _ = cv2.connectedComponentsWithStats(sig, connectivity=8)
     largest = 0.5 * max(h, w) if any_size else 1.5 * 2 * (extent + edge_margin)

@@ -41,6 +41,7 @@ import cv2
 import numpy as np
 
 from aerofid.conventions import FOUND
+from aerofid.detect.asymmetry import distances, in_disc
 from aerofid.detect.noise import difference_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused, unusable_window
@@ -1057,8 +1058,8 @@ def _competitor(window: np.ndarray, ep: EdgePoints, votes: np.ndarray, cx: float
     if main <= 0:
         return None
     vc = votes.copy()
-    yy, xx = np.mgrid[0:h, 0:w]
-    vc[np.hypot(xx - cx, yy - cy) <= max(3.0, 0.25 * min(radii))] = 0
+    block, centre = in_disc(cx, cy, max(3.0, 0.25 * min(radii)), votes.shape)
+    vc[block][centre] = 0
     dil = cv2.dilate(vc, np.ones((5, 5), np.uint8))
     pk = np.nonzero((vc >= dil) & (vc >= ratio * main))
     if pk[0].size == 0:
@@ -1086,9 +1087,7 @@ def _notch_rim(window: np.ndarray, noise: float, cx: float, cy: float, radii: li
     2-6 px inside it (a bright ring's edge falls back to the dark ground within its width)."""
     if np.hypot(ox - cx, oy - cy) + max(radii) + ENCLOSE_MARGIN > r:
         return False
-    h, w = window.shape
-    yy, xx = np.mgrid[0:h, 0:w]
-    d = np.hypot(xx - ox, yy - oy)
+    d = distances(ox, oy, window.shape)
     inside, outside = window[(d >= r - 6) & (d <= r - 2)], window[(d >= r + 2) & (d <= r + 6)]
     if inside.size < 20 or outside.size < 20:
         return False

@@ -1,6 +1,7 @@
-"""Geometry checks shared by the detectors and ``auto``: a patch resampled about a sub-pixel point, and how far a
-pattern is from being centrally symmetric about it (every supported mark style is). :func:`point_asymmetry` is
-the package's one point-asymmetry measure (``symmetry``'s ``max_asymmetry``, ``lines``, ``auto``)."""
+"""Geometry checks shared by the detectors and ``auto``: a patch resampled about a sub-pixel point, the pixels of a
+disc about it, and how far a pattern is from being centrally symmetric about it (every supported mark style is).
+:func:`point_asymmetry` is the package's one point-asymmetry measure (``symmetry``'s ``max_asymmetry``, ``lines``,
+``auto``)."""
 
 from __future__ import annotations
 

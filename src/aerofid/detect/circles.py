@@ -942,10 +942,15 @@ def _adjust(ep: EdgePoints, cx: float, cy: float, radii: list[float], p: Circles
             t: _Trace) -> tuple[CircleFit, np.ndarray]:
     """Steps 3-4: de-Houghing (:func:`de_hough`) and the Gauss-Helmert adjustment
     (:func:`fit_concentric_circles`), twice (the second time about the adjusted centre and radii, with a
-    tolerance of at most 1 px); returns the fit and the circle of each edge point about its centre (-1: none)."""
-    fit = None
+    tolerance of at most 1 px, unless that selects the same edge points on the same circles: then the adjustment
+    would end where it did, within its tolerance); returns the fit and the circle of each edge point about its
+    centre (-1: none)."""
+    fit, lab = None, None
     for tol_i in (p.dehough_tol, min(p.dehough_tol, 1.0)):
-        lab = de_hough(ep, cx, cy, radii, tol_i, p.radial_cos)
+        again = de_hough(ep, cx, cy, radii, tol_i, p.radial_cos)
+        if lab is not None and np.array_equal(again, lab):
+            break  # the same points on the same circles: the adjustment would end where it did
+        lab = again
         sel = lab >= 0
         if any((lab == j).sum() < 5 for j in range(len(radii))):
             raise Refused("a circle has fewer than 5 edge points after de-Houghing")

@@ -433,3 +433,20 @@ def test_a_cross_larger_than_half_the_box_beats_a_dust_speck():
     d = detect(img)
     m = sc.marks[0]
     assert d.found and np.hypot(d.x - m.x, d.y - m.y) < 0.1, (d.x, d.y, d.reason)
+
+
+@given(x=st.floats(-40, 190), y=st.floats(-40, 160), r_in=st.floats(0, 30), width=st.floats(0, 60))
+def test_blank_and_ground_level_read_the_disc_as_the_whole_window_defines_it(x, y, r_in, width):
+    """The disc and annulus are read from the pixels that can lie in them (asymmetry.in_disc); every pixel of the
+    window within the radius, for discs inside, cut by and outside the window, in the window's order."""
+    img = np.random.default_rng(3).random((120, 150)).astype(np.float32)
+    yy, xx = np.mgrid[0:120, 0:150]
+    d = np.hypot(xx - x, yy - y)
+    r_out = r_in + width
+    ring = (d >= r_in) & (d <= r_out)
+    level = float(np.median(img[ring])) if ring.sum() >= 8 else float(np.median(img))
+    assert auto.ground_level(img, x, y, r_in, r_out) == level
+    disc = d <= r_out
+    want = img.copy()
+    want[disc] = np.asarray(0.5 + np.random.default_rng(auto.SEED).normal(0.0, 0.02, int(disc.sum())), np.float32)
+    assert np.array_equal(auto.blank_disc(img, x, y, r_out, 0.02, level=0.5), want)

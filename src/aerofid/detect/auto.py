@@ -68,7 +68,7 @@ import cv2
 import numpy as np
 
 from aerofid.conventions import FOUND, MARKS, Box
-from aerofid.detect.asymmetry import distances, in_disc, point_asymmetry
+from aerofid.detect.asymmetry import disc_box, distances, in_disc, point_asymmetry
 from aerofid.detect.asymmetry import patch as _patch
 from aerofid.detect.hough.cross_fit import CrossFit
 from aerofid.detect.hough.detector import HoughResult, Verified, verify_like
@@ -791,9 +791,9 @@ def similar_size(other: float | None, extent: float, params: AutoParams = AutoPa
 
 def ground_level(img: np.ndarray, x: float, y: float, r_in: float, r_out: float) -> float:
     """Median grey level in the annulus r_in..r_out around (x, y) (whole window when it is empty)."""
-    block, _ = in_disc(x, y, r_out, img.shape)
-    near = img[block]
-    d = distances(x, y, near.shape, (block[1].start, block[0].start))
+    x0, y0, x1, y1 = disc_box(x, y, r_out, img.shape)
+    near = img[y0:y1, x0:x1]
+    d = distances(x, y, near.shape, (x0, y0))
     sel = (d >= r_in) & (d <= r_out)
     return float(median(near[sel])) if sel.sum() >= 8 else float(median(img))
 

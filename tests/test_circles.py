@@ -92,6 +92,44 @@ def test_gauss_helmert_sigma_matches_monte_carlo():
     assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
 
 
+def _pope_iteration(x, y, lab, x0, y0, radii, iterations=200):
+    """Pope's rigorous iteration of the Gauss-Helmert model (linearised at the corrected observations), run far past
+    convergence: the adjustment's solution by the textbook route."""
+    R = np.array(radii, float)
+    ex, ey = np.zeros_like(x), np.zeros_like(y)
+    for _ in range(iterations):
+        dx, dy = x + ex - x0, y + ey - y0
+        bx, by, rk = 2 * dx, 2 * dy, R[lab]
+        m = bx * bx + by * by
+        A = np.zeros((x.size, 2 + R.size))
+        A[:, 0], A[:, 1] = -bx, -by
+        A[np.arange(x.size), 2 + lab] = -2 * rk
+        w = dx * dx + dy * dy - rk * rk - (bx * ex + by * ey)
+        step = -np.linalg.solve(A.T @ (A / m[:, None]), (A / m[:, None]).T @ w)
+        kk = -(A @ step + w) / m
+        ex, ey = bx * kk, by * kk
+        x0, y0, R = x0 + step[0], y0 + step[1], R + step[2:]
+    return x0, y0, R
+
+
+@settings(max_examples=30, deadline=None)
+@given(r1=st.floats(3.0, 25.0), dr=st.floats(1.5, 20.0), noise=st.floats(0.02, 0.8), span=st.floats(np.pi, 2 * np.pi),
+       seed=st.integers(0, 2 ** 16))
+def test_the_adjustment_is_the_gauss_helmert_solution(r1, dr, noise, span, seed):
+    """fit_concentric_circles solves the model by Gauss-Newton on the orthogonal distances: on noisy points it
+    reaches the solution of Pope's iteration, and its corrections put every point on its circle."""
+    rng = np.random.default_rng(seed)
+    x, y, lab = _circle_points(4.0, -3.0, (r1, r1 + dr), 30, rng, arc=(0.0, span))
+    x, y = x + rng.normal(0, noise, x.size), y + rng.normal(0, noise, y.size)
+    fit = circles.fit_concentric_circles(x, y, lab, centre=(4.5, -3.5), radii=(r1 + 0.5, r1 + dr - 0.5))
+    assert fit is not None and fit.converged
+    x0, y0, radii = _pope_iteration(x, y, lab, 4.5, -3.5, (r1 + 0.5, r1 + dr - 0.5))
+    assert (fit.x0, fit.y0) == pytest.approx((x0, y0), abs=1e-8)
+    assert fit.radii == pytest.approx(tuple(radii), abs=1e-8)
+    on = np.hypot(x + fit.residuals[:, 0] - fit.x0, y + fit.residuals[:, 1] - fit.y0) - np.array(fit.radii)[lab]
+    assert np.abs(on).max() < 1e-9
+
+
 def test_gauss_helmert_degenerate_input_returns_none():
     assert circles.fit_concentric_circles(np.array([1.0, 2.0]), np.array([1.0, 2.0]), np.array([0, 1])) is None
 

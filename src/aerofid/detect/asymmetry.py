@@ -19,7 +19,8 @@ def patch(img: np.ndarray, x: float, y: float, k: int) -> np.ndarray:
 def distances(x: float, y: float, shape: tuple[int, int], origin: tuple[int, int] = (0, 0)) -> np.ndarray:
     """Distance (px) from (x, y) of the pixel centres of the block of ``shape`` (rows, columns) whose first pixel is
     column, row ``origin`` of the window: ``hypot(column - x, row - y)``, from one row and one column of offsets
-    (no coordinate grids: a fifth of the time of ``np.mgrid`` on a 200 px window).
+    (no coordinate grids: 0.73 ms against 1.7 ms for ``np.mgrid`` and the offsets on a 200 px window, scratch timing
+    of 200 calls, session 27).
 
     Examples
     --------
@@ -33,17 +34,16 @@ def distances(x: float, y: float, shape: tuple[int, int], origin: tuple[int, int
 
 def disc_box(x: float, y: float, radius: float, shape: tuple[int, int]) -> tuple[int, int, int, int]:
     """(x0, y0, x1, y1): the block of a window of ``shape`` that holds every pixel within ``radius`` of (x, y),
-    a pixel to spare on each side (empty when the disc lies outside the window)."""
+    a pixel to spare on each side (empty, x1 = x0 or y1 = y0, when the disc lies outside the window)."""
     h, w = shape
-    return (max(0, int(np.floor(x - radius)) - 1), max(0, int(np.floor(y - radius)) - 1),
-            min(w, int(np.floor(x + radius)) + 2), min(h, int(np.floor(y + radius)) + 2))
+    x0, y0 = max(0, int(np.floor(x - radius)) - 1), max(0, int(np.floor(y - radius)) - 1)
+    return x0, y0, max(x0, min(w, int(np.floor(x + radius)) + 2)), max(y0, min(h, int(np.floor(y + radius)) + 2))
 
 
 def in_disc(x: float, y: float, radius: float, shape: tuple[int, int]) -> tuple[tuple[slice, slice], np.ndarray]:
     """(block, mask): the block of :func:`disc_box` as slices of the window, and which of its pixels lie within
     ``radius`` of (x, y) - the window's pixels in the disc, in the window's row-major order."""
     x0, y0, x1, y1 = disc_box(x, y, radius, shape)
-    x1, y1 = max(x0, x1), max(y0, y1)
     return (slice(y0, y1), slice(x0, x1)), distances(x, y, (y1 - y0, x1 - x0), (x0, y0)) <= radius
 
 

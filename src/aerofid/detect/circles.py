@@ -588,12 +588,12 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray,
             step = np.linalg.solve(Jw.T @ Jw, -(Jw.T @ ((d - R[label]) * root_p)))
         except np.linalg.LinAlgError:
             return None
+        if not np.all(np.isfinite(step)):
+            return None
         x0 += step[0]
         y0 += step[1]
         if not fix_radii:
             R += step[2:]
-        if not np.all(np.isfinite(step)):
-            return None
         if float(np.max(np.abs(step))) < tol:
             converged = True
             break

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, overload
@@ -98,6 +99,105 @@ def _reddi_iteration(class_means: Callable[[int], tuple[float, float]], n_bins: 
     return None
 
 
+@dataclass(frozen=True)
+class Thresholds:
+    """:func:`optimum_thresholds` of several windows: per window, whether it has one (``found``) and the fields of
+    :class:`Threshold` (NaN, and 0 iterations, where it has none)."""
+
+    found: np.ndarray
+    value: np.ndarray
+    mean_dark: np.ndarray
+    mean_bright: np.ndarray
+    bright_fraction: np.ndarray
+    iterations: np.ndarray
+
+    def threshold(self, i: int) -> Threshold | None:
+        """Window ``i``'s :class:`Threshold` (None where it has none), as :func:`optimum_threshold` returns it."""
+        if not self.found[i]:
+            return None
+        return Threshold(value=float(self.value[i]), mean_dark=float(self.mean_dark[i]),
+                         mean_bright=float(self.mean_bright[i]), bright_fraction=float(self.bright_fraction[i]),
+                         iterations=int(self.iterations[i]))
+
+
+def optimum_thresholds(windows: np.ndarray, n_bins: int = N_BINS, max_iterations: int = MAX_ITERATIONS,
+                       min_contrast: float = MIN_CONTRAST) -> Thresholds:
+    """:func:`optimum_threshold` of each row of ``windows`` (``(n, pixels)``, every value finite) at once: each
+    row's histogram, cumulative sums and Reddi iteration (:func:`_reddi_iteration`'s steps, its cycle rule included)
+    are the same operations on the same numbers, so the same thresholds, to the bit (a test compares them on some
+    30 000 windows). Several times faster than one call per window for a few dozen windows (a window's own call
+    is faster for one).
+
+    Examples
+    --------
+    >>> t = optimum_thresholds(np.array([[0.1, 0.1, 0.9, 0.9], [0.5, 0.5, 0.5, 0.5]]))
+    >>> t.found.tolist(), round(float(t.value[0]), 3)
+    ([True, False], 0.5)
+    """
+    v = np.asarray(windows, dtype=np.float64)
+    n, size = v.shape
+    lo, hi = v.min(axis=1, initial=np.inf), v.max(axis=1, initial=-np.inf)
+    width = (hi - lo) / n_bins
+    rows = np.flatnonzero((hi - lo >= min_contrast) & (size >= 2))
+    m = rows.size
+    idx = np.minimum(((v[rows] - lo[rows, None]) / width[rows, None]).astype(np.int64), n_bins - 1)
+    hist = np.bincount((idx + n_bins * np.arange(m)[:, None]).ravel(), minlength=m * n_bins)
+    hist = hist.reshape(m, n_bins).astype(np.float64)
+    c0, c1 = np.zeros((m, n_bins + 1)), np.zeros((m, n_bins + 1))   # c0[:, k] = pixels in bins < k, c1 their sum
+    np.cumsum(hist, axis=1, out=c0[:, 1:])
+    np.cumsum(hist * np.arange(n_bins, dtype=np.float64), axis=1, out=c1[:, 1:])
+    k, iterations = _reddi_iterations(c0, c1, n_bins, max_iterations)
+    done = iterations > 0
+    rows, k, iterations, c0, c1 = rows[done], k[done], iterations[done], c0[done], c1[done]
+    at = np.arange(rows.size)
+    below0, below1, total0, total1 = c0[at, k], c1[at, k], c0[:, -1], c1[:, -1]
+    m_dark, m_bright = below1 / below0, (total1 - below1) / (total0 - below0)
+    def per_window(got: np.ndarray) -> np.ndarray:
+        a = np.full(n, np.nan)
+        a[rows] = got
+        return a
+
+    found, its = np.zeros(n, bool), np.zeros(n, np.int64)
+    found[rows], its[rows] = True, iterations
+    low, step = lo[rows], width[rows]
+    return Thresholds(found, per_window(low + k * step), per_window(low + (m_dark + 0.5) * step),
+                      per_window(low + (m_bright + 0.5) * step), per_window((total0 - below0) / total0), its)
+
+
+def _reddi_iterations(c0: np.ndarray, c1: np.ndarray, n_bins: int, max_iterations: int
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_reddi_iteration` for every row of the cumulative sums ``c0``, ``c1`` (:func:`optimum_threshold`'s,
+    one window per row) at once: (k, iterations), 0 iterations where it gave None."""
+    m = len(c0)
+    k = np.full(m, n_bins // 2, np.int64)
+    found_k, found_it = np.zeros(m, np.int64), np.zeros(m, np.int64)
+    visited = np.full((m, n_bins), np.inf)        # |e| at each k visited, and the iteration it was visited in
+    when = np.zeros((m, n_bins), np.int64)
+    live = np.arange(m)
+    total0, total1 = c0[:, -1], c1[:, -1]
+    for it in range(1, max_iterations + 1):
+        if not live.size:
+            break
+        kk = k[live]
+        m_dark = c1[live, kk] / c0[live, kk]
+        m_bright = (total1[live] - c1[live, kk]) / (total0[live] - c0[live, kk])
+        e = (m_dark + m_bright) / 2.0 + 0.5 - kk
+        settled = np.abs(e) < 0.5
+        found_k[live[settled]], found_it[live[settled]] = kk[settled], it
+        live, kk, e = live[~settled], kk[~settled], e[~settled]
+        visited[live, kk], when[live, kk] = np.abs(e), it
+        k_next = np.clip(np.rint(kk + e), 1, n_bins - 1).astype(np.int64)
+        cycle = np.isfinite(visited[live, k_next])
+        if cycle.any():        # the k that came closest, the first visited of equals (a dict's min)
+            ended = live[cycle]
+            closest = visited[ended] == visited[ended].min(axis=1)[:, None]
+            found_k[ended] = np.where(closest, when[ended], max_iterations + 1).argmin(axis=1)
+            found_it[ended] = it
+        live = live[~cycle]
+        k[live] = k_next[~cycle]
+    return found_k, found_it
+
+
 def interclass_variance(window: np.ndarray, k: float) -> float:
     """sigma^2(k) = p_D (m_D - m_O)^2 + p_B (m_B - m_O)^2 (seed 001, eq. 4) for a threshold ``k``."""
     v = np.asarray(window, dtype=np.float64).ravel()
@@ -160,23 +260,73 @@ def local_dynamic_threshold(window: np.ndarray, region: int = 8, noise_k: float 
 def tile_thresholds(w: np.ndarray, region: int, min_sep: float, min_contrast: float = MIN_CONTRAST,
                     min_class: int = 2) -> np.ndarray:
     """The optimum threshold of every ``region`` x ``region`` tile of ``w`` that is bimodal (both classes of
-    at least ``min_class`` pixels, means at least ``min_sep`` apart); NaN for the other tiles."""
+    at least ``min_class`` pixels, means at least ``min_sep`` apart); NaN for the other tiles.
+
+    The tiles of one shape (the whole ones; those of the last row, of the last column, the corner) are thresholded
+    together (:func:`optimum_thresholds`: the thresholds :func:`optimum_threshold` gives each). A tile's classes are
+    its pixels at and above the threshold (compared in ``w``'s type) and below it; their means are compared in
+    float64, and in ``w``'s own arithmetic, as one tile's ``mean()`` gives them, where the two could disagree
+    (within :data:`MEAN_GUARD` of ``min_sep``)."""
     h, wd = w.shape
     ny, nx = -(-h // region), -(-wd // region)
     t = np.full((ny, nx), np.nan)
-    for i in range(ny):
-        for j in range(nx):
-            tile = w[i * region:(i + 1) * region, j * region:(j + 1) * region]
-            th = optimum_threshold(tile, min_contrast=min_contrast)
-            if th is None:
-                continue
-            bright = tile >= th.value
-            nb = int(bright.sum())
-            if nb < min_class or tile.size - nb < min_class:
-                continue
-            if float(tile[bright].mean() - tile[~bright].mean()) >= min_sep:
-                t[i, j] = th.value
+    for (i0, ni, th), (j0, nj, tw) in itertools.product(_tile_bands(h, region), _tile_bands(wd, region)):
+        block = w[i0 * region:i0 * region + ni * th, j0 * region:j0 * region + nj * tw]
+        tiles = block.reshape(ni, th, nj, tw).transpose(0, 2, 1, 3).reshape(ni * nj, th * tw)
+        t[i0:i0 + ni, j0:j0 + nj] = _bimodal(tiles, min_sep, min_contrast, min_class).reshape(ni, nj)
     return t
+
+
+MEAN_GUARD = 1e-4
+"""Where the difference of a tile's class means in float64 lies within this fraction of its largest grey level of
+``min_sep``, :func:`tile_thresholds` takes it as ``mean()`` gives it in the tile's own type (float32 rounding of
+sums of at most a few hundred terms lies far within it)."""
+
+
+def _tile_bands(n: int, region: int) -> list[tuple[int, int, int]]:
+    """The tiles along an axis of ``n`` px by size: (first tile, number of tiles, their size)."""
+    bands = [(0, n // region, region)] if n >= region else []
+    return bands + ([(n // region, 1, n % region)] if n % region else [])
+
+
+def _bimodal(tiles: np.ndarray, min_sep: float, min_contrast: float, min_class: int) -> np.ndarray:
+    """:func:`tile_thresholds` on tiles of one shape, one per row of ``tiles``: the threshold, or NaN."""
+    out = np.full(len(tiles), np.nan)
+    finite = np.isfinite(tiles).all(axis=1)
+    for i in np.flatnonzero(~finite).tolist():      # pixels without a value: one tile at a time
+        out[i] = _bimodal_tile(tiles[i], min_sep, min_contrast, min_class)
+    rows = np.flatnonzero(finite)
+    if not rows.size:
+        return out
+    found = optimum_thresholds(tiles[rows], min_contrast=min_contrast)
+    rows, value = rows[found.found], found.value[found.found]
+    sub = tiles[rows]
+    cut = value.astype(sub.dtype) if sub.dtype.kind == "f" else value   # as ``tile >= threshold`` compares
+    bright = sub >= cut[:, None]
+    nb = bright.sum(axis=1)
+    enough = (nb >= min_class) & (sub.shape[1] - nb >= min_class)
+    rows, value, sub, bright, nb = rows[enough], value[enough], sub[enough], bright[enough], nb[enough]
+    g = sub.astype(np.float64)
+    sum_bright = np.where(bright, g, 0.0).sum(axis=1)
+    diff = sum_bright / nb - (g.sum(axis=1) - sum_bright) / (sub.shape[1] - nb)
+    keep = diff >= min_sep
+    close = np.abs(diff - min_sep) <= MEAN_GUARD * np.maximum(np.abs(g).max(axis=1), 1.0)
+    for i in np.flatnonzero(close).tolist():
+        keep[i] = float(sub[i][bright[i]].mean() - sub[i][~bright[i]].mean()) >= min_sep
+    out[rows[keep]] = value[keep]
+    return out
+
+
+def _bimodal_tile(tile: np.ndarray, min_sep: float, min_contrast: float, min_class: int) -> float:
+    """:func:`tile_thresholds` on one tile (its pixels in any order): the threshold, or NaN."""
+    th = optimum_threshold(tile, min_contrast=min_contrast)
+    if th is None:
+        return float("nan")
+    bright = tile >= th.value
+    nb = int(bright.sum())
+    if nb < min_class or tile.size - nb < min_class:
+        return float("nan")
+    return th.value if float(tile[bright].mean() - tile[~bright].mean()) >= min_sep else float("nan")
 
 
 def fill_tiles(t: np.ndarray) -> np.ndarray:

@@ -29,13 +29,21 @@ import numpy as np
 
 from aerofid.detect.hough.params import DEFAULT, HoughParams
 from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
-from aerofid.detect.threshold import optimum_threshold
+from aerofid.detect.threshold import Threshold, optimum_threshold
 
 METHOD = "hough"
 
 EXTERNAL_NEIGHBOUR = 0.75
 """The ideal external-fiducial profile: 1 at the two peaks, this value one theta step either side
 (Appendix C ``correlate``)."""
+
+
+class Unknown:
+    """The type of :data:`UNKNOWN`."""
+
+
+UNKNOWN = Unknown()
+"""A window's optimum threshold not yet computed (:func:`analyse_window` computes it)."""
 
 
 @dataclass(frozen=True)
@@ -151,9 +159,12 @@ def window_accumulator(binary: np.ndarray, thetas_deg: np.ndarray, rho_step: flo
     return accumulate(xs, ys, np.deg2rad(thetas_deg), -rho_max, rho_step, n_rho), -rho_max
 
 
-def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT) -> WindowAnalysis | str:
-    """One window's Hough analysis (thesis ``fid`` without the recursion), or a string saying why not."""
-    thr = optimum_threshold(window)
+def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT,
+                   known: Threshold | None | Unknown = UNKNOWN) -> WindowAnalysis | str:
+    """One window's Hough analysis (thesis ``fid`` without the recursion), or a string saying why not.
+    ``known``: the window's :func:`~aerofid.detect.threshold.optimum_threshold` where it is known (None: it
+    has none; the search computes those of its spiral's windows together)."""
+    thr = optimum_threshold(window) if isinstance(known, Unknown) else known
     if thr is None:
         return "homogeneous window"
     threshold = thr.value * params.threshold_gain
@@ -225,5 +236,5 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
     return best
 
 
-__all__ = ["HoughParams", "WindowAnalysis", "analyse_window", "best_pair", "column_rho", "matched_filter",
+__all__ = ["UNKNOWN", "HoughParams", "WindowAnalysis", "analyse_window", "best_pair", "column_rho", "matched_filter",
            "similarity", "theta_projection", "threshold_accumulator", "window_accumulator"]

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -164,38 +165,57 @@ def optimum_thresholds(windows: np.ndarray, n_bins: int = N_BINS, max_iterations
                       per_window(low + (m_bright + 0.5) * step), per_window((total0 - below0) / total0), its)
 
 
+STRAGGLERS = 4
+"""When this few windows of :func:`optimum_thresholds` are still iterating, each is finished alone
+(:func:`_reddi_iteration` from its start: the same steps), not by whole-array steps for a handful of rows."""
+
+
 def _reddi_iterations(c0: np.ndarray, c1: np.ndarray, n_bins: int, max_iterations: int
                       ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_reddi_iteration` for every row of the cumulative sums ``c0``, ``c1`` (:func:`optimum_threshold`'s,
-    one window per row) at once: (k, iterations), 0 iterations where it gave None."""
-    m = len(c0)
+    one window per row) at once: (k, iterations), 0 iterations where it gave None. Every k's step
+    e = (m_dark(k) + m_bright(k)) / 2 + 0.5 - k is computed first, for the whole table (the same operations as
+    one k's), so that an iteration gathers one value per row."""
+    m, width = c0.shape
+    total0, total1 = c0[:, -1:], c1[:, -1:]
+    with np.errstate(divide="ignore", invalid="ignore"):       # k = 0 and n_bins leave a class empty: never visited
+        error = ((c1 / c0 + (total1 - c1) / (total0 - c0)) / 2.0 + 0.5 - np.arange(width)).ravel()
+    base = width * np.arange(m)
     k = np.full(m, n_bins // 2, np.int64)
     found_k, found_it = np.zeros(m, np.int64), np.zeros(m, np.int64)
-    visited = np.full((m, n_bins), np.inf)        # |e| at each k visited, and the iteration it was visited in
-    when = np.zeros((m, n_bins), np.int64)
+    visited = np.full(m * width, np.inf)      # |e| at each k visited, and the iteration it was visited in
+    when = np.zeros(m * width, np.int64)
     live = np.arange(m)
-    total0, total1 = c0[:, -1], c1[:, -1]
     for it in range(1, max_iterations + 1):
-        if not live.size:
+        if live.size <= STRAGGLERS:
             break
-        kk = k[live]
-        m_dark = c1[live, kk] / c0[live, kk]
-        m_bright = (total1[live] - c1[live, kk]) / (total0[live] - c0[live, kk])
-        e = (m_dark + m_bright) / 2.0 + 0.5 - kk
+        at = base[live] + k[live]
+        e = error.take(at)
         settled = np.abs(e) < 0.5
-        found_k[live[settled]], found_it[live[settled]] = kk[settled], it
-        live, kk, e = live[~settled], kk[~settled], e[~settled]
-        visited[live, kk], when[live, kk] = np.abs(e), it
-        k_next = np.clip(np.rint(kk + e), 1, n_bins - 1).astype(np.int64)
-        cycle = np.isfinite(visited[live, k_next])
-        if cycle.any():        # the k that came closest, the first visited of equals (a dict's min)
-            ended = live[cycle]
-            closest = visited[ended] == visited[ended].min(axis=1)[:, None]
-            found_k[ended] = np.where(closest, when[ended], max_iterations + 1).argmin(axis=1)
-            found_it[ended] = it
+        found_k[live[settled]], found_it[live[settled]] = k[live[settled]], it
+        go = ~settled
+        live, at, e = live[go], at[go], e[go]
+        visited[at], when[at] = np.abs(e), it
+        k_next = np.clip(np.rint(k[live] + e), 1, n_bins - 1).astype(np.int64)
+        cycle = np.isfinite(visited.take(base[live] + k_next))
+        for r in live[cycle].tolist():      # the k that came closest, the first visited of equals (a dict's min)
+            row = visited[base[r]:base[r] + width]
+            closest = np.flatnonzero(row == row.min())
+            found_k[r], found_it[r] = int(closest[np.argmin(when[base[r] + closest])]), it
         live = live[~cycle]
         k[live] = k_next[~cycle]
+    else:
+        live = live[:0]                     # max_iterations done: the rest have none
+    for r in live.tolist():
+        got = _reddi_iteration(functools.partial(_row_class_means, c0[r], c1[r]), n_bins, max_iterations)
+        if got is not None:
+            found_k[r], found_it[r] = got
     return found_k, found_it
+
+
+def _row_class_means(c0: np.ndarray, c1: np.ndarray, k: int) -> tuple[float, float]:
+    """The class means at ``k`` of one window's cumulative sums (:func:`optimum_threshold`'s ``class_means``)."""
+    return c1[k] / c0[k], (c1[-1] - c1[k]) / (c0[-1] - c0[k])
 
 
 def interclass_variance(window: np.ndarray, k: float) -> float:

@@ -142,9 +142,10 @@ def make_candidate(stage: int, got: Analysed, size: int, params: HoughParams = D
                      window_size=size, origin=origin, analysis=a, window=window, model=model)
 
 
-SPIRAL_CHUNK = 32
-"""Spiral positions whose first windows are thresholded together (:func:`spiral_thresholds`): a search that
-accepts a candidate early leaves at most this many thresholds unused."""
+SPIRAL_BATCHES = (8, 64, 16)
+"""How the search thresholds its spiral's first windows (:func:`spiral_thresholds`): the first 8 positions one at a
+time (a '+' in the box's middle is accepted at once), then 64 at a time, those of a last chunk of fewer than 16
+positions one at a time (thresholding a handful of windows together is no faster)."""
 
 
 def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int) -> list[Threshold | None | Unknown]:
@@ -255,9 +256,11 @@ class _Search:
         h, w = self.image.shape
         accepted = False
         centres = spiral_coordinates(h, w, size, self.params.overlap)
-        for c0 in range(0, len(centres), SPIRAL_CHUNK):
-            chunk = centres[c0:c0 + SPIRAL_CHUNK]
-            for (x, y), first in zip(chunk, spiral_thresholds(self.image, chunk, size), strict=True):
+        first_alone, chunk_size, least = SPIRAL_BATCHES
+        for c0 in [0, *range(first_alone, len(centres), chunk_size)]:
+            chunk = centres[c0:first_alone if c0 == 0 else c0 + chunk_size]
+            known = spiral_thresholds(self.image, chunk, size) if len(chunk) >= least else [UNKNOWN] * len(chunk)
+            for (x, y), first in zip(chunk, known, strict=True):
                 if self.capped():
                     return accepted
                 if self.visit(x, y, size, first):

@@ -18,7 +18,8 @@ external fiducials, for non-orthogonal arms and for arms of unequal length.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -159,6 +160,10 @@ def cross_model(p: np.ndarray, px: np.ndarray, py: np.ndarray, x0: float, y0: fl
     return model, J.T
 
 
+EVALUATIONS_KEPT = 8
+"""The model evaluations a patch keeps (:meth:`_Patch.evaluated`): the latest, by parameters."""
+
+
 @dataclass(frozen=True)
 class _Patch:
     """The pixels fitted: coordinates, grey values, the start centre and the patch's half-size."""
@@ -169,6 +174,22 @@ class _Patch:
     x: float
     y: float
     half: int
+    kept: OrderedDict[bytes, tuple[np.ndarray, np.ndarray]] = field(default_factory=OrderedDict, repr=False,
+                                                                    compare=False)
+
+    def evaluated(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`cross_model` at the parameters ``p`` on the patch's pixels, with its Jacobian (its model is the
+        model without it, to the bit), kept for the last :data:`EVALUATIONS_KEPT` parameters: the solver asks for
+        the Jacobian at points whose residuals it computed, and the reweighting, the covariance and the misfit
+        for the model at the solution the solver evaluated last but one or two (about a third of a '+''s
+        evaluations before). The arrays returned must not be written to."""
+        key = np.asarray(p, np.float64).tobytes()
+        got = self.kept.get(key)
+        if got is None:
+            got = self.kept[key] = cross_model(p, self.px, self.py, self.x, self.y, jacobian=True)
+            if len(self.kept) > EVALUATIONS_KEPT:
+                self.kept.popitem(last=False)
+        return got
 
 
 def _patch(window: np.ndarray, x: float, y: float, thetas_deg: tuple[float, float], arm: float, width: float,
@@ -221,17 +242,13 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
     once from the same start (unless not ``retry``)."""
 
     # the solvers ask for the Jacobian at nearly every point whose residuals they computed (MINPACK: after each
-    # accepted step), and both come from the same bar profiles: compute them together, keep the last Jacobian
-    last: dict[str, np.ndarray] = {}
+    # accepted step), and both come from the same bar profiles: compute them together (:meth:`_Patch.evaluated`)
 
     def residuals(p: np.ndarray) -> np.ndarray:
-        model, last["J"] = cross_model(p, pt.px, pt.py, pt.x, pt.y, jacobian=True)
-        last["p"] = np.array(p, copy=True)
-        return weights * (model - pt.g)
+        return weights * (pt.evaluated(p)[0] - pt.g)
 
     def jac(p: np.ndarray) -> np.ndarray:
-        same = "p" in last and np.array_equal(last["p"], p)
-        return weights[:, None] * (last["J"] if same else cross_model(p, pt.px, pt.py, pt.x, pt.y, jacobian=True)[1])
+        return weights[:, None] * pt.evaluated(p)[1]
 
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
         sol = scipy.optimize.least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
@@ -271,7 +288,7 @@ def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
         if k == 0 and (_at_bound(np.r_[x[:4], np.abs(x[4:8]), x[8:]], lo, hi)
                        or np.hypot(x[0] - pt.x, x[1] - pt.y) > max_shift):
             break
-        v_raw = cross_model(x, pt.px, pt.py, pt.x, pt.y) - pt.g
+        v_raw = pt.evaluated(x)[0] - pt.g
         scale = max(robust_std(v_raw), 1e-6)
         a = np.abs(v_raw) / (HUBER_K * scale)
         new_weights = np.sqrt(np.where(a > 1.0, 1.0 / np.maximum(a, 1e-12), 1.0))
@@ -284,8 +301,9 @@ def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
 def _centre_covariance(pt: _Patch, sol: np.ndarray, weights: np.ndarray) -> tuple[float, np.ndarray] | None:
     """sigma0 = sqrt(v'Pv / (n - u)) and the covariance sigma0^2 (J'J)^+ of the parameters (pseudo-inverse:
     when the arms run out of the patch their lengths are not determined, but the centre still is)."""
-    v = cross_model(sol, pt.px, pt.py, pt.x, pt.y) - pt.g
-    J = weights[:, None] * cross_model(sol, pt.px, pt.py, pt.x, pt.y, jacobian=True)[1]
+    model, jacobian = pt.evaluated(sol)
+    v = model - pt.g
+    J = weights[:, None] * jacobian
     sigma0 = float(np.sqrt((weights * v) @ (weights * v) / max(pt.g.size - sol.size, 1)))
     try:
         Q = np.linalg.pinv(J.T @ J, rcond=1e-12, hermitian=True)
@@ -300,7 +318,7 @@ def _centre_covariance(pt: _Patch, sol: np.ndarray, weights: np.ndarray) -> tupl
 def _noise_and_misfit(pt: _Patch, sol: np.ndarray, sigma0: float) -> tuple[float, float]:
     """Noise: residual spread of the pixels the model calls background (far from both bars); misfit: robust
     spread of the residuals on the bars over the larger of the noise and ``MODEL_TOLERANCE`` x amplitude."""
-    v = cross_model(sol, pt.px, pt.py, pt.x, pt.y) - pt.g
+    v = pt.evaluated(sol)[0] - pt.g
     shape = cross_model(np.r_[sol[:8], 1.0, 0.0, 0.0, 0.0], pt.px, pt.py, pt.x, pt.y)
     # a thin, blurred stroke never reaches full coverage: "on the bars" is relative to the model's peak
     peak = float(shape.max())

@@ -23,6 +23,7 @@ two fitted lines is the centre, its covariance propagated from the two fitted of
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -350,13 +351,22 @@ class _Frame:
 
 def _frame(window: np.ndarray, theta: float, rho: float) -> _Frame:
     """The window's pixels in the frame of the line ``x cos(theta) + y sin(theta) = rho``."""
-    h, w = window.shape
     n = np.array([np.cos(theta), np.sin(theta)])
     t = np.array([-np.sin(theta), np.cos(theta)])
-    yy, xx = np.mgrid[0:h, 0:w]
-    xs, ys = xx.ravel().astype(np.float64), yy.ravel().astype(np.float64)
+    xs, ys = _pixel_coordinates(window.shape)
     return _Frame(window.ravel().astype(np.float64), xs * n[0] + ys * n[1] - rho, xs * t[0] + ys * t[1], n, t,
                   xs, ys)
+
+
+@functools.lru_cache(maxsize=8)
+def _pixel_coordinates(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Every pixel's column and row (float64, row by row) of a window of ``shape``: made once per shape (a fit
+    refines each line a dozen times on the same window); read-only."""
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    xs, ys = xx.ravel().astype(np.float64), yy.ravel().astype(np.float64)
+    xs.setflags(write=False)
+    ys.setflags(write=False)
+    return xs, ys
 
 
 def _ground_ring(fr: _Frame, band: float, other: tuple[float, float, float] | None,

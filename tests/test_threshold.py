@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import struct
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from aerofid.detect import threshold
 from aerofid.detect.threshold import (
     N_BINS,
-    STRAGGLERS,
-    _bimodal_tile,
+    Threshold,
+    _cumulative_sums,
     _reddi_iteration,
     _row_class_means,
     optimum_threshold,
@@ -34,32 +37,46 @@ def _windows(rng: np.random.Generator, kind: int, n: int, pixels: int) -> np.nda
     return w
 
 
-def _same(batch, i: int, window: np.ndarray) -> bool:
-    one = optimum_threshold(window)
+def _bits(t: Threshold | None) -> tuple[bytes, ...] | None:
+    """A threshold's fields as their bits (-0.0 is not 0.0 here)."""
+    if t is None:
+        return None
+    return (*(struct.pack("<d", v) for v in (t.value, t.mean_dark, t.mean_bright, t.bright_fraction)),
+            struct.pack("<q", t.iterations))
+
+
+def _same(batch, i: int, window: np.ndarray, **kw) -> bool:
+    one = optimum_threshold(window, **kw)
     if one is None:
         return batch.threshold(i) is None and not batch.found[i] and batch.iterations[i] == 0
-    return batch.threshold(i) == one
+    return _bits(batch.threshold(i)) == _bits(one)
 
 
 def _ended_by_a_cycle(window: np.ndarray) -> bool:
     """Whether the window's iteration ended on a cycle (the k kept leaves |e| >= 0.5 bin)."""
     v = np.asarray(window, np.float64).ravel()
     lo, hi = v.min(), v.max()
-    width = (hi - lo) / N_BINS
-    idx = np.minimum(((v - lo) / width).astype(np.int64), N_BINS - 1)
-    hist = np.bincount(idx, minlength=N_BINS).astype(np.float64)
-    c0 = np.concatenate([[0.0], np.cumsum(hist)])
-    c1 = np.concatenate([[0.0], np.cumsum(hist * np.arange(N_BINS))])
-    got = _reddi_iteration(lambda k: _row_class_means(c0, c1, k), N_BINS, 50)
+    c0, c1 = _cumulative_sums(v[None], np.array([lo]), np.array([(hi - lo) / N_BINS]), N_BINS)
+    got = _reddi_iteration(lambda k: _row_class_means(c0[0], c1[0], k), N_BINS, 50)
     if got is None:
         return False
-    m_dark, m_bright = _row_class_means(c0, c1, got[0])
+    m_dark, m_bright = _row_class_means(c0[0], c1[0], got[0])
     return abs((m_dark + m_bright) / 2.0 + 0.5 - got[0]) >= 0.5
 
 
-def test_the_thresholds_of_many_windows_are_each_windows_own_to_the_bit():
+def test_the_thresholds_of_many_windows_are_each_windows_own_to_the_bit(monkeypatch):
+    calls = {"alone": 0, "cycle": 0}
+
+    def counted(name, f):
+        def g(*args):
+            calls[name] += 1
+            return f(*args)
+        return g
+
+    monkeypatch.setattr(threshold, "_reddi_iteration", counted("alone", threshold._reddi_iteration))
+    monkeypatch.setattr(threshold, "_closest", counted("cycle", threshold._closest))
     rng = np.random.default_rng(0)
-    checked = cycles = stragglers = 0
+    checked = cycles = 0
     for trial in range(600):
         n, pixels = int(rng.integers(1, 40)), int(rng.integers(2, 300))
         w = _windows(rng, trial % 4, n, pixels)
@@ -69,10 +86,19 @@ def test_the_thresholds_of_many_windows_are_each_windows_own_to_the_bit():
             assert _same(batch, i, w[i]), (trial, i)
         checked += n
         cycles += sum(_ended_by_a_cycle(x) for x in w) if trial % 4 == 2 else 0
-        stragglers += n > STRAGGLERS
     assert checked > 10_000
-    assert cycles > 10        # the cycle rule (the k that came closest) is exercised
-    assert stragglers > 100   # and windows finished alone after the others settled
+    assert cycles > 10                  # windows whose iteration ends on the cycle rule
+    assert calls["cycle"] > 10          # ... resolved by whole-array steps
+    assert calls["alone"] > 1_000       # windows finished alone (stragglers, and calls of a few windows)
+
+
+def test_a_cycle_keeps_the_first_visited_of_the_ks_that_came_equally_close():
+    # 14 bins over 0..13: from k = 7 the iteration visits 7 and 6, both |e| = 0.5 bin (not below it), and would
+    # return to 7; the first visited of the two, k = 7, is kept (the dict's minimum), not the smaller k
+    w = np.tile(np.array([0.0, 10.0, 13.0, 13.0]), (5, 1))
+    batch = optimum_thresholds(w, n_bins=14)
+    assert all(_same(batch, i, w[i], n_bins=14) for i in range(5))
+    assert batch.value[0] == pytest.approx(7 * 13 / 14)
 
 
 @settings(max_examples=200, deadline=None)
@@ -89,13 +115,23 @@ def test_a_homogeneous_window_and_one_of_a_single_pixel_have_none():
     assert not optimum_thresholds(np.array([[0.1], [0.9]])).found.any()
 
 
-def _tiles_one_by_one(w: np.ndarray, region: int, min_sep: float) -> np.ndarray:
-    """:func:`tile_thresholds` by its definition: every tile alone."""
+def _tiles_one_by_one(w: np.ndarray, region: int, min_sep: float, min_contrast: float = 0.02,
+                      min_class: int = 2) -> np.ndarray:
+    """:func:`tile_thresholds` by its definition, as it was written before its tiles were thresholded together."""
     h, wd = w.shape
     t = np.full((-(-h // region), -(-wd // region)), np.nan)
     for i in range(t.shape[0]):
         for j in range(t.shape[1]):
-            t[i, j] = _bimodal_tile(w[i * region:(i + 1) * region, j * region:(j + 1) * region], min_sep, 0.02, 2)
+            tile = w[i * region:(i + 1) * region, j * region:(j + 1) * region]
+            th = optimum_threshold(tile, min_contrast=min_contrast)
+            if th is None:
+                continue
+            bright = tile >= th.value
+            nb = int(bright.sum())
+            if nb < min_class or tile.size - nb < min_class:
+                continue
+            if float(tile[bright].mean() - tile[~bright].mean()) >= min_sep:
+                t[i, j] = th.value
     return t
 
 
@@ -110,9 +146,10 @@ def test_tile_thresholds_are_every_tiles_own(seed):
             w[rng.integers(0, h):, :rng.integers(0, wd)] += 0.4
         if trial % 5 == 0:
             w = np.round(w * 20) / 20
-        if trial % 7 == 0:                              # a pixel without a value: its tile alone
+        if trial % 7 == 0:                              # pixels without a finite value: their tiles alone
             w[rng.integers(0, h), rng.integers(0, wd)] = np.nan
-        w = w.astype(np.float32)
+            w[rng.integers(0, h), rng.integers(0, wd)] = np.inf
+        w = w.astype((np.float32, np.float64, np.float16)[trial % 3])
         min_sep = float(rng.choice([0.02, 0.05, 0.1, 0.2]))
         assert np.array_equal(tile_thresholds(w, region, min_sep), _tiles_one_by_one(w, region, min_sep),
                               equal_nan=True), (seed, trial)
@@ -124,3 +161,12 @@ def test_a_tile_whose_classes_are_min_sep_apart_is_decided_as_its_own_mean_decid
         assert np.array_equal(tile_thresholds(w, 8, float(min_sep)), _tiles_one_by_one(w, 8, float(min_sep)),
                               equal_nan=True)
     assert np.isfinite(tile_thresholds(w, 8, 0.25)).all() and np.isnan(tile_thresholds(w, 8, 0.2501)).all()
+
+
+def test_a_pixel_at_the_threshold_in_float32_is_bright_as_float32_compares_it():
+    # the threshold (0.4968749889 in float64) lies above the 11 pixels of 0.496875 (0.4968749881 in float32) but
+    # rounds to them in float32, where a Python float is compared with float32 pixels: they are bright, and the
+    # classes' means are then 0.56 or more apart (in float64 they would be dark, and the tile not bimodal)
+    values = np.repeat(np.array([0.1, 0.496875, 0.5773708, 0.9], np.float32), [22, 11, 13, 18]).reshape(8, 8)
+    assert np.array_equal(tile_thresholds(values, 8, 0.56), _tiles_one_by_one(values, 8, 0.56), equal_nan=True)
+    assert tile_thresholds(values, 8, 0.56)[0, 0] == pytest.approx(0.496875)

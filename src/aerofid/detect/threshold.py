@@ -58,26 +58,36 @@ def optimum_threshold(window: np.ndarray, n_bins: int = N_BINS, max_iterations: 
     if hi - lo < min_contrast:
         return None
     width = (hi - lo) / n_bins
-    idx = np.minimum(((v - lo) / width).astype(np.int64), n_bins - 1)
-    hist = np.bincount(idx, minlength=n_bins).astype(np.float64)
-    bins = np.arange(n_bins, dtype=np.float64)
-    c0 = np.concatenate([[0.0], np.cumsum(hist)])          # c0[k] = pixels in bins < k
-    c1 = np.concatenate([[0.0], np.cumsum(hist * bins)])   # c1[k] = sum of bin indices below k
-    total0, total1 = c0[-1], c1[-1]
-
-    def class_means(k: int) -> tuple[float, float]:
-        # bins 0 and n_bins - 1 hold the minimum and maximum, so both classes are populated for 1 <= k < n_bins
-        return c1[k] / c0[k], (total1 - c1[k]) / (total0 - c0[k])
-
-    found = _reddi_iteration(class_means, n_bins, max_iterations)
+    c0, c1 = _cumulative_sums(v[None], np.array([lo]), np.array([width]), n_bins)
+    found = _reddi_iteration(functools.partial(_row_class_means, c0[0], c1[0]), n_bins, max_iterations)
     if found is None:
         return None
     k, iterations = found
-    m_dark, m_bright = class_means(k)
-    value = lo + k * width
-    return Threshold(value=value, mean_dark=lo + (m_dark + 0.5) * width,
-                     mean_bright=lo + (m_bright + 0.5) * width,
-                     bright_fraction=float((total0 - c0[k]) / total0), iterations=iterations)
+    m_dark, m_bright = _row_class_means(c0[0], c1[0], k)
+    return Threshold(value=lo + k * width, mean_dark=float(lo + (m_dark + 0.5) * width),
+                     mean_bright=float(lo + (m_bright + 0.5) * width),
+                     bright_fraction=float((c0[0, -1] - c0[0, k]) / c0[0, -1]), iterations=iterations)
+
+
+def _cumulative_sums(v: np.ndarray, lo: np.ndarray, width: np.ndarray, n_bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each row of ``v`` binned into ``n_bins`` of ``width`` from ``lo`` (per row), and the histogram's cumulative
+    sums: ``c0[:, k]`` the pixels in bins below k, ``c1[:, k]`` the sum of their bin indices (``n_bins + 1``
+    columns; thesis C ``cthval``)."""
+    m = len(v)
+    idx = np.minimum(((v - lo[:, None]) / width[:, None]).astype(np.int64), n_bins - 1)
+    hist = np.bincount((idx + n_bins * np.arange(m)[:, None]).ravel(), minlength=m * n_bins)
+    hist = hist.reshape(m, n_bins).astype(np.float64)
+    c0, c1 = np.zeros((m, n_bins + 1)), np.zeros((m, n_bins + 1))
+    np.cumsum(hist, axis=1, out=c0[:, 1:])
+    np.cumsum(hist * np.arange(n_bins, dtype=np.float64), axis=1, out=c1[:, 1:])
+    return c0, c1
+
+
+def _row_class_means(c0: np.ndarray, c1: np.ndarray, k: int) -> tuple[float, float]:
+    """The mean bins of the dark and bright classes at ``k`` of one window's cumulative sums
+    (:func:`_cumulative_sums`; bins 0 and n_bins - 1 hold the minimum and maximum, so both classes are populated
+    for 1 <= k < n_bins)."""
+    return c1[k] / c0[k], (c1[-1] - c1[k]) / (c0[-1] - c0[k])
 
 
 def _reddi_iteration(class_means: Callable[[int], tuple[float, float]], n_bins: int,
@@ -112,6 +122,12 @@ class Thresholds:
     bright_fraction: np.ndarray
     iterations: np.ndarray
 
+    def set(self, i: int, t: Threshold) -> None:
+        """Window ``i``'s fields from its own :class:`Threshold`."""
+        self.found[i], self.iterations[i] = True, t.iterations
+        self.value[i], self.mean_dark[i], self.mean_bright[i] = t.value, t.mean_dark, t.mean_bright
+        self.bright_fraction[i] = t.bright_fraction
+
     def threshold(self, i: int) -> Threshold | None:
         """Window ``i``'s :class:`Threshold` (None where it has none), as :func:`optimum_threshold` returns it."""
         if not self.found[i]:
@@ -123,11 +139,13 @@ class Thresholds:
 
 def optimum_thresholds(windows: np.ndarray, n_bins: int = N_BINS, max_iterations: int = MAX_ITERATIONS,
                        min_contrast: float = MIN_CONTRAST) -> Thresholds:
-    """:func:`optimum_threshold` of each row of ``windows`` (``(n, pixels)``, every value finite) at once: each
-    row's histogram, cumulative sums and Reddi iteration (:func:`_reddi_iteration`'s steps, its cycle rule included)
-    are the same operations on the same numbers, so the same thresholds, to the bit (a test compares them on some
-    30 000 windows). Several times faster than one call per window for a few dozen windows (a window's own call
-    is faster for one).
+    """:func:`optimum_threshold` of each row of ``windows`` (``(n, pixels)``) at once: each row's histogram,
+    cumulative sums and Reddi iteration (:func:`_reddi_iteration`'s steps, its cycle rule included) are the same
+    operations on the same numbers, so the same thresholds, to the bit (tests compare them on some 12 000
+    windows). Several times faster than one call per window for a few dozen windows; a row with a value that is
+    not finite (:func:`optimum_threshold` leaves it out), and every row of a call with :data:`STRAGGLERS` rows or
+    fewer, is thresholded alone; rows are taken :data:`BLOCK_ROWS` at a time (the tables of a block are a few
+    tens of MB).
 
     Examples
     --------
@@ -136,33 +154,43 @@ def optimum_thresholds(windows: np.ndarray, n_bins: int = N_BINS, max_iterations
     ([True, False], 0.5)
     """
     v = np.asarray(windows, dtype=np.float64)
-    n, size = v.shape
-    lo, hi = v.min(axis=1, initial=np.inf), v.max(axis=1, initial=-np.inf)
-    width = (hi - lo) / n_bins
-    rows = np.flatnonzero((hi - lo >= min_contrast) & (size >= 2))
-    m = rows.size
-    idx = np.minimum(((v[rows] - lo[rows, None]) / width[rows, None]).astype(np.int64), n_bins - 1)
-    hist = np.bincount((idx + n_bins * np.arange(m)[:, None]).ravel(), minlength=m * n_bins)
-    hist = hist.reshape(m, n_bins).astype(np.float64)
-    c0, c1 = np.zeros((m, n_bins + 1)), np.zeros((m, n_bins + 1))   # c0[:, k] = pixels in bins < k, c1 their sum
-    np.cumsum(hist, axis=1, out=c0[:, 1:])
-    np.cumsum(hist * np.arange(n_bins, dtype=np.float64), axis=1, out=c1[:, 1:])
+    n = len(v)
+    out = Thresholds(np.zeros(n, bool), np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
+                     np.full(n, np.nan), np.zeros(n, np.int64))
+    finite = np.isfinite(v).all(axis=1)
+    alone = np.flatnonzero(~finite) if finite.sum() > STRAGGLERS else np.arange(n)
+    for i in alone.tolist():
+        got = optimum_threshold(v[i], n_bins, max_iterations, min_contrast)
+        if got is not None:
+            out.set(i, got)
+    if len(alone) < n:
+        rows = np.flatnonzero(finite)
+        for b in range(0, rows.size, BLOCK_ROWS):
+            _block_thresholds(v, rows[b:b + BLOCK_ROWS], n_bins, max_iterations, min_contrast, out)
+    return out
+
+
+BLOCK_ROWS = 4096
+"""Rows of :func:`optimum_thresholds` iterated together (five tables of ``n_bins + 1`` values per row)."""
+
+
+def _block_thresholds(v: np.ndarray, rows: np.ndarray, n_bins: int, max_iterations: int, min_contrast: float,
+                      out: Thresholds) -> None:
+    """:func:`optimum_thresholds` of the ``rows`` of ``v`` (every value finite), written into ``out``."""
+    size = v.shape[1]
+    lo, hi = v[rows].min(axis=1, initial=np.inf), v[rows].max(axis=1, initial=-np.inf)
+    keep = (hi - lo >= min_contrast) & (size >= 2)
+    rows, lo, width = rows[keep], lo[keep], (hi[keep] - lo[keep]) / n_bins
+    c0, c1 = _cumulative_sums(v[rows], lo, width, n_bins)
     k, iterations = _reddi_iterations(c0, c1, n_bins, max_iterations)
     done = iterations > 0
-    rows, k, iterations, c0, c1 = rows[done], k[done], iterations[done], c0[done], c1[done]
+    rows, k, iterations, c0, c1, lo, width = (a[done] for a in (rows, k, iterations, c0, c1, lo, width))
     at = np.arange(rows.size)
     below0, below1, total0, total1 = c0[at, k], c1[at, k], c0[:, -1], c1[:, -1]
     m_dark, m_bright = below1 / below0, (total1 - below1) / (total0 - below0)
-    def per_window(got: np.ndarray) -> np.ndarray:
-        a = np.full(n, np.nan)
-        a[rows] = got
-        return a
-
-    found, its = np.zeros(n, bool), np.zeros(n, np.int64)
-    found[rows], its[rows] = True, iterations
-    low, step = lo[rows], width[rows]
-    return Thresholds(found, per_window(low + k * step), per_window(low + (m_dark + 0.5) * step),
-                      per_window(low + (m_bright + 0.5) * step), per_window((total0 - below0) / total0), its)
+    out.found[rows], out.iterations[rows] = True, iterations
+    out.value[rows], out.bright_fraction[rows] = lo + k * width, (total0 - below0) / total0
+    out.mean_dark[rows], out.mean_bright[rows] = lo + (m_dark + 0.5) * width, lo + (m_bright + 0.5) * width
 
 
 STRAGGLERS = 4
@@ -198,10 +226,8 @@ def _reddi_iterations(c0: np.ndarray, c1: np.ndarray, n_bins: int, max_iteration
         visited[at], when[at] = np.abs(e), it
         k_next = np.clip(np.rint(k[live] + e), 1, n_bins - 1).astype(np.int64)
         cycle = np.isfinite(visited.take(base[live] + k_next))
-        for r in live[cycle].tolist():      # the k that came closest, the first visited of equals (a dict's min)
-            row = visited[base[r]:base[r] + width]
-            closest = np.flatnonzero(row == row.min())
-            found_k[r], found_it[r] = int(closest[np.argmin(when[base[r] + closest])]), it
+        for r in live[cycle].tolist():
+            found_k[r], found_it[r] = _closest(visited[base[r]:base[r] + width], when[base[r]:base[r] + width]), it
         live = live[~cycle]
         k[live] = k_next[~cycle]
     else:
@@ -213,9 +239,12 @@ def _reddi_iterations(c0: np.ndarray, c1: np.ndarray, n_bins: int, max_iteration
     return found_k, found_it
 
 
-def _row_class_means(c0: np.ndarray, c1: np.ndarray, k: int) -> tuple[float, float]:
-    """The class means at ``k`` of one window's cumulative sums (:func:`optimum_threshold`'s ``class_means``)."""
-    return c1[k] / c0[k], (c1[-1] - c1[k]) / (c0[-1] - c0[k])
+def _closest(visited: np.ndarray, when: np.ndarray) -> int:
+    """The cycle rule of :func:`_reddi_iteration` for one window: the k visited whose |e| came closest to the
+    condition (``visited``, inf where not visited), of equals the first visited (``when``: the iteration), as the
+    minimum of a dict in insertion order gives it."""
+    closest = np.flatnonzero(visited == visited.min())
+    return int(closest[np.argmin(when[closest])])
 
 
 def interclass_variance(window: np.ndarray, k: float) -> float:
@@ -312,10 +341,14 @@ def _tile_bands(n: int, region: int) -> list[tuple[int, int, int]]:
 def _bimodal(tiles: np.ndarray, min_sep: float, min_contrast: float, min_class: int) -> np.ndarray:
     """:func:`tile_thresholds` on tiles of one shape, one per row of ``tiles``: the threshold, or NaN."""
     out = np.full(len(tiles), np.nan)
-    finite = np.isfinite(tiles).all(axis=1)
-    for i in np.flatnonzero(~finite).tolist():      # pixels without a value: one tile at a time
+    # one tile at a time: where a pixel has no finite value (an infinite one makes the float64 sums below nan, the
+    # tile's own mean infinite), where the tiles' type is narrower than float32 (its means round beyond
+    # MEAN_GUARD), and a shape of STRAGGLERS tiles or fewer (the edge tiles of a small window: faster alone)
+    plain = np.isfinite(tiles).all(axis=1) & (tiles.dtype.kind != "f" or tiles.dtype.itemsize >= 4)
+    plain &= len(tiles) > STRAGGLERS
+    for i in np.flatnonzero(~plain).tolist():
         out[i] = _bimodal_tile(tiles[i], min_sep, min_contrast, min_class)
-    rows = np.flatnonzero(finite)
+    rows = np.flatnonzero(plain)
     if not rows.size:
         return out
     found = optimum_thresholds(tiles[rows], min_contrast=min_contrast)

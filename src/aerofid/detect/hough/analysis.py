@@ -236,5 +236,5 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
     return best
 
 
-__all__ = ["UNKNOWN", "HoughParams", "WindowAnalysis", "analyse_window", "best_pair", "column_rho", "matched_filter",
-           "similarity", "theta_projection", "threshold_accumulator", "window_accumulator"]
+__all__ = ["UNKNOWN", "HoughParams", "Unknown", "WindowAnalysis", "analyse_window", "best_pair", "column_rho",
+           "matched_filter", "similarity", "theta_projection", "threshold_accumulator", "window_accumulator"]

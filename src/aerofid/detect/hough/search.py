@@ -152,8 +152,8 @@ def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int) -> list
     """The optimum thresholds of the first windows at ``centres`` (:func:`extract_window`), those of one shape
     computed together (:func:`aerofid.detect.threshold.optimum_thresholds`: the numbers each window's own
     :func:`~aerofid.detect.threshold.optimum_threshold` gives, several times faster on a box's hundreds of 16 px
-    windows); :data:`~aerofid.detect.hough.analysis.UNKNOWN` for a window outside the box or with pixels that
-    have no value (its analysis says why, or thresholds it alone)."""
+    windows); :data:`~aerofid.detect.hough.analysis.UNKNOWN` for a window outside the box (its analysis says
+    why)."""
     out: list[Threshold | None | Unknown] = [UNKNOWN] * len(centres)
     shapes: dict[tuple[int, int], list[tuple[int, np.ndarray]]] = {}
     for i, (x, y) in enumerate(centres):
@@ -161,11 +161,9 @@ def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int) -> list
         if got is not None:
             shapes.setdefault(got[0].shape, []).append((i, got[0]))
     for group in shapes.values():
-        values = np.stack([w.ravel() for _, w in group]).astype(np.float64)
-        finite = np.flatnonzero(np.isfinite(values).all(axis=1))
-        found = optimum_thresholds(values[finite])
-        for j, row in enumerate(finite.tolist()):
-            out[group[row][0]] = found.threshold(j)
+        found = optimum_thresholds(np.stack([w.ravel() for _, w in group]))
+        for j, (i, _) in enumerate(group):
+            out[i] = found.threshold(j)
     return out
 
 
@@ -308,5 +306,6 @@ def search_box(image: np.ndarray, params: HoughParams = DEFAULT, verify: Verifie
     return search.result()
 
 
-__all__ = ["WINDOW_EXTERNAL", "WINDOW_PANEL", "Candidate", "SearchResult", "Verifier", "extract_window",
-           "make_candidate", "recursive_analysis", "search_box", "spiral_coordinates", "window_sizes"]
+__all__ = ["SPIRAL_BATCHES", "WINDOW_EXTERNAL", "WINDOW_PANEL", "Candidate", "SearchResult", "Verifier",
+           "extract_window", "make_candidate", "recursive_analysis", "search_box", "spiral_coordinates",
+           "spiral_thresholds", "window_sizes"]

@@ -12,7 +12,7 @@ import functools
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal, overload
+from typing import Any, Literal, overload
 
 import cv2
 import numpy as np
@@ -63,10 +63,9 @@ def optimum_threshold(window: np.ndarray, n_bins: int = N_BINS, max_iterations: 
     if found is None:
         return None
     k, iterations = found
-    m_dark, m_bright = _row_class_means(c0[0], c1[0], k)
-    return Threshold(value=lo + k * width, mean_dark=float(lo + (m_dark + 0.5) * width),
-                     mean_bright=float(lo + (m_bright + 0.5) * width),
-                     bright_fraction=float((c0[0, -1] - c0[0, k]) / c0[0, -1]), iterations=iterations)
+    value, mean_dark, mean_bright, bright_fraction = _fields(lo, width, k, c0[0, k], c1[0, k], c0[0, -1], c1[0, -1])
+    return Threshold(value=value, mean_dark=float(mean_dark), mean_bright=float(mean_bright),
+                     bright_fraction=float(bright_fraction), iterations=iterations)
 
 
 def _cumulative_sums(v: np.ndarray, lo: np.ndarray, width: np.ndarray, n_bins: int) -> tuple[np.ndarray, np.ndarray]:
@@ -83,11 +82,24 @@ def _cumulative_sums(v: np.ndarray, lo: np.ndarray, width: np.ndarray, n_bins: i
     return c0, c1
 
 
+def _class_means(below0: Any, below1: Any, total0: Any, total1: Any) -> tuple[Any, Any]:
+    """The mean bins of the dark and bright classes from the cumulative sums at k (``below0``, ``below1``:
+    :func:`_cumulative_sums`' ``c0[k]``, ``c1[k]``) and their totals; numbers or arrays alike (bins 0 and
+    n_bins - 1 hold the minimum and maximum, so both classes are populated for 1 <= k < n_bins)."""
+    return below1 / below0, (total1 - below1) / (total0 - below0)
+
+
 def _row_class_means(c0: np.ndarray, c1: np.ndarray, k: int) -> tuple[float, float]:
-    """The mean bins of the dark and bright classes at ``k`` of one window's cumulative sums
-    (:func:`_cumulative_sums`; bins 0 and n_bins - 1 hold the minimum and maximum, so both classes are populated
-    for 1 <= k < n_bins)."""
-    return c1[k] / c0[k], (c1[-1] - c1[k]) / (c0[-1] - c0[k])
+    """:func:`_class_means` at ``k`` of one window's cumulative sums."""
+    return _class_means(c0[k], c1[k], c0[-1], c1[-1])
+
+
+def _fields(lo: Any, width: Any, k: Any, below0: Any, below1: Any, total0: Any, total1: Any) -> tuple[Any, ...]:
+    """A :class:`Threshold`'s value, class means and bright fraction (grey levels of the window from ``lo`` in bins
+    of ``width``) at the bin ``k`` the iteration settled on, from the cumulative sums there (:func:`_class_means`);
+    numbers or arrays alike."""
+    m_dark, m_bright = _class_means(below0, below1, total0, total1)
+    return lo + k * width, lo + (m_dark + 0.5) * width, lo + (m_bright + 0.5) * width, (total0 - below0) / total0
 
 
 def _reddi_iteration(class_means: Callable[[int], tuple[float, float]], n_bins: int,
@@ -186,11 +198,9 @@ def _block_thresholds(v: np.ndarray, rows: np.ndarray, n_bins: int, max_iteratio
     done = iterations > 0
     rows, k, iterations, c0, c1, lo, width = (a[done] for a in (rows, k, iterations, c0, c1, lo, width))
     at = np.arange(rows.size)
-    below0, below1, total0, total1 = c0[at, k], c1[at, k], c0[:, -1], c1[:, -1]
-    m_dark, m_bright = below1 / below0, (total1 - below1) / (total0 - below0)
     out.found[rows], out.iterations[rows] = True, iterations
-    out.value[rows], out.bright_fraction[rows] = lo + k * width, (total0 - below0) / total0
-    out.mean_dark[rows], out.mean_bright[rows] = lo + (m_dark + 0.5) * width, lo + (m_bright + 0.5) * width
+    out.value[rows], out.mean_dark[rows], out.mean_bright[rows], out.bright_fraction[rows] = _fields(
+        lo, width, k, c0[at, k], c1[at, k], c0[:, -1], c1[:, -1])
 
 
 STRAGGLERS = 4
@@ -205,9 +215,9 @@ def _reddi_iterations(c0: np.ndarray, c1: np.ndarray, n_bins: int, max_iteration
     e = (m_dark(k) + m_bright(k)) / 2 + 0.5 - k is computed first, for the whole table (the same operations as
     one k's), so that an iteration gathers one value per row."""
     m, width = c0.shape
-    total0, total1 = c0[:, -1:], c1[:, -1:]
     with np.errstate(divide="ignore", invalid="ignore"):       # k = 0 and n_bins leave a class empty: never visited
-        error = ((c1 / c0 + (total1 - c1) / (total0 - c0)) / 2.0 + 0.5 - np.arange(width)).ravel()
+        m_dark, m_bright = _class_means(c0, c1, c0[:, -1:], c1[:, -1:])
+        error = ((m_dark + m_bright) / 2.0 + 0.5 - np.arange(width)).ravel()
     base = width * np.arange(m)
     k = np.full(m, n_bins // 2, np.int64)
     found_k, found_it = np.zeros(m, np.int64), np.zeros(m, np.int64)
@@ -364,8 +374,8 @@ def _bimodal(tiles: np.ndarray, min_sep: float, min_contrast: float, min_class: 
     diff = sum_bright / nb - (g.sum(axis=1) - sum_bright) / (sub.shape[1] - nb)
     keep = diff >= min_sep
     close = np.abs(diff - min_sep) <= MEAN_GUARD * np.maximum(np.abs(g).max(axis=1), 1.0)
-    for i in np.flatnonzero(close).tolist():
-        keep[i] = float(sub[i][bright[i]].mean() - sub[i][~bright[i]].mean()) >= min_sep
+    for i in np.flatnonzero(close).tolist():      # the tile decides alone, its means in its own arithmetic
+        keep[i] = np.isfinite(_bimodal_tile(sub[i], min_sep, min_contrast, min_class))
     out[rows[keep]] = value[keep]
     return out
 

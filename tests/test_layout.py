@@ -1,6 +1,6 @@
 """frame.layout's hypotheses: every (pair of features, pair of fiducials) whose distances agree at the pixel size,
 in the order the search scores them, against the definition written out plainly; and its fast tests of them (the
-features near a prediction, the rotation limit) against the plain ones."""
+features near a prediction, :mod:`aerofid.frame.nearest`; the rotation limit) against the plain ones."""
 
 from unittest import mock
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aerofid.frame import layout
+from aerofid.frame import layout, nearest
 
 
 def plain_hypotheses(features: np.ndarray, fiducials_mm: np.ndarray, s: float) -> np.ndarray:
@@ -83,22 +83,67 @@ def test_the_directions_prefilter_keeps_every_hypothesis_within_the_rotation_lim
     assert not (kept & (np.abs(turn) > limit + 1e-6)).any()
 
 
+def plain_nearest(features: np.ndarray, points: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """The definition: each point's nearest feature by dx^2 + dy^2 < tol^2 (nothing for a tolerance that is not
+    positive), of equals the first; its distance the square root; ``inf`` and ``len(features)`` where there is none."""
+    d, idx = np.full(len(points), np.inf), np.full(len(points), len(features))
+    for m, p in enumerate(points):
+        dx, dy = (p - features).T
+        square = dx * dx + dy * dy
+        if tol > 0 and len(features) and square.min() < tol * tol:
+            idx[m] = int(np.argmin(square))
+            d[m] = np.sqrt(square[idx[m]])
+    return d, idx
+
+
+def assert_as_the_tree(features: np.ndarray, points: np.ndarray, tol: float, d: np.ndarray, idx: np.ndarray) -> None:
+    """``d, idx`` are the nearest features within ``tol`` as defined (:func:`plain_nearest`) and, for a positive
+    tolerance, at the distances scipy's k-d tree gives, with its index wherever no other feature is as near."""
+    from scipy.spatial import cKDTree
+    d1, idx1 = plain_nearest(features, points, tol)
+    assert np.array_equal(d, d1) and np.array_equal(idx, idx1)
+    if tol > 0:
+        d0, idx0 = cKDTree(features).query(points, distance_upper_bound=tol)
+        assert np.array_equal(d, d0)
+        for m in np.flatnonzero(idx != idx0):                   # the tree's own choice between features as near
+            assert np.hypot(*(points[m] - features[idx0[m]])) == d[m]
+
+
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 60), tol=st.sampled_from([0.5, 1.0, 3.0, 7.25, 40.0]),
        cells=st.sampled_from([None, 1]))
 @settings(max_examples=150, deadline=None)
-def test_the_grid_of_near_features_answers_as_the_tree(seed, n, tol, cells):
-    """:class:`layout._NearFeatures` gives every point the nearest feature within ``tol`` exactly as cKDTree's bounded
-    query does (distance and index; ``inf`` and ``n`` where there is none): points on a coarse grid, so that
-    distances equal to ``tol`` occur, points far outside the features' extent, and the tree alone when the grid would
-    be too large (``cells``: GRID_CELLS of 1)."""
-    from scipy.spatial import cKDTree
+def test_the_nearest_features_within_a_tolerance(seed, n, tol, cells):
+    """:class:`nearest.NearestWithin` gives every point the nearest feature within ``tol`` (distance and index;
+    ``inf`` and ``n`` where there is none; of features as near, the first) as defined, and as cKDTree's bounded query
+    does: points on a coarse grid, so that distances equal to ``tol`` and features as near occur, points far outside
+    the features' extent, and without a grid (``cells``: GRID_CELLS of 1)."""
     rng = np.random.default_rng(seed)
     features = rng.integers(0, 40, (n, 2)) * 0.5
     points = np.vstack([rng.integers(-20, 60, (300, 2)) * 0.5, rng.uniform(-1e4, 1e4, (20, 2))])
-    with mock.patch.object(layout, "GRID_CELLS", cells or layout.GRID_CELLS):
-        d, idx = layout._NearFeatures(features, tol).query(points)
-    d0, idx0 = cKDTree(features).query(points, distance_upper_bound=tol)
-    assert np.array_equal(d, d0) and np.array_equal(idx, idx0)
+    with mock.patch.object(nearest, "GRID_CELLS", cells or nearest.GRID_CELLS):
+        d, idx = nearest.NearestWithin(features, tol)(points)
+    assert_as_the_tree(features, points, tol, d, idx)
+
+
+def test_points_that_are_not_finite_are_misses():
+    features = np.array([[0.0, 0.0], [10.0, 5.0]])
+    d, idx = nearest.NearestWithin(features, 5.0)(np.array([[np.nan, 0.0], [np.inf, 5.0], [-np.inf, np.nan], [1, 1]]))
+    assert d[:3].tolist() == [np.inf] * 3 and idx.tolist() == [2, 2, 2, 0]
+
+
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 40), twice=st.integers(0, 3))
+@settings(max_examples=60, deadline=None)
+def test_each_features_nearest_other(seed, n, twice):
+    """:func:`nearest.nearest_other`: each point's distance to its nearest other, 0 for one given twice or alone, as
+    the k-d tree's second neighbour."""
+    from scipy.spatial import cKDTree
+    rng = np.random.default_rng(seed)
+    points = rng.integers(0, 30, (n, 2)) * 0.5 + rng.choice([0.0, 1e-9], (n, 2))
+    for _ in range(twice if n else 0):
+        a, b = rng.integers(0, n, 2)
+        points[a] = points[b]
+    got = nearest.nearest_other(points)
+    assert np.array_equal(got, cKDTree(points).query(points, k=2)[0][:, 1] if n > 1 else np.zeros(n))
 
 
 @given(seed=st.integers(0, 2**31 - 1), scale=st.floats(1e-3, 1e3))
@@ -117,14 +162,15 @@ def test_the_rotation_limit_reads_as_the_angle(seed, scale):
     assert np.array_equal(layout._within_rotation(z), np.abs(np.angle(z)) <= limit)
 
 
-@pytest.mark.parametrize("tol", [1e-20, 0.0, -1.0])
-def test_near_features_with_a_tolerance_too_small_for_a_grid_ask_the_tree(tol):
+@pytest.mark.parametrize("tol", [1e-20, 1e-160, 1e-170, 0.0, -1.0])
+def test_a_tolerance_too_small_for_a_grid_or_not_positive(tol):
+    """A tolerance too small for a grid compares the points with every feature; one whose square underflows, or that
+    is not positive, holds nothing (the k-d tree squares a negative one)."""
     features = np.array([[0.0, 0.0], [10.0, 5.0], [2000.0, 3000.0]])
-    points = np.array([[0.0, 0.0], [10.0, 5.0 + 1e-21], [7.0, 7.0]])
-    from scipy.spatial import cKDTree
-    d, idx = layout._NearFeatures(features, tol).query(points)
-    d0, idx0 = cKDTree(features).query(points, distance_upper_bound=tol)
-    assert np.array_equal(d, d0) and np.array_equal(idx, idx0)
+    points = np.array([[0.0, 0.0], [10.0, 5.0 + 1e-21], [7.0, 7.0], [2000.0, 3000.0]])
+    d, idx = nearest.NearestWithin(features, tol)(points)
+    assert_as_the_tree(features, points, tol, d, idx)
+    assert (idx[[0, 3]].tolist() == [0, 2]) == (tol > 0 and tol * tol > 0)
 
 
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 30), twice=st.integers(0, 3),
@@ -132,11 +178,10 @@ def test_near_features_with_a_tolerance_too_small_for_a_grid_ask_the_tree(tol):
 @settings(max_examples=60, deadline=None)
 def test_the_predictions_on_their_own_features_answer_as_the_tree(seed, n, twice, tol):
     """:meth:`layout._NearFeatures.query_predictions` gives every prediction of the search's hypotheses the nearest
-    feature within ``tol`` exactly as cKDTree's bounded query of every point does (fiducials j and l, predicted on
-    features i and k, are answered without it): the layout's marks (turned, moved, a little off) among ``n`` chance
-    features, some features given twice (the tree's choice between them is its own) or a hair's breadth apart, and
-    tolerances below the rounding of l's prediction."""
-    from scipy.spatial import cKDTree
+    feature within ``tol`` as defined, and as cKDTree's bounded query of every point does (fiducials j and l,
+    predicted on features i and k, are answered without a look-up): the layout's marks (turned, moved, a little off)
+    among ``n`` chance features, some features given twice or a hair's breadth apart, and tolerances below the
+    rounding of l's prediction."""
     rng = np.random.default_rng(seed)
     fiducials = np.array([[-106, -106], [106, 106], [-106, 106], [106, -106], [0, 110]], float)
     s = 0.05
@@ -154,7 +199,6 @@ def test_the_predictions_on_their_own_features_answer_as_the_tree(seed, n, twice
         if pred is None:
             continue
         d, idx = near.query_predictions(pred, hyp[kept])
-        d0, idx0 = cKDTree(features).query(pred.reshape(-1, 2), distance_upper_bound=tol)
-        assert np.array_equal(d, d0.reshape(d.shape)) and np.array_equal(idx, idx0.reshape(idx.shape))
+        assert_as_the_tree(features, pred.reshape(-1, 2), tol, d.ravel(), idx.ravel())
         checked += len(pred)
     assert checked >= len(fiducials) * (len(fiducials) - 1) // 2 or twice     # every pair of marks, the right way

@@ -29,8 +29,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial import cKDTree
 
+from aerofid.frame.nearest import NearestWithin, nearest_other
 from aerofid.orientation.correspondence import ARRANGEMENTS, arrangement_matrix
 
 SCALE_TOLERANCE = 0.03
@@ -240,15 +240,14 @@ def scale_grid(size_range: tuple[float, float]) -> list[float]:
 @dataclass(frozen=True)
 class _Pairs:
     """Every pair of features (i < k), pairs of strong features first, with their distances (px) and directions
-    (radians, from i to k): what :func:`_hypothesis_chunks` and the rotation limit need at every pixel size; and the
-    features' k-d tree and each one's distance to its nearest other (0 for a feature given twice), which
-    :class:`_NearFeatures` needs at every pixel size."""
+    (radians, from i to k): what :func:`_hypothesis_chunks` and the rotation limit need at every pixel size; and each
+    feature's distance to its nearest other (0 for a feature given twice), which :class:`_NearFeatures` needs at every
+    pixel size."""
 
     i: np.ndarray
     k: np.ndarray
     d_px: np.ndarray
     direction: np.ndarray
-    tree: cKDTree
     clearance: np.ndarray
 
     @classmethod
@@ -260,13 +259,7 @@ class _Pairs:
         k = np.arange(count.sum()) + np.repeat(first - np.cumsum(count) + count, count)
         i = np.repeat(s, count) - k
         dx, dy = (features[k] - features[i]).T
-        tree = cKDTree(features)
-        return cls(i, k, np.hypot(dx, dy), np.arctan2(dy, dx), tree, _clearance(tree))
-
-
-def _clearance(tree: cKDTree) -> np.ndarray:
-    """Each of the tree's points' distance to its nearest other point (0 for a point given twice)."""
-    return tree.query(tree.data, k=2)[0][:, 1] if tree.n > 1 else np.zeros(tree.n)
+        return cls(i, k, np.hypot(dx, dy), np.arctan2(dy, dx), nearest_other(features))
 
 
 PAIR_BLOCK = 4096
@@ -375,52 +368,31 @@ def _others(n: int) -> np.ndarray:
     return np.nonzero(keep)[1].reshape(len(j), n - 2)
 
 
-GRID_CELLS = 4_000_000
-"""Most cells of :class:`_NearFeatures`' grid (else the tree answers every point)."""
-
-
 class _NearFeatures:
-    """Each point's nearest feature within ``tol`` px, as ``cKDTree.query`` with ``distance_upper_bound=tol`` gives it
-    (distance ``inf`` and index ``len(features)`` where there is none). Most predictions of chance hypotheses have
-    no feature that near: a grid of cells a little larger than ``tol`` says which cells have a feature within reach
-    of any of their points (a feature's own cell and the 8 around it), and only the points in those cells are looked
-    up in the tree. The points are finite (the tree refuses others: here they would be misses)."""
+    """Each point's nearest feature within ``tol`` px (:class:`aerofid.frame.nearest.NearestWithin`: distance ``inf``
+    and index ``len(features)`` where there is none), and each feature's distance to its nearest other."""
 
     def __init__(self, features: np.ndarray, tol: float, pairs: _Pairs | None = None):
-        """``pairs``: the features' :class:`_Pairs`, whose tree and clearances serve every pixel size (else made)."""
-        self.tree = pairs.tree if pairs is not None else cKDTree(features)
-        self.clearance = pairs.clearance if pairs is not None else _clearance(self.tree)
-        self.n, self.tol, self.features = len(features), tol, features
-        self.cell = 1.01 * tol            # points within tol differ by less than one cell: their cells are neighbours
-        self.reach: np.ndarray | None = None
-        if not tol > 0:
-            return
-        self.origin = features.min(axis=0) - 2 * self.cell
-        cells = np.floor((features - self.origin) / self.cell)
-        w, h = (cells.max(axis=0) + 3).tolist()
-        if not w * h <= GRID_CELLS:                       # a tolerance too small for a grid
-            return
-        ix, iy = cells.astype(int).T
-        self.reach = np.zeros((int(h), int(w)), bool)
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                self.reach[iy + dy, ix + dx] = True
+        """``pairs``: the features' :class:`_Pairs`, whose clearances serve every pixel size (else made)."""
+        self.query = NearestWithin(features, tol)
+        self.clearance = pairs.clearance if pairs is not None else nearest_other(features)
+        self.features = features
 
     def query_predictions(self, pred: np.ndarray, hyp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`query` of every fiducial a hypothesis predicts (``pred``, h x n x 2, of hypotheses ``hyp``: i, k, j,
         l), as h x n arrays. Fiducials j and l are predicted on features i and k (j exactly, l to rounding): their
-        answers are those features, at the distance the tree computes (the square root of the sum of squared
-        coordinate differences), without a look-up, wherever that is what the tree answers: within the tolerance,
-        and no other feature as near (i's nearest other feature further than 0, k's further than twice the distance
-        to l); the tree answers the rest."""
+        answers are those features, at the distance :attr:`query` computes (the square root of the sum of squared
+        coordinate differences), without a look-up, wherever that is what it answers: within the tolerance, and no
+        other feature as near (i's nearest other feature further than 0, k's further than twice the distance to l);
+        :attr:`query` answers the rest."""
         h, n = pred.shape[:2]
         rows = np.arange(h)
         i, k, j, l = hyp.T
         dx, dy = (pred[rows, l] - self.features[k]).T
         square = dx * dx + dy * dy
         d_l = np.sqrt(square)
-        # within the tolerance as the tree tests it, on squares (a tolerance whose square underflows holds nothing)
-        plain = (square < self.tol * self.tol) & (self.clearance[i] > 0) & (self.clearance[k] > 2 * d_l)
+        # within the tolerance as the query tests it, on squares
+        plain = (square < self.query.limit) & (self.clearance[i] > 0) & (self.clearance[k] > 2 * d_l)
         d, idx = np.empty(h * n), np.empty(h * n, np.intp)
         if plain.all():                    # each row's other fiducials (of the n - 2 that are neither j nor l)
             ask = (rows[:, None] * n + _others(n)[_pair_index(j, l, n)]).ravel()
@@ -432,19 +404,6 @@ class _NearFeatures:
         d, idx = d.reshape(h, n), idx.reshape(h, n)
         d[rows[plain], j[plain]], idx[rows[plain], j[plain]] = 0.0, i[plain]
         d[rows[plain], l[plain]], idx[rows[plain], l[plain]] = d_l[plain], k[plain]
-        return d, idx
-
-    def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.reach is None:
-            return self.tree.query(points, distance_upper_bound=self.tol)
-        d, idx = np.full(len(points), np.inf), np.full(len(points), self.n)
-        with np.errstate(invalid="ignore"):
-            cells = np.floor((points - self.origin) / self.cell)
-        h, w = self.reach.shape
-        look = np.flatnonzero((cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h))
-        look = look[self.reach[cells[look, 1].astype(int), cells[look, 0].astype(int)]]
-        if look.size:
-            d[look], idx[look] = self.tree.query(points[look], distance_upper_bound=self.tol)
         return d, idx
 
 

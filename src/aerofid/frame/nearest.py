@@ -1,0 +1,121 @@
+"""The nearest of a frame's screened features (a few hundred points) to each of many points, within a tolerance:
+what the layout search (:mod:`aerofid.frame.layout`) asks of every hypothesis's predicted fiducials.
+
+The features lie in a grid of square cells a little wider than the tolerance; a point's features within the
+tolerance lie in its own cell or one of the 8 around it, so each point is compared with those alone. Numpy only:
+scipy.spatial's k-d tree answered the same, but importing it (with scipy.sparse) cost a cold ``aerofid orient``
+0.3-0.5 s, more than the layout search on an 11000^2 frame takes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+GRID_CELLS = 4_000_000
+"""Most cells of a :class:`NearestWithin` grid; a tolerance too small for one (a grid of more cells over the features'
+extent) compares the points with every feature."""
+BLOCK = 2048
+"""Points compared with every feature at once where there is no grid (memory: ``BLOCK`` x features)."""
+
+
+class NearestWithin:
+    """Each point's nearest feature within ``tol`` px: distance ``sqrt(dx^2 + dy^2)`` and index, ``inf`` and
+    ``len(features)`` where no feature lies within the tolerance, tested on squares: ``dx^2 + dy^2 < tol^2``
+    (:attr:`limit`; strictly: a tolerance that is not positive, or whose square underflows, holds nothing). Of
+    features at the same distance, the first (the stronger of a frame's). These are the answers of
+    ``scipy.spatial.cKDTree(features).query(points, distance_upper_bound=tol)`` for a positive tolerance, but for the
+    tree's own choice between features at the same distance. Points that are not finite are misses."""
+
+    def __init__(self, features: np.ndarray, tol: float):
+        self.features = np.asarray(features, np.float64).reshape(-1, 2)
+        self.n, self.tol = len(self.features), float(tol)
+        self.limit = self.tol * self.tol if self.tol > 0 else 0.0
+        self.grid = False
+        if not (self.n and self.limit > 0):
+            return
+        self.cell = 1.01 * self.tol     # points within tol differ by less than one cell: their cells are neighbours
+        self.origin = self.features.min(axis=0) - 2 * self.cell
+        cells = np.floor((self.features - self.origin) / self.cell)
+        w, h = (cells.max(axis=0) + 3).tolist()
+        if not w * h <= GRID_CELLS:
+            return
+        self.grid, self.w, self.h = True, int(w), int(h)
+        key = cells[:, 1].astype(np.intp) * self.w + cells[:, 0].astype(np.intp)
+        self.order = np.argsort(key, kind="stable")                 # the features cell by cell, in their order
+        # the features of cell c are order[start[c]:start[c + 1]]
+        self.start = np.zeros(self.w * self.h + 1, np.intp)
+        np.cumsum(np.bincount(key, minlength=self.w * self.h), out=self.start[1:])
+        self.reach = np.zeros((self.h, self.w), bool)               # cells with a feature in or around them
+        ix, iy = cells.astype(np.intp).T
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                self.reach[iy + dy, ix + dx] = True
+
+    def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        points = np.asarray(points, np.float64).reshape(-1, 2)
+        d, idx = np.full(len(points), np.inf), np.full(len(points), self.n, np.intp)
+        if not (self.n and self.limit > 0 and len(points)):
+            return d, idx
+        pt, feat = self._pairs(points) if self.grid else self._all_pairs(points)
+        dx, dy = (points[pt] - self.features[feat]).T
+        square = dx * dx + dy * dy
+        hit = square < self.limit
+        pt, feat, square = pt[hit], feat[hit], square[hit]
+        first = np.lexsort((feat, square, pt))                      # per point: the nearest, of equals the first
+        keep = first[np.r_[True, pt[first][1:] != pt[first][:-1]]] if len(first) else first
+        d[pt[keep]], idx[pt[keep]] = np.sqrt(square[keep]), feat[keep]
+        return d, idx
+
+    def _pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(point, feature) index pairs of every point in a cell within reach of a feature, with each feature in its
+        cell and the 8 around it."""
+        with np.errstate(invalid="ignore"):
+            cells = np.floor((points - self.origin) / self.cell)
+        look = np.flatnonzero((cells[:, 0] >= 1) & (cells[:, 0] < self.w - 1)
+                              & (cells[:, 1] >= 1) & (cells[:, 1] < self.h - 1))
+        ix, iy = cells[look, 0].astype(np.intp), cells[look, 1].astype(np.intp)
+        near = self.reach[iy, ix]
+        look, ix, iy = look[near], ix[near], iy[near]
+        key = (iy[:, None] + np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])) * self.w + ix[:, None] + np.tile([-1, 0, 1], 3)
+        lo, count = self.start[key].ravel(), (self.start[key + 1] - self.start[key]).ravel()
+        total = int(count.sum())
+        pt = np.repeat(np.repeat(look, 9), count)
+        # each pair's place among the features of its cell: lo, lo + 1, ... lo + count - 1
+        at = np.arange(total) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
+        return pt, self.order[at]
+
+    def _all_pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(point, feature) index pairs of every finite point near the features' bounding box (twice the tolerance
+        and a rounding's worth beyond it) with every feature within the tolerance (no grid: the tolerance is too small
+        for one), :data:`BLOCK` points at a time."""
+        margin = 2 * self.tol + 1e-9 * float(np.abs(self.features).max())
+        lo, hi = self.features.min(axis=0) - margin, self.features.max(axis=0) + margin
+        inside = np.flatnonzero(np.all((points >= lo) & (points <= hi), axis=1))
+        pts, feats = [], []
+        for b in range(0, len(inside), BLOCK):
+            rows = inside[b:b + BLOCK]
+            dx, dy = (points[rows, None, :] - self.features[None]).transpose(2, 0, 1)
+            r, f = np.nonzero(dx * dx + dy * dy < self.limit)
+            pts.append(rows[r])
+            feats.append(f)
+        if not pts:
+            return np.zeros(0, np.intp), np.zeros(0, np.intp)
+        return np.concatenate(pts), np.concatenate(feats)
+
+
+def nearest_other(points: np.ndarray) -> np.ndarray:
+    """Each point's distance to its nearest other point, ``sqrt(dx^2 + dy^2)`` (0 for a point given twice; 0 for a
+    single point), compared :data:`BLOCK` rows at a time."""
+    p = np.asarray(points, np.float64).reshape(-1, 2)
+    out = np.zeros(len(p))
+    if len(p) < 2:
+        return out
+    for b in range(0, len(p), BLOCK):
+        dx, dy = (p[b:b + BLOCK, None, :] - p[None]).transpose(2, 0, 1)
+        square = dx * dx + dy * dy
+        rows = np.arange(square.shape[0])
+        square[rows, rows + b] = np.inf
+        out[b:b + BLOCK] = np.sqrt(square.min(axis=1))
+    return out
+
+
+__all__ = ["NearestWithin", "nearest_other"]

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from aerofid.synth_frame import wild_rc10_camera
 from conftest import realdata_path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
@@ -207,3 +208,31 @@ def test_a_one_box_locate_of_the_real_rc20_ring_fits_no_cross():
     out = _locate_loads("", jpeg, "605,119,725,239", ("scipy.optimize", "scipy.special"))
     assert out.split()[0] == "found", out
     assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out
+
+
+ORIENTATION_HEAVY = ("scipy.sparse", "scipy.spatial", "scipy.special", "scipy.stats")
+"""What the layout search and the adjustment with its F tests must not import: scipy.spatial's k-d tree and
+scipy.special's F quantile cost a cold ``aerofid orient`` 0.5 s (a frame whose marks need a '+' fit loads
+scipy.optimize, and those with it, all the same)."""
+
+
+def test_the_layout_search_and_the_adjustment_import_no_heavy_scipy_module():
+    """In a fresh interpreter: the Wild RC10 layout found among chance features at an unknown pixel size, and the
+    interior orientation of its marks with the film's lie by the F test and the blunder tests."""
+    code = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from aerofid.frame.layout import layout_candidates\n"
+        "from aerofid.orientation.camera import Camera\n"
+        "from aerofid.orientation.interior import orient\n"
+        f"cam = Camera.from_dict({wild_rc10_camera().to_dict()!r})\n"
+        "rng = np.random.default_rng(1)\n"
+        "marks = cam.xy_mm * [1, -1] / 0.021 + 5500 + rng.normal(0, 0.05, cam.xy_mm.shape)\n"
+        "features = np.vstack([marks, rng.uniform(0, 11000, (200, 2))])\n"
+        "best = layout_candidates(features, cam.xy_mm, cam.y_axis, scan_size=(11000, 11000))[0]\n"
+        "io = orient(cam, marks, correspondence='auto')\n"
+        "print(len([m for m in best.matched if m is not None]), round(float(np.mean(io.pixel_size_um)), 2))\n"
+        f"print(sorted(m for m in sys.modules if m.startswith({ORIENTATION_HEAVY!r})))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines() == ["8 21.0", "[]"], out

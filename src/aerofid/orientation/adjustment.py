@@ -31,7 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy  # scipy.special loads on first use (scipy's lazy submodules)
 from numpy.typing import ArrayLike
 
 from aerofid.errors import AerofidInputError
@@ -234,17 +233,6 @@ def _in_original_pixels(cls: type[ProjectiveTransform], reflected: bool, p: np.n
     return cls.from_params(params, reflected), J @ Q @ J.T
 
 
-def f_critical(alpha: float, dfn: int, dfd: int) -> float:
-    """The critical value of the F test at significance ``alpha``: the ``1 - alpha`` quantile of F(dfn, dfd), by
-    ``scipy.special.fdtri`` (what ``scipy.stats.f.ppf`` computes, without loading ``scipy.stats``, the slowest of
-    scipy's imports, which a one-frame call would pay at its first adjustment).
-
-    >>> round(f_critical(0.05, 2, 10), 4)
-    4.1028
-    """
-    return float(scipy.special.fdtri(dfn, dfd, 1.0 - alpha))
-
-
 def normaliser(px: np.ndarray) -> np.ndarray:
     """3x3 matrix M that centres the pixel coordinates and scales them to unit RMS distance."""
     c = px.mean(axis=0)
@@ -265,4 +253,4 @@ def _dlt(xn: np.ndarray, mm: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(A, mm.reshape(-1), rcond=None)[0]
 
 
-__all__ = ["Adjustment", "adjust", "design", "f_critical", "normaliser"]
+__all__ = ["Adjustment", "adjust", "design", "normaliser"]

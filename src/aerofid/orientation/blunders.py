@@ -9,7 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from aerofid.errors import AerofidInputError
-from aerofid.orientation.adjustment import adjust, f_critical
+from aerofid.orientation.adjustment import adjust
+from aerofid.orientation.f_distribution import f_critical
 from aerofid.orientation.transform import transform_class
 
 #: Significance level of each leave-one-out outlier test. Baarda's classic alpha_0 = 0.001 misses 10 of 64

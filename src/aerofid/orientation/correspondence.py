@@ -13,7 +13,8 @@ import numpy as np
 import scipy  # scipy.optimize loads on first use (scipy's lazy submodules): start-up
 
 from aerofid.errors import AerofidInputError
-from aerofid.orientation.adjustment import adjust, f_critical
+from aerofid.orientation.adjustment import adjust
+from aerofid.orientation.f_distribution import f_critical
 from aerofid.orientation.transform import transform_class
 
 #: Significance level of the test that tells two fiducial arrangements apart.

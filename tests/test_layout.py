@@ -131,18 +131,24 @@ def test_points_that_are_not_finite_are_misses():
     assert d[:3].tolist() == [np.inf] * 3 and idx.tolist() == [2, 2, 2, 0]
 
 
-@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 40), twice=st.integers(0, 3))
-@settings(max_examples=60, deadline=None)
-def test_each_features_nearest_other(seed, n, twice):
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 60), twice=st.integers(0, 3),
+       shape=st.sampled_from(["grid", "columns", "rows", "spread"]), neighbours=st.sampled_from([1, 2, 16]))
+@settings(max_examples=150, deadline=None)
+def test_each_features_nearest_other(seed, n, twice, shape, neighbours):
     """:func:`nearest.nearest_other`: each point's distance to its nearest other, 0 for one given twice or alone, as
-    the k-d tree's second neighbour."""
+    the k-d tree's second neighbour: points on a coarse grid, in a few columns or rows (a frame's border: the
+    neighbours in one order are all in the column), spread, and with few neighbours compared (every point then
+    compared with all)."""
     from scipy.spatial import cKDTree
     rng = np.random.default_rng(seed)
-    points = rng.integers(0, 30, (n, 2)) * 0.5 + rng.choice([0.0, 1e-9], (n, 2))
+    a, b = rng.integers(0, 30, n) * 0.5 + rng.choice([0.0, 1e-9], n), rng.uniform(0, 1e4, n)
+    points = {"grid": np.c_[a, rng.integers(0, 30, n) * 0.5], "columns": np.c_[np.floor(a / 10) * 1e3, b],
+              "rows": np.c_[b, np.floor(a / 10) * 1e3], "spread": np.c_[b, rng.uniform(0, 1e4, n)]}[shape]
     for _ in range(twice if n else 0):
-        a, b = rng.integers(0, n, 2)
-        points[a] = points[b]
-    got = nearest.nearest_other(points)
+        i, k = rng.integers(0, n, 2)
+        points[i] = points[k]
+    with mock.patch.object(nearest, "NEIGHBOURS", neighbours):
+        got = nearest.nearest_other(points)
     assert np.array_equal(got, cKDTree(points).query(points, k=2)[0][:, 1] if n > 1 else np.zeros(n))
 
 

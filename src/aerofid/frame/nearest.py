@@ -15,6 +15,8 @@ GRID_CELLS = 4_000_000
 extent) compares the points with every feature."""
 BLOCK = 2048
 """Points compared with every feature at once where there is no grid (memory: ``BLOCK`` x features)."""
+NEIGHBOURS = 16
+"""Points either side in the order of x, and of y, with which :func:`nearest_other` compares each point first."""
 
 
 class NearestWithin:
@@ -56,18 +58,24 @@ class NearestWithin:
         if not (self.n and self.limit > 0 and len(points)):
             return d, idx
         pt, feat = self._pairs(points) if self.grid else self._all_pairs(points)
-        dx, dy = (points[pt] - self.features[feat]).T
+        dx = points[pt, 0] - self.features[feat, 0]
+        dy = points[pt, 1] - self.features[feat, 1]
         square = dx * dx + dy * dy
         hit = square < self.limit
         pt, feat, square = pt[hit], feat[hit], square[hit]
-        first = np.lexsort((feat, square, pt))                      # per point: the nearest, of equals the first
-        keep = first[np.r_[True, pt[first][1:] != pt[first][:-1]]] if len(first) else first
-        d[pt[keep]], idx[pt[keep]] = np.sqrt(square[keep]), feat[keep]
+        if not len(pt):
+            return d, idx
+        # the pairs come point by point: each point's least square, and of the features at it the first
+        first = np.flatnonzero(np.r_[True, pt[1:] != pt[:-1]])
+        least = np.minimum.reduceat(square, first)
+        at_least = square == np.repeat(least, np.diff(np.r_[first, len(pt)]))
+        chosen = np.minimum.reduceat(np.where(at_least, feat, self.n), first)
+        d[pt[first]], idx[pt[first]] = np.sqrt(least), chosen
         return d, idx
 
     def _pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(point, feature) index pairs of every point in a cell within reach of a feature, with each feature in its
-        cell and the 8 around it."""
+        cell and the 8 around it, point by point."""
         with np.errstate(invalid="ignore"):
             cells = np.floor((points - self.origin) / self.cell)
         look = np.flatnonzero((cells[:, 0] >= 1) & (cells[:, 0] < self.w - 1)
@@ -86,7 +94,7 @@ class NearestWithin:
     def _all_pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(point, feature) index pairs of every finite point near the features' bounding box (twice the tolerance
         and a rounding's worth beyond it) with every feature within the tolerance (no grid: the tolerance is too small
-        for one), :data:`BLOCK` points at a time."""
+        for one), point by point, :data:`BLOCK` points at a time."""
         margin = 2 * self.tol + 1e-9 * float(np.abs(self.features).max())
         lo, hi = self.features.min(axis=0) - margin, self.features.max(axis=0) + margin
         inside = np.flatnonzero(np.all((points >= lo) & (points <= hi), axis=1))
@@ -104,18 +112,38 @@ class NearestWithin:
 
 def nearest_other(points: np.ndarray) -> np.ndarray:
     """Each point's distance to its nearest other point, ``sqrt(dx^2 + dy^2)`` (0 for a point given twice; 0 for a
-    single point), compared :data:`BLOCK` rows at a time."""
+    single point). Each point is compared with its :data:`NEIGHBOURS` neighbours either side in the order of x and in
+    the order of y, and with every other point only where, in both orders, a point beyond those neighbours could be
+    nearer than the nearest found (its difference in that coordinate alone is no larger)."""
     p = np.asarray(points, np.float64).reshape(-1, 2)
-    out = np.zeros(len(p))
-    if len(p) < 2:
-        return out
-    for b in range(0, len(p), BLOCK):
-        dx, dy = (p[b:b + BLOCK, None, :] - p[None]).transpose(2, 0, 1)
+    n = len(p)
+    if n < 2:
+        return np.zeros(n)
+    best = np.full(n, np.inf)                               # least square distance found
+    beyond = np.empty((2, n))                               # per order: least square gap to a point not compared
+    reach = min(NEIGHBOURS, n - 1)
+    for axis in (0, 1):
+        order = np.argsort(p[:, axis], kind="stable")
+        u, v = p[order, axis], p[order, 1 - axis]
+        near = np.full(n, np.inf)
+        for k in range(1, reach + 1):
+            du, dv = u[k:] - u[:-k], v[k:] - v[:-k]
+            dx, dy = (du, dv) if axis == 0 else (dv, du)
+            square = dx * dx + dy * dy
+            np.minimum(near[:-k], square, out=near[:-k])
+            np.minimum(near[k:], square, out=near[k:])
+        best[order] = np.minimum(best[order], near)
+        gap = np.full((2, n), np.inf)                       # to the first point beyond the neighbours, either side
+        gap[0, :n - reach - 1] = u[reach + 1:] - u[:n - reach - 1]
+        gap[1, reach + 1:] = u[reach + 1:] - u[:n - reach - 1]
+        beyond[axis, order] = (gap * gap).min(axis=0)
+    x, y = p[:, 0], p[:, 1]
+    for i in np.flatnonzero((beyond < best).all(axis=0)).tolist():
+        dx, dy = x - x[i], y - y[i]
         square = dx * dx + dy * dy
-        rows = np.arange(square.shape[0])
-        square[rows, rows + b] = np.inf
-        out[b:b + BLOCK] = np.sqrt(square.min(axis=1))
-    return out
+        square[i] = np.inf
+        best[i] = square.min()
+    return np.sqrt(best)
 
 
 __all__ = ["NearestWithin", "nearest_other"]

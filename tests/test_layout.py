@@ -83,6 +83,22 @@ def test_the_directions_prefilter_keeps_every_hypothesis_within_the_rotation_lim
     assert not (kept & (np.abs(turn) > limit + 1e-6)).any()
 
 
+@given(n=st.integers(2, 120), seed=st.integers(0, 2**16), asks=st.lists(st.integers(0, 10**4), max_size=6))
+@settings(max_examples=60, deadline=None)
+def test_the_pairs_distances_and_directions_as_far_as_asked_are_those_of_every_pair(n, seed, asks):
+    """:class:`layout._Pairs` computes its pairs' distances and directions as the search reaches them: asked in any
+    order and range, they are those of every pair at once."""
+    features = np.random.default_rng(seed).uniform(0, 1e4, (n, 2))
+    pairs = layout._Pairs.of(features)
+    dx, dy = (features[pairs.k] - features[pairs.i]).T
+    for ask in asks:
+        a0 = ask % pairs.count
+        np.testing.assert_array_equal(pairs.distances(a0, a0 + 37), np.hypot(dx, dy)[a0:a0 + 37])
+        some = np.random.default_rng(ask).integers(0, pairs.count, 5)
+        np.testing.assert_array_equal(pairs.directions(some), np.arctan2(dy, dx)[some])
+    np.testing.assert_array_equal(pairs.directions(np.arange(pairs.count)), np.arctan2(dy, dx))
+
+
 def plain_nearest(features: np.ndarray, points: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """The definition: each point's nearest feature by dx^2 + dy^2 < tol^2 (nothing for a tolerance that is not
     positive), of equals the first; its distance the square root; ``inf`` and ``len(features)`` where there is none."""

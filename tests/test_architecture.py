@@ -183,8 +183,8 @@ def _locate_loads(setup: str, image: str, box: str, prefixes: tuple[str, ...]) -
 
 def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
     """The CLI imports the command it runs (``aerofid.cli.COMMANDS``), and a ring that ``circles`` and ``symmetry``
-    corroborate needs no scipy module (the spline coefficients and moving means are aerofid's own, scipy.sparse
-    serves only a reduced JPEG source; scipy.optimize, with scipy.sparse and scipy.spatial, loads when a '+' is
+    corroborate needs no scipy module (the spline coefficients and moving means are aerofid's own, and so are a
+    reduced JPEG source's weights; scipy.optimize, with scipy.sparse and scipy.spatial, loads when a '+' is
     fitted); a PNG needs no tifffile, a box list no PyYAML."""
     png = str(tmp_path / "ring.png")
     setup = (

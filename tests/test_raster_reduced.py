@@ -13,6 +13,7 @@ import types
 import zlib
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from unittest import mock
 
 import cv2
 import numpy as np
@@ -811,3 +812,61 @@ def test_strips_of_any_height_fold_into_the_block_mean(data):
         reduce.STRIP_BYTES = original
     scale = float(np.abs(image).max()) + 1.0  # partial means of a block in several strips add up in float32
     np.testing.assert_allclose(out, block_mean(image[y0:y1, x0:x1], factor), rtol=2e-7, atol=1e-6 * scale)
+
+
+def _sparse_fold(out, strip, first, wy, wx, bands):
+    """The fold of a reduced source's strip as it was written with scipy.sparse (CSR products, summed in the
+    order of their indices): the reference of :func:`aerofid.io.reduce._fold`'s banded products."""
+    from scipy import sparse
+
+    def csr(w):
+        rows, cols, values = [], [], []
+        for m in range(w.weight.shape[1]):                  # the order the sparse matrices were built in
+            keep = w.weight[:, m] > 0
+            rows.append(np.flatnonzero(keep))
+            cols.append(w.first[keep] + m)
+            values.append(w.weight[keep, m])
+        return sparse.csr_array((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
+                                shape=(len(w.first), w.sources))
+
+    wy_rows = csr(wy)
+    wy_columns = sparse.csc_array(wy_rows)
+    wxs = sparse.csr_array(sparse.kron(csr(wx), sparse.identity(bands)))
+    chunk = max(1, reduce.CHUNK_SAMPLES // max(strip[0].size, 1))
+    for c0 in range(0, strip.shape[0], chunk):
+        c1 = min(c0 + chunk, strip.shape[0])
+        touched = wy_columns.indices[wy_columns.indptr[first + c0]:wy_columns.indptr[first + c1]]
+        if touched.size == 0:
+            continue
+        k0, k1 = int(touched.min()), int(touched.max()) + 1
+        samples = strip[c0:c1].astype(np.float64).reshape(c1 - c0, -1)
+        rows = wy_rows[k0:k1, first + c0:first + c1] @ samples
+        out[k0:k1] += (wxs @ rows.T).T
+
+
+@given(data=st.data())
+@settings(max_examples=150, deadline=None)
+def test_a_reduced_sources_fold_gives_the_numbers_of_the_sparse_products(data):
+    """:func:`aerofid.io.reduce._fold` (a reduced JPEG's source pixels weighted by the area they share with each
+    block) adds, bit for bit, what the sparse matrix products it replaced added: windows that begin inside a source
+    pixel, strips anywhere in the window, chunks of a few rows, 8- and 16-bit and float samples, grey and RGB."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**16)))
+    scale = data.draw(st.sampled_from([2, 4, 8]))
+    factor = scale * data.draw(st.integers(1, 6))
+    bands = data.draw(st.sampled_from([1, 3]))
+    x0, y0 = data.draw(st.integers(0, 40)), data.draw(st.integers(0, 40))
+    x1, y1 = x0 + data.draw(st.integers(1, 90)), y0 + data.draw(st.integers(1, 90))
+    wy, wx = reduce.block_weights(y0, y1, factor, scale), reduce.block_weights(x0, x1, factor, scale)
+    dtype = data.draw(st.sampled_from([np.uint8, np.uint16, np.float32]))
+    r0 = data.draw(st.integers(0, wy.sources - 1))
+    r1 = data.draw(st.integers(r0 + 1, wy.sources))
+    shape = (r1 - r0, wx.sources, bands)
+    strip = (rng.normal(0, 300, shape).astype(dtype) if dtype == np.float32
+             else rng.integers(0, np.iinfo(dtype).max, shape, endpoint=True).astype(dtype))
+    start = rng.normal(0, 10, (len(wy.first), len(wx.first) * bands)).astype(np.float32)
+    got, want = start.copy(), start.copy()
+    with mock.patch.object(reduce, "CHUNK_SAMPLES", data.draw(st.sampled_from([1, 7, 2**21]))):
+        reduce._fold(got, strip, r0, wy, wx, bands)
+        _sparse_fold(want, strip, r0, wy, wx, bands)
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_allclose(wy.dense().sum(axis=1), 1.0)

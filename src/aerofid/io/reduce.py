@@ -9,9 +9,10 @@ output plus one strip plus one chunk, whatever the window (where several threads
 
 A source at the image's own scale is summed block by block (rows and columns grouped by reshapes, in
 integers for integer samples; :func:`_fold_blocks`). The reduction is linear: ``out = Wy @
-window @ Wx.T`` with sparse weight matrices (:func:`block_weights`), which reduce a source that is itself stored
-reduced by ``scale`` (libjpeg's reduced JPEG decode): each source pixel then stands for ``scale`` x ``scale``
-pixels of the image, and a block's mean weighs each source pixel by the area it shares with the block.
+window @ Wx.T`` with banded weight matrices (:func:`block_weights`: a block meets a few source pixels), which
+reduce a source that is itself stored reduced by ``scale`` (libjpeg's reduced JPEG decode): each source pixel then
+stands for ``scale`` x ``scale`` pixels of the image, and a block's mean weighs each source pixel by the area it
+shares with the block.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import math
 import operator
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -28,13 +29,11 @@ from aerofid.errors import AerofidInputError
 from aerofid.io.source import ImageSource
 from aerofid.parallel import map_in_threads
 
-if TYPE_CHECKING:
-    from scipy import sparse
-
 __all__ = [
     "CHUNK_SAMPLES",
     "STRIP_BYTES",
     "THREADED_BYTES",
+    "BlockWeights",
     "ReducedView",
     "block_weights",
     "check_factor",
@@ -120,7 +119,30 @@ def check_reduced_size(box: Sequence[int], factor: int, bands: int, limit_bytes:
         )
 
 
-def block_weights(start: int, stop: int, factor: int, scale: int = 1) -> sparse.csr_array:
+@dataclass(frozen=True)
+class BlockWeights:
+    """The weights that average the pixels of a window along one axis in blocks, from a source whose pixel ``i``
+    covers image pixels ``[i scale, (i + 1) scale)``: block ``j``'s mean is the sum over ``m`` of ``weight[j, m]``
+    times source pixel ``first[j] + m`` (counted from the window's first source pixel), a weight 0 where that source
+    pixel shares nothing with the block. A banded matrix: (blocks, sources), ``taps`` source pixels per block."""
+
+    first: np.ndarray
+    """(blocks,) int: each block's first source pixel."""
+    weight: np.ndarray
+    """(blocks, taps) float64: the share of the block's length each of its source pixels covers (rows sum to 1)."""
+    sources: int
+    """The source pixels along the axis under the window."""
+
+    def dense(self) -> np.ndarray:
+        """The (blocks, sources) matrix."""
+        out = np.zeros((len(self.first), self.sources))
+        for m in range(self.weight.shape[1]):
+            on = self.weight[:, m] > 0
+            out[np.flatnonzero(on), self.first[on] + m] = self.weight[on, m]
+        return out
+
+
+def block_weights(start: int, stop: int, factor: int, scale: int = 1) -> BlockWeights:
     """Weights that average the pixels ``[start, stop)`` of one axis in blocks of ``factor``.
 
     Parameters
@@ -134,28 +156,26 @@ def block_weights(start: int, stop: int, factor: int, scale: int = 1) -> sparse.
 
     Returns
     -------
-    scipy.sparse.csr_array
-        ``(blocks, sources)`` float64; column 0 is source pixel ``start // scale``. Row ``j`` holds the share
-        of block ``j``'s length that each source pixel covers, so every row sums to 1.
-    """
-    from scipy import sparse  # only a reduced source needs it (libjpeg's reduced decode): start-up
+    BlockWeights
+        Source pixel 0 is ``start // scale``. Block ``j``'s weights are the share of its length that each source
+        pixel covers, so that they sum to 1.
 
+    Examples
+    --------
+    >>> block_weights(2, 9, 4, 2).dense().tolist()      # blocks 2-5 and 6-8 of source pixels 1-4 (2 px each)
+    [[0.5, 0.5, 0.0, 0.0], [0.0, 0.0, 0.6666666666666666, 0.3333333333333333]]
+    """
     n = -(-(stop - start) // factor)
-    block = np.arange(n)
-    b0 = start + block * factor
+    b0 = start + np.arange(n) * factor
     b1 = np.minimum(b0 + factor, stop)
-    rows, cols, values = [], [], []
-    for m in range(-(-factor // scale) + 1):  # the source pixels a block can touch
+    taps = -(-factor // scale) + 1                       # the source pixels a block can touch
+    weight = np.zeros((n, taps))
+    for m in range(taps):
         source = b0 // scale + m
         overlap = np.minimum((source + 1) * scale, b1) - np.maximum(source * scale, b0)
         keep = overlap > 0
-        rows.append(block[keep])
-        cols.append(source[keep] - start // scale)
-        values.append(overlap[keep] / (b1 - b0)[keep])
-    shape = (n, -(-stop // scale) - start // scale)
-    return sparse.csr_array(
-        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=shape
-    )
+        weight[keep, m] = overlap[keep] / (b1 - b0)[keep]
+    return BlockWeights(b0 // scale - start // scale, weight, -(-stop // scale) - start // scale)
 
 
 def _strips(start: int, stop: int, step: int) -> Iterator[tuple[int, int]]:
@@ -167,20 +187,34 @@ def _strips(start: int, stop: int, step: int) -> Iterator[tuple[int, int]]:
         r0 = r1
 
 
-def _fold(out: np.ndarray, strip: np.ndarray, first: int, wy_rows: sparse.csr_array,
-          wy_columns: sparse.csc_array, wx: sparse.csr_array) -> None:
+def _fold(out: np.ndarray, strip: np.ndarray, first: int, wy: BlockWeights, wx: BlockWeights, bands: int) -> None:
     """Add the contribution of ``strip`` (``(rows, cols, bands)`` source rows from ``first`` on, relative to the
-    window) to ``out``, a chunk of :data:`CHUNK_SAMPLES` at a time."""
+    window) to ``out``, a chunk of :data:`CHUNK_SAMPLES` at a time: ``wy``'s rows of the chunk's source rows, then
+    ``wx``'s columns, each output a sum of its weighted source pixels in their order from 0 (float64), the
+    numbers of a sparse matrix product (``out[k0:k1] += Wy[k0:k1, rows] @ samples @ Wx.T``)."""
     chunk = max(1, CHUNK_SAMPLES // max(strip[0].size, 1))
+    on = wy.weight > 0
+    taps = wy.weight.shape[1]
+    lowest = wy.first + np.argmax(on, axis=1)                 # each block's first and last source row
+    highest = wy.first + taps - 1 - np.argmax(on[:, ::-1], axis=1)
     for c0 in range(0, strip.shape[0], chunk):
         c1 = min(c0 + chunk, strip.shape[0])
-        touched = wy_columns.indices[wy_columns.indptr[first + c0] : wy_columns.indptr[first + c1]]
+        touched = np.flatnonzero((lowest < first + c1) & (highest >= first + c0))
         if touched.size == 0:
             continue
-        k0, k1 = int(touched.min()), int(touched.max()) + 1
+        k0, k1 = int(touched[0]), int(touched[-1]) + 1
         samples = strip[c0:c1].astype(np.float64).reshape(c1 - c0, -1)
-        rows = wy_rows[k0:k1, first + c0 : first + c1] @ samples
-        out[k0:k1] += (wx @ rows.T).T
+        rows = np.zeros((k1 - k0, samples.shape[1]))
+        for m in range(taps):
+            source = wy.first[k0:k1] + m - (first + c0)
+            take = on[k0:k1, m] & (source >= 0) & (source < c1 - c0)
+            rows[take] += wy.weight[k0:k1, m][take, None] * samples[source[take]]
+        rows3 = rows.reshape(k1 - k0, wx.sources, bands)
+        blocks = np.zeros((k1 - k0, len(wx.first), bands))
+        for m in range(wx.weight.shape[1]):
+            take = np.flatnonzero(wx.weight[:, m] > 0)
+            blocks[:, take] += wx.weight[take, m][None, :, None] * rows3[:, wx.first[take] + m]
+        out[k0:k1] += blocks.reshape(k1 - k0, -1)
 
 
 def _sum_type(dtype: np.dtype, factor: int) -> type:
@@ -281,12 +315,8 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
     row_bytes = max(src_cols * bands * itemsize, 1)
     step = row_step * max(1, STRIP_BYTES // (row_step * row_bytes))
     weights = None
-    if scale > 1:                                        # a reduced source: the area-weighted sparse matrices
-        from scipy import sparse
-
-        wy = block_weights(y0, y1, factor, scale)
-        wx = sparse.csr_array(sparse.kron(block_weights(x0, x1, factor, scale), sparse.identity(bands)))
-        weights = (wy, sparse.csc_array(wy), wx)
+    if scale > 1:                                        # a reduced source: the area-weighted banded matrices
+        weights = (block_weights(y0, y1, factor, scale), block_weights(x0, x1, factor, scale), bands)
 
     def add(strip_rows: tuple[int, int]) -> None:
         r0, r1 = strip_rows

@@ -141,10 +141,26 @@ def test_the_nearest_features_within_a_tolerance(seed, n, tol, cells):
     assert_as_the_tree(features, points, tol, d, idx)
 
 
-def test_points_that_are_not_finite_are_misses():
+@pytest.mark.parametrize("cells", [None, 1])
+def test_points_that_are_not_finite_are_misses(cells):
     features = np.array([[0.0, 0.0], [10.0, 5.0]])
-    d, idx = nearest.NearestWithin(features, 5.0)(np.array([[np.nan, 0.0], [np.inf, 5.0], [-np.inf, np.nan], [1, 1]]))
+    with mock.patch.object(nearest, "GRID_CELLS", cells or nearest.GRID_CELLS):
+        near = nearest.NearestWithin(features, 5.0)
+    d, idx = near(np.array([[np.nan, 0.0], [np.inf, 5.0], [-np.inf, np.nan], [1, 1]]))
     assert d[:3].tolist() == [np.inf] * 3 and idx.tolist() == [2, 2, 2, 0]
+    with pytest.raises(ValueError, match="finite"):
+        nearest.NearestWithin(np.array([[0.0, np.nan]]), 5.0)
+    with pytest.raises(ValueError, match="finite"):
+        nearest.nearest_other(np.array([[0.0, 0.0], [np.inf, 1.0]]))
+
+
+def test_features_far_from_the_origin_are_found_on_the_grid():
+    """Coordinates whose rounding step is larger than a cell: the features' own cells, counted from the least."""
+    features = np.array([[1e17, 1e17], [1e17 + 64, 1e17], [1e17, 1e17 + 4096]])
+    points = np.vstack([features, features + [0.0, 16.0]])
+    d, idx = nearest.NearestWithin(features, 20.0)(points)
+    assert_as_the_tree(features, points, 20.0, d, idx)
+    assert idx.tolist() == [0, 1, 2, 0, 1, 2]
 
 
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 60), twice=st.integers(0, 3),

@@ -870,3 +870,27 @@ def test_a_reduced_sources_fold_gives_the_numbers_of_the_sparse_products(data):
         _sparse_fold(want, strip, r0, wy, wx, bands)
     np.testing.assert_array_equal(got, want)
     np.testing.assert_allclose(wy.dense().sum(axis=1), 1.0)
+
+
+@given(start=st.integers(0, 60), length=st.integers(1, 200), factor=st.integers(1, 40),
+       scale=st.sampled_from([1, 2, 4, 8]))
+@settings(max_examples=200, deadline=None)
+def test_the_block_weights_are_those_the_sparse_matrix_held(start, length, factor, scale):
+    """:func:`aerofid.io.reduce.block_weights` as banded arrays holds the weights of the sparse matrix it replaced
+    (that matrix's construction written out here), each block's first and last source pixel of a weight."""
+    stop = start + length
+    n = -(-(stop - start) // factor)
+    block = np.arange(n)
+    b0 = start + block * factor
+    b1 = np.minimum(b0 + factor, stop)
+    want = np.zeros((n, -(-stop // scale) - start // scale))
+    for m in range(-(-factor // scale) + 1):
+        source = b0 // scale + m
+        overlap = np.minimum((source + 1) * scale, b1) - np.maximum(source * scale, b0)
+        keep = overlap > 0
+        want[block[keep], source[keep] - start // scale] = overlap[keep] / (b1 - b0)[keep]
+    w = reduce.block_weights(start, stop, factor, scale)
+    np.testing.assert_array_equal(w.dense(), want)
+    on = want > 0
+    np.testing.assert_array_equal(w.first, np.argmax(on, axis=1))
+    np.testing.assert_array_equal(w.last, want.shape[1] - 1 - np.argmax(on[:, ::-1], axis=1))

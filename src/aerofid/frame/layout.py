@@ -398,7 +398,7 @@ class _NearFeatures:
         self.features = features
 
     def query_predictions(self, pred: np.ndarray, hyp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`query` of every fiducial a hypothesis predicts (``pred``, h x n x 2, of hypotheses ``hyp``: i, k, j,
+        """:attr:`query` of every fiducial a hypothesis predicts (``pred``, h x n x 2, of hypotheses ``hyp``: i, k, j,
         l), as h x n arrays. Fiducials j and l are predicted on features i and k (j exactly, l to rounding): their
         answers are those features, at the distance :attr:`query` computes (the square root of the sum of squared
         coordinate differences), without a look-up, wherever that is what it answers: within the tolerance, and no

@@ -25,18 +25,21 @@ class NearestWithin:
     (:attr:`limit`; strictly: a tolerance that is not positive, or whose square underflows, holds nothing). Of
     features at the same distance, the first (the stronger of a frame's). These are the answers of
     ``scipy.spatial.cKDTree(features).query(points, distance_upper_bound=tol)`` for a positive tolerance, but for the
-    tree's own choice between features at the same distance. Points that are not finite are misses."""
+    tree's own choice between features at the same distance. Points that are not finite are misses; features must
+    be finite."""
 
     def __init__(self, features: np.ndarray, tol: float):
         self.features = np.asarray(features, np.float64).reshape(-1, 2)
+        if not np.all(np.isfinite(self.features)):
+            raise ValueError("features must be finite")
         self.n, self.tol = len(self.features), float(tol)
         self.limit = self.tol * self.tol if self.tol > 0 else 0.0
         self.grid = False
         if not (self.n and self.limit > 0):
             return
         self.cell = 1.01 * self.tol     # points within tol differ by less than one cell: their cells are neighbours
-        self.origin = self.features.min(axis=0) - 2 * self.cell
-        cells = np.floor((self.features - self.origin) / self.cell)
+        self.origin = self.features.min(axis=0)                     # cells 2 .. w - 3: two empty ones either side
+        cells = self._cells(self.features)
         w, h = (cells.max(axis=0) + 3).tolist()
         if not w * h <= GRID_CELLS:
             return
@@ -76,8 +79,7 @@ class NearestWithin:
     def _pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(point, feature) index pairs of every point in a cell within reach of a feature, with each feature in its
         cell and the 8 around it, point by point."""
-        with np.errstate(invalid="ignore"):
-            cells = np.floor((points - self.origin) / self.cell)
+        cells = self._cells(points)
         look = np.flatnonzero((cells[:, 0] >= 1) & (cells[:, 0] < self.w - 1)
                               & (cells[:, 1] >= 1) & (cells[:, 1] < self.h - 1))
         ix, iy = cells[look, 0].astype(np.intp), cells[look, 1].astype(np.intp)
@@ -90,6 +92,11 @@ class NearestWithin:
         # each pair's place among the features of its cell: lo, lo + 1, ... lo + count - 1
         at = np.arange(total) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
         return pt, self.order[at]
+
+    def _cells(self, points: np.ndarray) -> np.ndarray:
+        """Each point's cell (column, row) as floats, the features' least coordinates in cell 2."""
+        with np.errstate(invalid="ignore", over="ignore"):
+            return np.floor((points - self.origin) / self.cell) + 2
 
     def _all_pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(point, feature) index pairs of every finite point near the features' bounding box (twice the tolerance
@@ -114,8 +121,11 @@ def nearest_other(points: np.ndarray) -> np.ndarray:
     """Each point's distance to its nearest other point, ``sqrt(dx^2 + dy^2)`` (0 for a point given twice; 0 for a
     single point). Each point is compared with its :data:`NEIGHBOURS` neighbours either side in the order of x and in
     the order of y, and with every other point only where, in both orders, a point beyond those neighbours could be
-    nearer than the nearest found (its difference in that coordinate alone is no larger)."""
+    nearer than the nearest found (its difference in that coordinate alone is no larger). The points must be
+    finite."""
     p = np.asarray(points, np.float64).reshape(-1, 2)
+    if not np.all(np.isfinite(p)):
+        raise ValueError("points must be finite")
     n = len(p)
     if n < 2:
         return np.zeros(n)

@@ -127,7 +127,9 @@ class BlockWeights:
     pixel shares nothing with the block. A banded matrix: (blocks, sources), ``taps`` source pixels per block."""
 
     first: np.ndarray
-    """(blocks,) int: each block's first source pixel."""
+    """(blocks,) int: each block's first source pixel (it covers the block's first image pixel: its weight is not 0)."""
+    last: np.ndarray
+    """(blocks,) int: each block's last source pixel of a weight that is not 0."""
     weight: np.ndarray
     """(blocks, taps) float64: the share of the block's length each of its source pixels covers (rows sum to 1)."""
     sources: int
@@ -175,7 +177,8 @@ def block_weights(start: int, stop: int, factor: int, scale: int = 1) -> BlockWe
         overlap = np.minimum((source + 1) * scale, b1) - np.maximum(source * scale, b0)
         keep = overlap > 0
         weight[keep, m] = overlap[keep] / (b1 - b0)[keep]
-    return BlockWeights(b0 // scale - start // scale, weight, -(-stop // scale) - start // scale)
+    first = b0 // scale - start // scale
+    return BlockWeights(first, (b1 - 1) // scale - start // scale, weight, -(-stop // scale) - start // scale)
 
 
 def _strips(start: int, stop: int, step: int) -> Iterator[tuple[int, int]]:
@@ -194,18 +197,15 @@ def _fold(out: np.ndarray, strip: np.ndarray, first: int, wy: BlockWeights, wx: 
     numbers of a sparse matrix product (``out[k0:k1] += Wy[k0:k1, rows] @ samples @ Wx.T``)."""
     chunk = max(1, CHUNK_SAMPLES // max(strip[0].size, 1))
     on = wy.weight > 0
-    taps = wy.weight.shape[1]
-    lowest = wy.first + np.argmax(on, axis=1)                 # each block's first and last source row
-    highest = wy.first + taps - 1 - np.argmax(on[:, ::-1], axis=1)
     for c0 in range(0, strip.shape[0], chunk):
         c1 = min(c0 + chunk, strip.shape[0])
-        touched = np.flatnonzero((lowest < first + c1) & (highest >= first + c0))
+        touched = np.flatnonzero((wy.first < first + c1) & (wy.last >= first + c0))
         if touched.size == 0:
             continue
         k0, k1 = int(touched[0]), int(touched[-1]) + 1
         samples = strip[c0:c1].astype(np.float64).reshape(c1 - c0, -1)
         rows = np.zeros((k1 - k0, samples.shape[1]))
-        for m in range(taps):
+        for m in range(wy.weight.shape[1]):
             source = wy.first[k0:k1] + m - (first + c0)
             take = on[k0:k1, m] & (source >= 0) & (source < c1 - c0)
             rows[take] += wy.weight[k0:k1, m][take, None] * samples[source[take]]

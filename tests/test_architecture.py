@@ -11,6 +11,7 @@ methods, resample`` < ``find, testing`` < ``locate, frame`` < ``render, batch`` 
 from __future__ import annotations
 
 import ast
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -210,29 +211,32 @@ def test_a_one_box_locate_of_the_real_rc20_ring_fits_no_cross():
     assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out
 
 
-ORIENTATION_HEAVY = ("scipy.sparse", "scipy.spatial", "scipy.special", "scipy.stats")
-"""What the layout search and the adjustment with its F tests must not import: scipy.spatial's k-d tree and
-scipy.special's F quantile cost a cold ``aerofid orient`` 0.5 s (a frame whose marks need a '+' fit loads
-scipy.optimize, and those with it, all the same)."""
+ORIENTATION_HEAVY = ("scipy", "yaml")
+"""What the layout search and the adjustment with its F tests, on a JSON camera file, must not import: scipy.spatial's
+k-d tree and scipy.special's F quantile cost a cold ``aerofid orient`` 0.5 s, PyYAML 20 ms (a frame whose marks need
+a '+' fit loads scipy.optimize, and what it brings, all the same)."""
 
 
-def test_the_layout_search_and_the_adjustment_import_no_heavy_scipy_module():
-    """In a fresh interpreter: the Wild RC10 layout found among chance features at an unknown pixel size, and the
-    interior orientation of its marks with the film's lie by the F test and the blunder tests."""
+def test_the_layout_search_and_the_adjustment_import_no_scipy_nor_yaml(tmp_path):
+    """In a fresh interpreter: the Wild RC10 layout (read from a JSON camera file) found among chance features at an
+    unknown pixel size, and the interior orientation of its marks with the film's lie by the F test and the blunder
+    tests."""
+    camera = tmp_path / "camera.json"
+    camera.write_text(json.dumps(wild_rc10_camera().to_dict()), encoding="utf-8")
     code = (
         "import sys\n"
         "import numpy as np\n"
+        "from aerofid.formats.camera_file import read_camera\n"
         "from aerofid.frame.layout import layout_candidates\n"
-        "from aerofid.orientation.camera import Camera\n"
         "from aerofid.orientation.interior import orient\n"
-        f"cam = Camera.from_dict({wild_rc10_camera().to_dict()!r})\n"
+        f"cam = read_camera({str(camera)!r})\n"
         "rng = np.random.default_rng(1)\n"
         "marks = cam.xy_mm * [1, -1] / 0.021 + 5500 + rng.normal(0, 0.05, cam.xy_mm.shape)\n"
         "features = np.vstack([marks, rng.uniform(0, 11000, (200, 2))])\n"
         "best = layout_candidates(features, cam.xy_mm, cam.y_axis, scan_size=(11000, 11000))[0]\n"
         "io = orient(cam, marks, correspondence='auto')\n"
         "print(len([m for m in best.matched if m is not None]), round(float(np.mean(io.pixel_size_um)), 2))\n"
-        f"print(sorted(m for m in sys.modules if m.startswith({ORIENTATION_HEAVY!r})))\n"
+        f"print(sorted(m for m in sys.modules if m.split('.')[0] in {ORIENTATION_HEAVY!r}))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip().splitlines() == ["8 21.0", "[]"], out

@@ -9,11 +9,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import yaml
-
 from aerofid.formats.micmac import read_measures_camera, write_measures_camera
 from aerofid.formats.text import load_json
-from aerofid.formats.yaml_text import load_yaml
+from aerofid.formats.yaml_text import dump_yaml, load_yaml
 from aerofid.io.atomic import write_text_atomic
 from aerofid.io.files import input_file, read_text_input
 from aerofid.orientation.camera import Camera
@@ -81,7 +79,7 @@ def write_camera(path: str | Path, camera: Camera) -> None:
     if suffix == ".xml":
         write_measures_camera(path, camera)
     elif suffix in (".yaml", ".yml"):
-        write_text_atomic(path, yaml.safe_dump(camera.to_dict(), sort_keys=False))
+        write_text_atomic(path, dump_yaml(camera.to_dict()))
     else:
         write_text_atomic(path, json.dumps(camera.to_dict(), indent=2) + "\n")
 

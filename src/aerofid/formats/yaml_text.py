@@ -1,44 +1,48 @@
-"""Reading a YAML camera file without trusting it: PyYAML's safe loader (no Python objects) with duplicate keys
-refused and nesting limited to :data:`aerofid.formats.text.MAX_DEPTH` (a module of its own: the commands that read
-no camera file, such as ``aerofid locate``, do not import PyYAML).
+"""Reading and writing a YAML camera file without trusting it: PyYAML's safe loader (no Python objects) with
+duplicate keys refused and nesting limited to :data:`aerofid.formats.text.MAX_DEPTH`. PyYAML is imported at the
+first YAML file (a JSON or MicMac camera file, and the commands that read none, such as ``aerofid locate``, do not
+load it: 20 ms of a cold call).
 """
 
 from __future__ import annotations
 
+import functools
 from typing import Any
-
-import yaml
 
 from aerofid.errors import AerofidInputError
 from aerofid.formats.text import MAX_DEPTH, too_deep
 
-__all__ = ["load_yaml"]
+__all__ = ["dump_yaml", "load_yaml"]
 
 
-class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader with duplicate keys refused and nesting limited (its composer recurses)."""
+@functools.cache
+def _loader() -> Any:
+    """PyYAML's safe loader with duplicate keys refused and nesting limited (its composer recurses), made at the
+    first YAML file."""
+    import yaml
 
-    source = ""
-    depth = 0
+    class Loader(yaml.SafeLoader):
+        source = ""
+        depth = 0
 
-    def compose_node(self, parent, index):
-        self.depth += 1
-        try:
-            if self.depth > MAX_DEPTH:
-                raise too_deep(self.source)
-            return super().compose_node(parent, index)
-        finally:
-            self.depth -= 1
+        def compose_node(self, parent, index):
+            self.depth += 1
+            try:
+                if self.depth > MAX_DEPTH:
+                    raise too_deep(self.source)
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
 
-    def construct_mapping(self, node, deep=False):
-        keys = [self.construct_object(k, deep=deep) for k, _ in node.value]
-        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
-        if dup:
-            raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {self.source}; each key once")
-        return super().construct_mapping(node, deep=deep)
+        def construct_mapping(self, node, deep=False):
+            keys = [self.construct_object(k, deep=deep) for k, _ in node.value]
+            dup = sorted({str(k) for k in keys if keys.count(k) > 1})
+            if dup:
+                raise AerofidInputError(f"duplicate key(s) {', '.join(dup)} in {self.source}; each key once")
+            return super().construct_mapping(node, deep=deep)
 
-
-_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _Loader.construct_mapping)
+    Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, Loader.construct_mapping)
+    return Loader
 
 
 def load_yaml(text: str, source: str) -> Any:
@@ -54,7 +58,9 @@ def load_yaml(text: str, source: str) -> Any:
     ...
     aerofid.errors.AerofidInputError: x.yaml nests deeper than 32 levels; ...
     """
-    loader = _Loader(text)
+    import yaml
+
+    loader = _loader()(text)
     loader.source = source
     try:
         return loader.get_single_data()
@@ -65,3 +71,10 @@ def load_yaml(text: str, source: str) -> Any:
         raise too_deep(source) from None
     finally:
         loader.dispose()
+
+
+def dump_yaml(data: Any) -> str:
+    """``data`` (plain dicts, lists and numbers) as YAML text, keys in their order."""
+    import yaml
+
+    return str(yaml.safe_dump(data, sort_keys=False))

@@ -10,7 +10,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy  # scipy.optimize loads on first use (scipy's lazy submodules): start-up
 
 from aerofid.errors import AerofidInputError
 from aerofid.orientation.adjustment import adjust
@@ -214,7 +213,9 @@ def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     cols = D.argmin(axis=1)
     if len(np.unique(cols)) == len(cols):
         return np.arange(len(cols)), cols
-    return scipy.optimize.linear_sum_assignment(D)
+    from scipy.optimize import linear_sum_assignment
+
+    return linear_sum_assignment(D)
 
 
 def _pair_similarities(px: np.ndarray, Cp: np.ndarray, lim: float) -> tuple[np.ndarray, np.ndarray]:

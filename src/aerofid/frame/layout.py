@@ -271,7 +271,7 @@ class _Pairs:
 
     def distances(self, a0: int, a1: int) -> np.ndarray:
         """The distances (px) of pairs ``a0 .. a1 - 1``."""
-        self._reach(min(a1, self.count))
+        self._reach(a1)
         return self._d_px[a0:a1]
 
     def directions(self, pair: np.ndarray) -> np.ndarray:

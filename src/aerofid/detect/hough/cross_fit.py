@@ -255,8 +255,7 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
     from scipy.optimize import least_squares  # at the first '+' fitted (0.5-0.7 s of a cold call)
 
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
-        sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac",
-                                           max_nfev=MAX_EVALUATIONS)
+        sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac", max_nfev=MAX_EVALUATIONS)
         finite = bool(np.all(np.isfinite(sol.x)))
         ran_out = finite and not (sol.success or sol.status > 0)
         if retry and (not finite or (ran_out and np.hypot(sol.x[0] - start[0], sol.x[1] - start[1]) <= RETRY_SHIFT)):

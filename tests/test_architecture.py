@@ -3,9 +3,9 @@ imports only the layers below it, no import hides inside a function (the way cyc
 every function is short enough to read at once.
 
 Layers, lowest first (a module may import its own layer and those below):
-``conventions, errors, robust, parallel`` < ``io`` < ``detect``, ``orientation`` < ``formats`` < ``synth, synth_frame,
-methods, resample`` < ``find, testing`` < ``locate, frame`` < ``render, batch`` < ``cli``. ``detect`` and
-``orientation`` are independent of each other.
+``conventions, errors, robust, parallel, scipy_kernels`` < ``io`` < ``detect``, ``orientation`` < ``formats`` <
+``synth, synth_frame, methods, resample`` < ``find, testing`` < ``locate, frame`` < ``render, batch`` < ``cli``.
+``detect`` and ``orientation`` are independent of each other.
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ from conftest import realdata_path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
 
-LAYER = {"conventions": 0, "errors": 0, "robust": 0, "parallel": 0, "io": 1, "detect": 2, "orientation": 2,
-         "formats": 3, "synth": 4, "synth_frame": 4, "methods": 4, "resample": 4, "testing": 5, "find": 5, "locate": 6,
-         "frame": 6, "render": 7, "batch": 7, "cli": 8, "__init__": 9, "__main__": 10}
+LAYER = {"conventions": 0, "errors": 0, "robust": 0, "parallel": 0, "scipy_kernels": 0, "io": 1, "detect": 2,
+         "orientation": 2, "formats": 3, "synth": 4, "synth_frame": 4, "methods": 4, "resample": 4, "testing": 5,
+         "find": 5, "locate": 6, "frame": 6, "render": 7, "batch": 7, "cli": 8, "__init__": 9, "__main__": 10}
 """Each top-level part of the package and its layer."""
 INDEPENDENT = {frozenset({"detect", "orientation"}), frozenset({"detect", "formats"})}
 """Parts that must not import each other although their layers would allow it."""
@@ -185,8 +185,8 @@ def _locate_loads(setup: str, image: str, box: str, prefixes: tuple[str, ...]) -
 def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
     """The CLI imports the command it runs (``aerofid.cli.COMMANDS``), and a ring that ``circles`` and ``symmetry``
     corroborate needs no scipy module (the spline coefficients and moving means are aerofid's own, and so are a
-    reduced JPEG source's weights; scipy.optimize, with scipy.sparse and scipy.spatial, loads when a '+' is
-    fitted); a PNG needs no tifffile, a box list no PyYAML."""
+    reduced JPEG source's weights; a '+' fitted loads scipy's MINPACK and ``ndtr`` alone, and scipy.optimize when its
+    bounded solver retries a fit); a PNG needs no tifffile, a box list no PyYAML."""
     png = str(tmp_path / "ring.png")
     setup = (
         "import numpy as np, cv2\n"
@@ -211,10 +211,32 @@ def test_a_one_box_locate_of_the_real_rc20_ring_fits_no_cross():
     assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out
 
 
+def test_a_one_box_locate_of_a_cross_loads_neither_scipy_optimize_nor_scipy_special(tmp_path):
+    """A '+' that ``hough`` fits is fitted by scipy's MINPACK and ``ndtr`` loaded by themselves
+    (:mod:`aerofid.scipy_kernels`): the call loads neither scipy.optimize nor scipy.special, nor what they bring
+    (0.6-0.7 s of a cold call), and finds the '+' where it is."""
+    png = str(tmp_path / "cross.png")
+    setup = (
+        "import numpy as np, cv2\n"
+        "yy, xx = np.mgrid[0:96, 0:96]\n"
+        "d1, d2 = np.abs(xx - 47.3), np.abs(yy - 48.6)\n"
+        "bar = lambda u, v: np.clip(2.0 - u, 0, 1) * np.clip(25.0 - v, 0, 1)\n"
+        "img = 40 + 160 * np.maximum(bar(d1, d2), bar(d2, d1))\n"
+        "img = cv2.GaussianBlur(img, (0, 0), 0.8) + np.random.default_rng(0).normal(0, 2, img.shape)\n"
+        f"cv2.imwrite({png!r}, np.clip(img, 0, 255).astype(np.uint8))\n"
+    )
+    out = _locate_loads(setup, png, "10,10,86,86", ("scipy.optimize", "scipy.special", "scipy.sparse",
+                                                   "scipy.linalg"))
+    found = out.split()
+    assert found[0] == "found" and "method=hough" in out, out
+    assert abs(float(found[1][2:]) - 47.3) < 0.05 and abs(float(found[2][2:]) - 48.6) < 0.05
+    assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out
+
+
 ORIENTATION_HEAVY = ("scipy", "yaml")
 """What the layout search and the adjustment with its F tests, on a JSON camera file, must not import: scipy.spatial's
-k-d tree and scipy.special's F quantile cost a cold ``aerofid orient`` 0.5 s, PyYAML 20 ms (a frame whose marks need
-a '+' fit loads scipy.optimize, and what it brings, all the same)."""
+k-d tree and scipy.special's F quantile cost a cold ``aerofid orient`` 0.5 s, PyYAML 20 ms (a '+' fitted loads two of
+scipy's compiled modules, :mod:`aerofid.scipy_kernels`, and scipy's top package)."""
 
 
 def test_the_layout_search_and_the_adjustment_import_no_scipy_nor_yaml(tmp_path):

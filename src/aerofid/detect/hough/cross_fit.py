@@ -8,7 +8,7 @@ Hough centre are modelled as
 where c_k is the coverage of bar k (length L_k, stroke width w, normal angle theta_k, through the centre
 (xc, yc)) blurred by a Gaussian of standard deviation s; across and along the bar the blurred box profile
 is Phi((u + a/2) / s) - Phi((u - a/2) / s). The 12 parameters (xc, yc, theta1, theta2, L1, L2, w, s, A,
-b0, bx, by) are estimated by Gauss-Newton/Levenberg-Marquardt (scipy.optimize.least_squares); the
+b0, bx, by) are estimated by Levenberg-Marquardt (MINPACK, :mod:`aerofid.scipy_kernels`); the
 covariance of the centre is sigma0^2 (J^T J)^-1 with sigma0^2 = v^T v / (n - u), so texture that the model
 does not explain widens the reported sigma instead of hiding in it.
 
@@ -20,11 +20,11 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from aerofid.robust import robust_std
+from aerofid.scipy_kernels import LMSolution, levenberg_marquardt, ndtr
 
 PATCH_MARGIN = 3.0
 """The patch fitted reaches this many px beyond the arms' estimated ends."""
@@ -112,8 +112,6 @@ def _profile(u: np.ndarray, extent: np.ndarray, s: float) -> tuple[np.ndarray, n
     al, be = (u + extent / 2.0) / s, (u - extent / 2.0) / s
     with np.errstate(over="ignore", under="ignore"):  # far from the edges the Gaussian is 0
         pa, pb = np.exp(-0.5 * al * al) / SQRT_2PI, np.exp(-0.5 * be * be) / SQRT_2PI
-    from scipy.special import ndtr  # at the first '+' fitted: a call that fits none does not import scipy
-
     return ndtr(al) - ndtr(be), (pa - pb) / s, (pa + pb) / (2.0 * s), -(al * pa - be * pb) / s
 
 
@@ -235,13 +233,14 @@ def _start(pt: _Patch, thetas_deg: tuple[float, float], arm: float, width: float
 
 
 def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                   retry: bool = True) -> Any:
-    """One weighted least-squares pass from ``start``: Levenberg-Marquardt (MINPACK) without bounds, several
-    times faster than the bounded trust-region solver (a solution that leaves the plausible region is reported
-    via ``at_bound``). When LM runs out of evaluations with the centre still within :data:`RETRY_SHIFT` of the
-    start, it has wandered into a degenerate shape (a hair-thin, very bright stroke; an arm growing without end)
-    while the '+' held, and when it ends on values that are not finite: the bounded trust-region solver then runs
-    once from the same start (unless not ``retry``)."""
+                   retry: bool = True) -> LMSolution:
+    """One weighted least-squares pass from ``start``: Levenberg-Marquardt (MINPACK,
+    :func:`aerofid.scipy_kernels.levenberg_marquardt`) without bounds, several times faster than the bounded
+    trust-region solver (a solution that leaves the plausible region is reported via ``at_bound``). When LM runs out
+    of evaluations with the centre still within :data:`RETRY_SHIFT` of the start, it has wandered into a degenerate
+    shape (a hair-thin, very bright stroke; an arm growing without end) while the '+' held, and when it ends on values
+    that are not finite: the bounded trust-region solver (``scipy.optimize.least_squares``, imported then) runs once
+    from the same start (unless not ``retry``)."""
 
     # the solvers ask for the Jacobian at nearly every point whose residuals they computed (MINPACK: after each
     # accepted step), and both come from the same bar profiles: compute them together (:meth:`_Patch.evaluated`)
@@ -252,18 +251,19 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
     def jac(p: np.ndarray) -> np.ndarray:
         return weights[:, None] * pt.evaluated(p)[1]
 
-    from scipy.optimize import least_squares  # at the first '+' fitted (0.5-0.7 s of a cold call)
-
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
-        sol = least_squares(residuals, start, jac=jac, method="lm", x_scale="jac", max_nfev=MAX_EVALUATIONS)
+        sol = levenberg_marquardt(residuals, jac, start, MAX_EVALUATIONS)
         finite = bool(np.all(np.isfinite(sol.x)))
         ran_out = finite and not (sol.success or sol.status > 0)
         if retry and (not finite or (ran_out and np.hypot(sol.x[0] - start[0], sol.x[1] - start[1]) <= RETRY_SHIFT)):
+            from scipy.optimize import least_squares  # rare: scipy.optimize's start-up (0.6-0.7 s) only then
+
             inside = np.array(start, float)
             inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
             inside = np.clip(inside, lo + 1e-9, hi - 1e-9)
-            sol = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi), x_scale="jac",
-                                max_nfev=MAX_EVALUATIONS)
+            bounded = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi), x_scale="jac",
+                                    max_nfev=MAX_EVALUATIONS)
+            sol = LMSolution(np.asarray(bounded.x, float), int(bounded.status), int(bounded.nfev))
     return sol
 
 

@@ -1,0 +1,157 @@
+"""Two of scipy's compiled kernels without scipy's package start-up: MINPACK's Levenberg-Marquardt (``lmder``) and
+the standard normal distribution function (``ndtr``), which the cross fit of a '+' needs.
+
+``from scipy.optimize import least_squares`` runs the ``__init__`` of scipy.optimize, which imports most of scipy
+(scipy.sparse, scipy.linalg, scipy.special, scipy.stats' pieces): 0.6-0.7 s of a cold ``aerofid locate`` or
+``aerofid orient`` that fits one '+' (``python -X importtime``, this machine, 2026-11-28), against a few
+milliseconds for the two extension modules that hold the kernels, ``scipy/optimize/_minpack`` and
+``scipy/special/_special_ufuncs``. This module loads those two files by themselves, under their own names (without
+running any package ``__init__``), and calls them as ``scipy.optimize.least_squares(..., method="lm")`` and
+``scipy.special.ndtr`` call them: the same compiled code on the same numbers, so the same answers to the bit (the
+tests compare them).
+
+Each kernel is checked once on a problem whose answer is known before it is used; where a file is missing, loads
+differently or fails the check (another scipy version), the public functions are used instead (slower to import,
+the same answers). A later import of scipy itself loads its own copies: nothing is left in ``sys.modules``.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.machinery
+import importlib.util
+import math
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+LM_TOLERANCE = 1e-8
+"""MINPACK's ``ftol``, ``xtol`` and ``gtol``: scipy.optimize.least_squares' defaults."""
+LM_STEP_BOUND = 100.0
+"""MINPACK's ``factor`` (the initial step bound), as least_squares passes it."""
+FROM_MINPACK = {0: -1, 1: 2, 2: 3, 3: 4, 4: 1, 5: 0}
+"""MINPACK's ``info`` -> least_squares' ``status`` (scipy.optimize._lsq.least_squares.FROM_MINPACK_TO_COMMON):
+-1 improper input, 0 the evaluations ran out, 1-4 converged. MINPACK's 6-8 (no further reduction possible at
+machine precision) count as converged here (scipy's table has no entry for them)."""
+
+
+@dataclass(frozen=True)
+class LMSolution:
+    """The end of a least-squares pass: the parameters, least_squares' ``status`` and the model evaluations it made."""
+
+    x: np.ndarray
+    status: int
+    nfev: int
+
+    @property
+    def success(self) -> bool:
+        """Converged (least_squares' ``success``: ``status > 0``)."""
+        return self.status > 0
+
+
+def levenberg_marquardt(residuals: Callable[[np.ndarray], np.ndarray], jacobian: Callable[[np.ndarray], np.ndarray],
+                        x0: np.ndarray, max_evaluations: int) -> LMSolution:
+    """``scipy.optimize.least_squares(residuals, x0, jac=jacobian, method="lm", x_scale="jac",
+    max_nfev=max_evaluations)``: MINPACK's ``lmder`` with the parameters scaled by the Jacobian's column norms.
+
+    Raises ValueError, as least_squares does, where the residuals at ``x0`` are not finite."""
+    x = np.atleast_1d(np.asarray(x0, dtype=float))
+    if not np.all(np.isfinite(residuals(x))):
+        raise ValueError("Residuals are not finite in the initial point.")
+    lmder = _minpack()
+    if lmder is None:
+        from scipy.optimize import least_squares
+
+        sol = least_squares(residuals, x, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_evaluations)
+        return LMSolution(np.asarray(sol.x, float), int(sol.status), int(sol.nfev))
+    end, info, code = lmder(residuals, jacobian, x.copy(), (), True, False, LM_TOLERANCE, LM_TOLERANCE,
+                            LM_TOLERANCE, max_evaluations, LM_STEP_BOUND, None)
+    return LMSolution(np.asarray(end, float), FROM_MINPACK.get(int(code), 1), int(info["nfev"]))
+
+
+def ndtr(x: np.ndarray) -> np.ndarray:
+    """The standard normal distribution function at ``x`` (``scipy.special.ndtr``)."""
+    return _ndtr()(x)
+
+
+@functools.cache
+def _minpack() -> Callable[..., Any] | None:
+    """scipy's ``_minpack._lmder`` where it loads and passes :func:`_lmder_works`, else None."""
+    module = _extension("scipy.optimize._minpack", ("optimize", "_minpack"))
+    lmder = getattr(module, "_lmder", None)
+    return lmder if lmder is not None and _lmder_works(lmder) else None
+
+
+@functools.cache
+def _ndtr() -> Callable[[np.ndarray], np.ndarray]:
+    """scipy's ``ndtr`` ufunc from ``_special_ufuncs`` where it loads and gives known values, else
+    ``scipy.special.ndtr``."""
+    module = _extension("scipy.special._special_ufuncs", ("special", "_special_ufuncs"))
+    fast = getattr(module, "ndtr", None)
+    if fast is not None and _ndtr_works(fast):
+        return fast
+    from scipy.special import ndtr as public
+
+    return public
+
+
+def _extension(name: str, parts: tuple[str, ...]) -> ModuleType | None:
+    """The extension module ``name`` of the installed scipy (``parts``: its path under scipy's folder): the one
+    already imported, else its file loaded by itself and not left in ``sys.modules``; None where there is none or it
+    does not load."""
+    if name in sys.modules:
+        return sys.modules[name]
+    try:
+        spec = importlib.util.find_spec("scipy")          # finds the package without importing it
+        if spec is None or spec.origin is None:
+            return None
+        folder = Path(spec.origin).parent.joinpath(*parts[:-1])
+        path = next((folder / (parts[-1] + s) for s in importlib.machinery.EXTENSION_SUFFIXES
+                     if (folder / (parts[-1] + s)).is_file()), None)
+        if path is None:
+            return None
+        loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+        found = importlib.util.spec_from_file_location(name, path, loader=loader)
+        if found is None:
+            return None
+        module = importlib.util.module_from_spec(found)
+        loader.exec_module(module)
+    except Exception:  # another scipy's layout: the public functions answer
+        return None
+    finally:
+        sys.modules.pop(name, None)  # a single-phase extension registers itself; scipy loads its own copy later
+    return module
+
+
+def _lmder_works(lmder: Callable[..., Any]) -> bool:
+    """Whether ``lmder``, called as :func:`levenberg_marquardt` calls it, fits y = 2 + 3 t - t^2 exactly (another
+    scipy's argument order or meaning fails here)."""
+    t = np.linspace(-1.0, 2.0, 7)
+    y = 2.0 + 3.0 * t - t * t
+    design = np.column_stack([np.ones_like(t), t, t * t])
+    try:
+        end, info, code = lmder(lambda p: design @ p - y, lambda p: design, np.zeros(3), (), True, False,
+                                LM_TOLERANCE, LM_TOLERANCE, LM_TOLERANCE, 50, LM_STEP_BOUND, None)
+        return (int(code) in FROM_MINPACK and FROM_MINPACK[int(code)] > 0 and int(info["nfev"]) >= 1
+                and np.allclose(end, [2.0, 3.0, -1.0], rtol=0.0, atol=1e-9))
+    except Exception:
+        return False
+
+
+def _ndtr_works(fn: Callable[[np.ndarray], np.ndarray]) -> bool:
+    """Whether ``fn`` gives the normal distribution function at a few points (``math.erfc``)."""
+    x = np.array([-3.0, -1.0, 0.0, 0.5, 2.0])
+    try:
+        got = np.asarray(fn(x), float)
+    except Exception:
+        return False
+    want = [0.5 * math.erfc(-v / math.sqrt(2.0)) for v in x.tolist()]
+    return got.shape == x.shape and bool(np.allclose(got, want, rtol=1e-14, atol=0.0))
+
+
+__all__ = ["LMSolution", "levenberg_marquardt", "ndtr"]

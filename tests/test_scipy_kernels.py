@@ -1,0 +1,144 @@
+"""scipy's Levenberg-Marquardt and normal distribution function loaded without scipy's packages
+(:mod:`aerofid.scipy_kernels`): the answers of ``scipy.optimize.least_squares(method="lm")`` and
+``scipy.special.ndtr``, to the bit, with the public functions where the kernels cannot be loaded."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import scipy.optimize
+import scipy.special
+
+from aerofid import scipy_kernels
+from aerofid.detect.hough import cross_fit
+
+
+def _cross_problem(seed: int, shift: float) -> tuple[object, object, np.ndarray]:
+    """Residuals and Jacobian of the blurred-cross model (:func:`aerofid.detect.hough.cross_fit.cross_model`) on a
+    noisy synthetic '+' with its centre at a random sub-pixel position, and a start ``shift`` px off it."""
+    rng = np.random.default_rng(seed)
+    xc, yc = 20.0 + rng.uniform(-0.5, 0.5), 20.0 + rng.uniform(-0.5, 0.5)
+    yy, xx = np.mgrid[0:41, 0:41]
+    px, py = xx.ravel().astype(float), yy.ravel().astype(float)
+    theta = rng.uniform(-0.3, 0.3)
+    truth = np.array([xc, yc, theta, theta + np.pi / 2, 30.0, 30.0, 2.0, 0.8, 0.6, 0.2, 0.0, 0.0])
+    g = cross_fit.cross_model(truth, px, py, 20.0, 20.0) + rng.normal(0.0, 0.02, px.size)
+    start = truth + np.r_[shift, -shift, 0.05, -0.05, -4.0, 3.0, 0.6, 0.3, -0.1, 0.05, 0.0, 0.0]
+
+    def residuals(p: np.ndarray) -> np.ndarray:
+        return cross_fit.cross_model(p, px, py, 20.0, 20.0) - g
+
+    def jacobian(p: np.ndarray) -> np.ndarray:
+        return cross_fit.cross_model(p, px, py, 20.0, 20.0, jacobian=True)[1]
+
+    return residuals, jacobian, start
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("max_evaluations", [3, 100])
+def test_levenberg_marquardt_is_least_squares_lm_to_the_bit(seed, max_evaluations):
+    """The same parameters, status and evaluations as least_squares on a '+' fit, converged (100 evaluations) or cut
+    short (3: status 0, the evaluations ran out). The same compiled code on the same numbers gives the same bits;
+    the comparison allows 1e-10 px, as MINPACK itself was seen to propose, rarely, a step differing in the last bit
+    between two calls in one process (docs/benchmarks_peers.md, session 19)."""
+    residuals, jacobian, start = _cross_problem(seed, shift=0.4 + 0.2 * seed)
+    ours = scipy_kernels.levenberg_marquardt(residuals, jacobian, start, max_evaluations)
+    theirs = scipy.optimize.least_squares(residuals, start, jac=jacobian, method="lm", x_scale="jac",
+                                          max_nfev=max_evaluations)
+    np.testing.assert_allclose(ours.x, theirs.x, rtol=0.0, atol=1e-10)
+    assert (ours.status, ours.success, ours.nfev) == (theirs.status, theirs.success, theirs.nfev)
+    assert ours.success == (max_evaluations == 100)
+
+
+def test_levenberg_marquardt_refuses_a_start_where_the_residuals_are_not_finite():
+    """A ValueError where least_squares raises one (which :func:`aerofid.detect.hough.cross_fit._robust_solve`
+    takes for a failed fit): residuals that are not finite at the start, or a start that is not finite."""
+    def residuals(p):
+        return np.full(5, np.nan) if p[0] == 0 else p[0] - np.arange(5.0)
+
+    def jacobian(p):
+        return np.ones((5, 1))
+
+    for solve in (lambda x0: scipy_kernels.levenberg_marquardt(residuals, jacobian, x0, 100),
+                  lambda x0: scipy.optimize.least_squares(residuals, x0, jac=jacobian, method="lm", x_scale="jac",
+                                                          max_nfev=100)):
+        with pytest.raises(ValueError, match="not finite in the initial point"):
+            solve(np.array([0.0]))
+        with pytest.raises(ValueError):
+            solve(np.array([np.nan]))
+        assert solve(np.array([1.0])).x[0] == pytest.approx(2.0)
+
+
+def test_ndtr_is_scipys_to_the_bit():
+    x = np.r_[np.linspace(-40.0, 40.0, 20001), -np.inf, np.inf, np.nan, 1e-300, -1e-300, 0.0, -0.0]
+    assert np.array_equal(scipy_kernels.ndtr(x), scipy.special.ndtr(x), equal_nan=True)
+    rows = np.linspace(-9.0, 9.0, 64).reshape(4, 16)
+    assert np.array_equal(scipy_kernels.ndtr(rows), scipy.special.ndtr(rows))
+
+
+def test_the_kernels_are_scipys_compiled_ones_here():
+    """With this scipy the kernels load and pass their checks (else the tests above compare the public functions
+    with themselves)."""
+    assert scipy_kernels._minpack() is not None
+    assert scipy_kernels._ndtr() is scipy.special.ndtr or scipy_kernels._ndtr().__name__ == "ndtr"
+
+
+def test_wrong_kernels_fail_their_checks():
+    """Another scipy's kernel with other arguments or meaning is not used."""
+    assert not scipy_kernels._lmder_works(lambda *args: (np.zeros(3), {"nfev": 1}, 1))
+    assert not scipy_kernels._lmder_works(lambda *args: (np.array([2.0, 3.0, -1.0]), {"nfev": 1}, 5))
+    assert not scipy_kernels._lmder_works(lambda *args: 1 / 0)
+    assert scipy_kernels._lmder_works(scipy.optimize._minpack._lmder)
+    assert not scipy_kernels._ndtr_works(np.tanh)
+    assert not scipy_kernels._ndtr_works(lambda x: 1 / 0)
+    assert scipy_kernels._ndtr_works(scipy.special.ndtr)
+
+
+def test_without_the_kernels_the_public_functions_answer(monkeypatch):
+    """Where the extension modules cannot be loaded (another scipy's layout), least_squares and scipy.special.ndtr
+    give the answers."""
+    monkeypatch.setattr(scipy_kernels, "_extension", lambda name, parts: None)
+    scipy_kernels._minpack.cache_clear()
+    scipy_kernels._ndtr.cache_clear()
+    try:
+        assert scipy_kernels._minpack() is None
+        assert scipy_kernels._ndtr() is scipy.special.ndtr
+        residuals, jacobian, start = _cross_problem(3, 0.5)
+        ours = scipy_kernels.levenberg_marquardt(residuals, jacobian, start, 100)
+        theirs = scipy.optimize.least_squares(residuals, start, jac=jacobian, method="lm", x_scale="jac",
+                                              max_nfev=100)
+        np.testing.assert_allclose(ours.x, theirs.x, rtol=0.0, atol=1e-10)
+        assert ours.status == theirs.status
+    finally:
+        scipy_kernels._minpack.cache_clear()
+        scipy_kernels._ndtr.cache_clear()
+
+
+def test_a_missing_extension_file_is_none():
+    assert scipy_kernels._extension("scipy.optimize._no_such_module", ("optimize", "_no_such_module")) is None
+
+
+def test_the_kernels_load_no_scipy_package_and_leave_scipy_to_load_its_own():
+    """In a fresh interpreter: a fit and ndtr import neither scipy.optimize nor scipy.special (nor anything they
+    bring), leave no module of theirs in ``sys.modules``, and scipy.optimize imported afterwards works as ever."""
+    code = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from aerofid.scipy_kernels import levenberg_marquardt, ndtr\n"
+        "t = np.linspace(0, 1, 20)\n"
+        "y = 1.5 * np.exp(-2.0 * t)\n"
+        "res = lambda p: p[0] * np.exp(-p[1] * t) - y\n"
+        "jac = lambda p: np.column_stack([np.exp(-p[1] * t), -p[0] * t * np.exp(-p[1] * t)])\n"
+        "ours = levenberg_marquardt(res, jac, np.array([1.0, 1.0]), 100)\n"
+        "half = float(ndtr(np.array([0.0]))[0])\n"
+        "print(sorted(m for m in sys.modules if m.startswith(('scipy.optimize', 'scipy.special', 'scipy.sparse',"
+        " 'scipy.linalg'))))\n"
+        "from scipy.optimize import least_squares\n"
+        "theirs = least_squares(res, np.array([1.0, 1.0]), jac=jac, method='lm', x_scale='jac', max_nfev=100)\n"
+        "print(bool(np.allclose(ours.x, theirs.x, rtol=0, atol=1e-10)), ours.status == theirs.status, half)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines() == ["[]", "True True 0.5"], out

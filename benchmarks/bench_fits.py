@@ -49,7 +49,7 @@ REJECTION_STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "not
 
 
 class Recorder:
-    """Wraps ``least_squares`` and ``verify_candidate`` to record each verification's passes and outcome."""
+    """Wraps the cross fit's solvers and ``verify_candidate`` to record each verification's passes and outcome."""
 
     def __init__(self) -> None:
         self.records: list[dict[str, Any]] = []
@@ -59,6 +59,7 @@ class Recorder:
 
     def install(self) -> None:
         solve, verify = scipy.optimize.least_squares, hough_detector.verify_candidate
+        lm = cross_fit.levenberg_marquardt
         refine = hough_detector.refine_window
 
         def refine_window(*args: Any, **kwargs: Any) -> Any:
@@ -72,6 +73,11 @@ class Recorder:
             self.passes.append((str(kwargs.get("method", "trf")), int(sol.nfev), shift))
             return sol
 
+        def levenberg_marquardt(fun: Any, jac: Any, x0: np.ndarray, max_evaluations: int) -> Any:
+            sol = lm(fun, jac, x0, max_evaluations)
+            self.passes.append(("lm", sol.nfev, float(np.hypot(sol.x[0] - x0[0], sol.x[1] - x0[1]))))
+            return sol
+
         def verify_candidate(*args: Any, **kwargs: Any) -> Any:
             self.passes = []
             t = time.process_time()
@@ -82,7 +88,8 @@ class Recorder:
                                  "passes": list(self.passes), "cpu": cpu, "gap": gap})
             return out
 
-        scipy.optimize.least_squares = least_squares
+        scipy.optimize.least_squares = least_squares          # the bounded solver's retries
+        cross_fit.levenberg_marquardt = levenberg_marquardt   # MINPACK's passes (aerofid.scipy_kernels)
         hough_detector.refine_window = refine_window
         hough_detector.verify_candidate = verify_candidate
 

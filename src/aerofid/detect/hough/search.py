@@ -16,6 +16,7 @@ otherwise the answer is "no mark identified".
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -98,8 +99,8 @@ def extract_window(image: np.ndarray, x: float, y: float, size: int) -> tuple[np
 
     None when less than half the window lies inside the image."""
     h, w = image.shape
-    x0 = int(np.floor(x - (size - 1) / 2.0 + 0.5))
-    y0 = int(np.floor(y - (size - 1) / 2.0 + 0.5))
+    x0 = math.floor(float(x) - (size - 1) / 2.0 + 0.5)   # Python floats: the same numbers, a tenth of the time
+    y0 = math.floor(float(y) - (size - 1) / 2.0 + 0.5)
     xa, ya, xb, yb = max(0, x0), max(0, y0), min(w, x0 + size), min(h, y0 + size)
     if (xb - xa) < size / 2 or (yb - ya) < size / 2:
         return None
@@ -156,8 +157,8 @@ def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int) -> list
     why)."""
     out: list[Threshold | None | Unknown] = [UNKNOWN] * len(centres)
     shapes: dict[tuple[int, int], list[tuple[int, np.ndarray]]] = {}
-    for i, (x, y) in enumerate(centres):
-        got = extract_window(image, float(x), float(y), size)
+    for i, (x, y) in enumerate(centres.tolist()):
+        got = extract_window(image, x, y, size)
         if got is not None:
             shapes.setdefault(got[0].shape, []).append((i, got[0]))
     for group in shapes.values():
@@ -258,9 +259,11 @@ class _Search:
         for c0 in [0, *range(first_alone, len(centres), chunk_size)]:
             chunk = centres[c0:first_alone if c0 == 0 else c0 + chunk_size]
             known = spiral_thresholds(self.image, chunk, size) if len(chunk) >= least else [UNKNOWN] * len(chunk)
-            for (x, y), first in zip(chunk, known, strict=True):
+            for (x, y), first in zip(chunk.tolist(), known, strict=True):
                 if self.capped():
                     return accepted
+                if first is None:   # a homogeneous first window: its analysis would say so and visit nothing
+                    continue
                 if self.visit(x, y, size, first):
                     accepted = True
                     if not self.params.exhaustive:

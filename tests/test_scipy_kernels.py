@@ -79,6 +79,19 @@ def test_ndtr_is_scipys_to_the_bit():
     assert np.array_equal(scipy_kernels.ndtr(rows), scipy.special.ndtr(rows))
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_linear_sum_assignment_is_scipys(seed):
+    """The same rows and columns as scipy.optimize.linear_sum_assignment, on square and wide cost matrices with ties
+    (rounded costs) and without."""
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(1, 9))
+    cost = rng.uniform(0, 10, (m, m + int(rng.integers(0, 4))))
+    if seed % 2:
+        cost = np.round(cost)
+    ours, theirs = scipy_kernels.linear_sum_assignment(cost), scipy.optimize.linear_sum_assignment(cost)
+    assert all(np.array_equal(a, b) for a, b in zip(ours, theirs, strict=True))
+
+
 def test_the_kernels_are_scipys_compiled_ones_here():
     """With this scipy the kernels load and pass their checks (else the tests above compare the public functions
     with themselves)."""
@@ -95,17 +108,21 @@ def test_wrong_kernels_fail_their_checks():
     assert not scipy_kernels._ndtr_works(np.tanh)
     assert not scipy_kernels._ndtr_works(lambda x: 1 / 0)
     assert scipy_kernels._ndtr_works(scipy.special.ndtr)
+    assert not scipy_kernels._lsap_works(lambda c: (np.arange(3), c.argmin(axis=1)))
+    assert not scipy_kernels._lsap_works(lambda c: 1 / 0)
+    assert scipy_kernels._lsap_works(scipy.optimize.linear_sum_assignment)
 
 
 def test_without_the_kernels_the_public_functions_answer(monkeypatch):
     """Where the extension modules cannot be loaded (another scipy's layout), least_squares and scipy.special.ndtr
     give the answers."""
     monkeypatch.setattr(scipy_kernels, "_extension", lambda name, parts: None)
-    scipy_kernels._minpack.cache_clear()
-    scipy_kernels._ndtr.cache_clear()
+    for cached in (scipy_kernels._minpack, scipy_kernels._ndtr, scipy_kernels._lsap):
+        cached.cache_clear()
     try:
         assert scipy_kernels._minpack() is None
         assert scipy_kernels._ndtr() is scipy.special.ndtr
+        assert scipy_kernels._lsap() is scipy.optimize.linear_sum_assignment
         residuals, jacobian, start = _cross_problem(3, 0.5)
         ours = scipy_kernels.levenberg_marquardt(residuals, jacobian, start, 100)
         theirs = scipy.optimize.least_squares(residuals, start, jac=jacobian, method="lm", x_scale="jac",
@@ -113,8 +130,8 @@ def test_without_the_kernels_the_public_functions_answer(monkeypatch):
         np.testing.assert_allclose(ours.x, theirs.x, rtol=0.0, atol=1e-10)
         assert ours.status == theirs.status
     finally:
-        scipy_kernels._minpack.cache_clear()
-        scipy_kernels._ndtr.cache_clear()
+        for cached in (scipy_kernels._minpack, scipy_kernels._ndtr, scipy_kernels._lsap):
+            cached.cache_clear()
 
 
 def test_a_missing_extension_file_is_none():
@@ -122,23 +139,26 @@ def test_a_missing_extension_file_is_none():
 
 
 def test_the_kernels_load_no_scipy_package_and_leave_scipy_to_load_its_own():
-    """In a fresh interpreter: a fit and ndtr import neither scipy.optimize nor scipy.special (nor anything they
-    bring), leave no module of theirs in ``sys.modules``, and scipy.optimize imported afterwards works as ever."""
+    """In a fresh interpreter: a fit, ndtr and an assignment import neither scipy.optimize nor scipy.special (nor
+    anything they bring), leave no module of theirs in ``sys.modules``, and scipy.optimize imported afterwards works as
+    ever."""
     code = (
         "import sys\n"
         "import numpy as np\n"
-        "from aerofid.scipy_kernels import levenberg_marquardt, ndtr\n"
+        "from aerofid.scipy_kernels import levenberg_marquardt, linear_sum_assignment, ndtr\n"
         "t = np.linspace(0, 1, 20)\n"
         "y = 1.5 * np.exp(-2.0 * t)\n"
         "res = lambda p: p[0] * np.exp(-p[1] * t) - y\n"
         "jac = lambda p: np.column_stack([np.exp(-p[1] * t), -p[0] * t * np.exp(-p[1] * t)])\n"
         "ours = levenberg_marquardt(res, jac, np.array([1.0, 1.0]), 100)\n"
         "half = float(ndtr(np.array([0.0]))[0])\n"
+        "rows, cols = linear_sum_assignment(np.array([[1.0, 0.0], [0.0, 5.0]]))\n"
         "print(sorted(m for m in sys.modules if m.startswith(('scipy.optimize', 'scipy.special', 'scipy.sparse',"
         " 'scipy.linalg'))))\n"
         "from scipy.optimize import least_squares\n"
         "theirs = least_squares(res, np.array([1.0, 1.0]), jac=jac, method='lm', x_scale='jac', max_nfev=100)\n"
-        "print(bool(np.allclose(ours.x, theirs.x, rtol=0, atol=1e-10)), ours.status == theirs.status, half)\n"
+        "print(bool(np.allclose(ours.x, theirs.x, rtol=0, atol=1e-10)), ours.status == theirs.status, half,"
+        " cols.tolist())\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip().splitlines() == ["[]", "True True 0.5"], out
+    assert out.strip().splitlines() == ["[]", "True True 0.5 [1, 0]"], out

@@ -1,14 +1,16 @@
-"""Two of scipy's compiled kernels without scipy's package start-up: MINPACK's Levenberg-Marquardt (``lmder``) and
-the standard normal distribution function (``ndtr``), which the cross fit of a '+' needs.
+"""Three of scipy's compiled kernels without scipy's package start-up: MINPACK's Levenberg-Marquardt (``lmder``) and
+the standard normal distribution function (``ndtr``), which the cross fit of a '+' needs, and the optimal assignment
+(``linear_sum_assignment``) that names a frame's marks where their nearest fiducials collide.
 
 ``from scipy.optimize import least_squares`` runs the ``__init__`` of scipy.optimize, which imports most of scipy
 (scipy.sparse, scipy.linalg, scipy.special, scipy.stats' pieces): 0.6-0.7 s of a cold ``aerofid locate`` or
 ``aerofid orient`` that fits one '+' (``python -X importtime``, this machine, 2026-11-28), against a few
-milliseconds for the two extension modules that hold the kernels, ``scipy/optimize/_minpack`` and
-``scipy/special/_special_ufuncs``. This module loads those two files by themselves, under their own names (without
-running any package ``__init__``), and calls them as ``scipy.optimize.least_squares(..., method="lm")`` and
-``scipy.special.ndtr`` call them: the same compiled code on the same numbers, so the same answers to the bit (the
-tests compare them).
+milliseconds for the extension modules that hold the kernels, ``scipy/optimize/_minpack``,
+``scipy/special/_special_ufuncs`` and ``scipy/optimize/_lsap``. This module loads those files by themselves, under
+their own names (without running any package ``__init__``), and calls them as
+``scipy.optimize.least_squares(..., method="lm")``, ``scipy.special.ndtr`` and
+``scipy.optimize.linear_sum_assignment`` call them: the same compiled code on the same numbers, so the same answers to
+the bit (the tests compare them).
 
 Each kernel is checked once on a problem whose answer is known before it is used; where a file is missing, loads
 differently or fails the check (another scipy version), the public functions are used instead (slower to import,
@@ -79,6 +81,13 @@ def ndtr(x: np.ndarray) -> np.ndarray:
     return _ndtr()(x)
 
 
+def linear_sum_assignment(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows and columns of the least-cost assignment of the rows of ``cost`` to distinct columns
+    (``scipy.optimize.linear_sum_assignment``)."""
+    rows, cols = _lsap()(cost)
+    return np.asarray(rows), np.asarray(cols)
+
+
 @functools.cache
 def _minpack() -> Callable[..., Any] | None:
     """scipy's ``_minpack._lmder`` where it loads and passes :func:`_lmder_works`, else None."""
@@ -96,6 +105,18 @@ def _ndtr() -> Callable[[np.ndarray], np.ndarray]:
     if fast is not None and _ndtr_works(fast):
         return fast
     from scipy.special import ndtr as public
+
+    return public
+
+
+@functools.cache
+def _lsap() -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """scipy's ``_lsap.linear_sum_assignment`` where it loads and solves a known problem, else the public one."""
+    module = _extension("scipy.optimize._lsap", ("optimize", "_lsap"))
+    fast = getattr(module, "linear_sum_assignment", None)
+    if fast is not None and _lsap_works(fast):
+        return fast
+    from scipy.optimize import linear_sum_assignment as public
 
     return public
 
@@ -143,6 +164,17 @@ def _lmder_works(lmder: Callable[..., Any]) -> bool:
         return False
 
 
+def _lsap_works(fn: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]) -> bool:
+    """Whether ``fn`` assigns a 3 x 4 cost matrix as its least cost does (rows 0-2 to columns 3, 1, 2), where rows 0
+    and 2 have the same nearest column."""
+    cost = np.array([[4.0, 1.0, 3.0, 0.5], [2.0, 0.0, 5.0, 6.0], [3.0, 2.0, 2.0, 0.4]])
+    try:
+        rows, cols = fn(cost)
+        return np.asarray(rows).tolist() == [0, 1, 2] and np.asarray(cols).tolist() == [3, 1, 2]
+    except Exception:
+        return False
+
+
 def _ndtr_works(fn: Callable[[np.ndarray], np.ndarray]) -> bool:
     """Whether ``fn`` gives the normal distribution function at a few points (``math.erfc``)."""
     x = np.array([-3.0, -1.0, 0.0, 0.5, 2.0])
@@ -154,4 +186,4 @@ def _ndtr_works(fn: Callable[[np.ndarray], np.ndarray]) -> bool:
     return got.shape == x.shape and bool(np.allclose(got, want, rtol=1e-14, atol=0.0))
 
 
-__all__ = ["LMSolution", "levenberg_marquardt", "ndtr"]
+__all__ = ["LMSolution", "levenberg_marquardt", "linear_sum_assignment", "ndtr"]

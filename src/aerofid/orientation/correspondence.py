@@ -15,6 +15,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.orientation.adjustment import adjust
 from aerofid.orientation.f_distribution import f_critical
 from aerofid.orientation.transform import transform_class
+from aerofid.scipy_kernels import linear_sum_assignment
 
 #: Significance level of the test that tells two fiducial arrangements apart.
 ALPHA_ARRANGEMENT = 0.01
@@ -208,13 +209,11 @@ def _index_pairs(m: int, n: int) -> tuple[np.ndarray, np.ndarray]:
 def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The optimal assignment of the rows of ``D`` (m <= n) to distinct columns, as ``linear_sum_assignment``
     gives it: each row's nearest column when those are distinct (their sum is the least any assignment can cost),
-    else the Hungarian method (scipy.optimize, loaded only then: a frame whose marks lie near their predictions
-    does not pay for its import)."""
+    else the Hungarian method (scipy's, :func:`aerofid.scipy_kernels.linear_sum_assignment`: loaded only then, and
+    without scipy.optimize's start-up)."""
     cols = D.argmin(axis=1)
     if len(np.unique(cols)) == len(cols):
         return np.arange(len(cols)), cols
-    from scipy.optimize import linear_sum_assignment
-
     return linear_sum_assignment(D)
 
 

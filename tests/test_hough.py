@@ -120,6 +120,38 @@ def test_spiral_starts_at_the_centre_and_covers_the_box():
     assert np.all(np.diff(np.maximum.accumulate(r)) >= 0)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_the_spiral_passes_over_homogeneous_windows_as_their_analysis_would(seed, monkeypatch):
+    """A '+' near a corner of a box of flat ground with a patch of faint texture: the spiral passes over the positions
+    whose first window has no optimum threshold, and the search gives the same candidates, in the same order, as one
+    that analyses every window (the thresholds left unknown: each window's analysis refuses it as homogeneous)."""
+    import importlib
+
+    from aerofid.detect.hough.analysis import UNKNOWN
+
+    search = importlib.import_module("aerofid.detect.hough.search")   # the module, not the package's function
+
+    rng = np.random.default_rng(seed)
+    img = np.full((300, 300), 0.2)
+    r0, c0 = rng.integers(200, 240), rng.integers(10, 60)
+    img[r0:r0 + 30, c0:c0 + 50] += rng.normal(0, 0.03, (30, 50))
+    shape = synth.union(synth.bar(36, 2, 20.0), synth.bar(36, 2, 110.0))
+    img = synth.paint(img, synth.coverage(img.shape, (255.3 + rng.uniform(-5, 5), 40.6), shape, 8), 0.9)
+    img = synth.blur(img, 0.7)
+    thresholds = search.spiral_thresholds
+    passed_over = []
+    monkeypatch.setattr(search, "spiral_thresholds", lambda image, centres, size: passed_over.extend(
+        t for t in thresholds(image, centres, size) if t is None) or thresholds(image, centres, size))
+    fast = search_box(img, EXTERNAL)
+    assert len(passed_over) > 20
+    monkeypatch.setattr(search, "spiral_thresholds", lambda image, centres, size: [UNKNOWN] * len(centres))
+    slow = search_box(img, EXTERNAL)
+    assert fast.best is not None and slow.best is not None
+    assert [(c.stage, c.x, c.y, c.metric) for c in fast.candidates] == [(c.stage, c.x, c.y, c.metric)
+                                                                        for c in slow.candidates]
+    assert (fast.best.x, fast.best.y, fast.reason) == (slow.best.x, slow.best.y, slow.reason)
+
+
 # --- steps of the verification and the result type ---------------------------------------------------
 
 def _fit(**kw):

@@ -55,7 +55,8 @@ def test_levenberg_marquardt_is_least_squares_lm_to_the_bit(seed, max_evaluation
 
 def test_levenberg_marquardt_refuses_a_start_where_the_residuals_are_not_finite():
     """A ValueError where least_squares raises one (which :func:`aerofid.detect.hough.cross_fit._robust_solve`
-    takes for a failed fit): residuals that are not finite at the start, or a start that is not finite."""
+    takes for a failed fit): residuals that are not finite at the start, a start that is not finite, fewer residuals
+    than parameters."""
     def residuals(p):
         return np.full(5, np.nan) if p[0] == 0 else p[0] - np.arange(5.0)
 
@@ -69,6 +70,8 @@ def test_levenberg_marquardt_refuses_a_start_where_the_residuals_are_not_finite(
             solve(np.array([0.0]))
         with pytest.raises(ValueError):
             solve(np.array([np.nan]))
+        with pytest.raises(ValueError, match="less than the number of variables"):
+            solve(np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]))
         assert solve(np.array([1.0])).x[0] == pytest.approx(2.0)
 
 

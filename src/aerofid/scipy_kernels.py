@@ -61,10 +61,14 @@ def levenberg_marquardt(residuals: Callable[[np.ndarray], np.ndarray], jacobian:
     """``scipy.optimize.least_squares(residuals, x0, jac=jacobian, method="lm", x_scale="jac",
     max_nfev=max_evaluations)``: MINPACK's ``lmder`` with the parameters scaled by the Jacobian's column norms.
 
-    Raises ValueError, as least_squares does, where the residuals at ``x0`` are not finite."""
+    Raises ValueError, as least_squares does, where the residuals at ``x0`` are not finite or fewer than the
+    parameters."""
     x = np.atleast_1d(np.asarray(x0, dtype=float))
-    if not np.all(np.isfinite(residuals(x))):
+    f0 = np.atleast_1d(residuals(x))
+    if not np.all(np.isfinite(f0)):
         raise ValueError("Residuals are not finite in the initial point.")
+    if f0.size < x.size:
+        raise ValueError("Method 'lm' doesn't work when the number of residuals is less than the number of variables.")
     lmder = _minpack()
     if lmder is None:
         from scipy.optimize import least_squares

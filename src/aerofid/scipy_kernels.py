@@ -24,6 +24,7 @@ import importlib.machinery
 import importlib.util
 import math
 import sys
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -125,12 +126,20 @@ def _lsap() -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     return public
 
 
+_LOADING = threading.Lock()
+"""One extension loaded at a time (the first calls of two threads, each registering and removing it)."""
+
+
 def _extension(name: str, parts: tuple[str, ...]) -> ModuleType | None:
     """The extension module ``name`` of the installed scipy (``parts``: its path under scipy's folder): the one
     already imported, else its file loaded by itself and not left in ``sys.modules``; None where there is none or it
     does not load."""
-    if name in sys.modules:
-        return sys.modules[name]
+    with _LOADING:
+        return sys.modules.get(name) or _load(name, parts)
+
+
+def _load(name: str, parts: tuple[str, ...]) -> ModuleType | None:
+    """:func:`_extension`'s loading of the file."""
     try:
         spec = importlib.util.find_spec("scipy")          # finds the package without importing it
         if spec is None or spec.origin is None:

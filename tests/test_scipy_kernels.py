@@ -95,11 +95,63 @@ def test_linear_sum_assignment_is_scipys(seed):
     assert all(np.array_equal(a, b) for a, b in zip(ours, theirs, strict=True))
 
 
-def test_the_kernels_are_scipys_compiled_ones_here():
-    """With this scipy the kernels load and pass their checks (else the tests above compare the public functions
-    with themselves)."""
-    assert scipy_kernels._minpack() is not None
-    assert scipy_kernels._ndtr() is scipy.special.ndtr or scipy_kernels._ndtr().__name__ == "ndtr"
+def _rosenbrock() -> tuple[object, object, np.ndarray]:
+    def residuals(p: np.ndarray) -> np.ndarray:
+        return np.array([10.0 * (p[1] - p[0] ** 2), 1.0 - p[0]])
+
+    def jacobian(p: np.ndarray) -> np.ndarray:
+        return np.array([[-20.0 * p[0], 10.0], [-1.0, 0.0]])
+
+    return residuals, jacobian, np.array([-1.2, 1.0])
+
+
+def _exponential() -> tuple[object, object, np.ndarray]:
+    t = np.linspace(0.0, 4.0, 40)
+    y = 2.5 * np.exp(-1.3 * t) + 0.4 + np.random.default_rng(5).normal(0.0, 0.01, t.size)
+
+    def residuals(p: np.ndarray) -> np.ndarray:
+        return p[0] * np.exp(-p[1] * t) + p[2] - y
+
+    def jacobian(p: np.ndarray) -> np.ndarray:
+        e = np.exp(-p[1] * t)
+        return np.column_stack([e, -p[0] * t * e, np.ones_like(t)])
+
+    return residuals, jacobian, np.array([1.0, 0.3, 0.0])
+
+
+@pytest.mark.parametrize("problem", [_rosenbrock, _exponential])
+@pytest.mark.parametrize("max_evaluations", [3, 10, 100])
+def test_levenberg_marquardt_is_least_squares_lm_on_classic_problems(problem, max_evaluations):
+    """Rosenbrock's valley from (-1.2, 1) and a noisy exponential decay, cut short and converged: the same bits, status
+    and evaluations as least_squares (MINPACK's tolerances and step bound each change some of them)."""
+    residuals, jacobian, start = problem()
+    ours = scipy_kernels.levenberg_marquardt(residuals, jacobian, start, max_evaluations)
+    theirs = scipy.optimize.least_squares(residuals, start, jac=jacobian, method="lm", x_scale="jac",
+                                          max_nfev=max_evaluations)
+    assert np.array_equal(ours.x, theirs.x)
+    assert (ours.status, ours.nfev) == (theirs.status, theirs.nfev)
+
+
+def test_levenberg_marquardt_refuses_bad_calls_as_least_squares_does():
+    """A start with two dimensions, no evaluations allowed, a Jacobian of the wrong shape."""
+    residuals, jacobian, start = _exponential()
+    for solve in (lambda *a: scipy_kernels.levenberg_marquardt(*a),
+                  lambda res, jac, x0, n: scipy.optimize.least_squares(res, x0, jac=jac, method="lm", x_scale="jac",
+                                                                       max_nfev=n)):
+        with pytest.raises(ValueError, match="at most 1 dimension"):
+            solve(residuals, jacobian, start[None, :], 100)
+        with pytest.raises(ValueError, match="max_nfev"):
+            solve(residuals, jacobian, start, 0)
+        with pytest.raises(ValueError, match="wrong shape"):
+            solve(residuals, lambda p: jacobian(p).T, start, 100)
+
+
+def test_the_functions_get_copies_of_the_parameters():
+    """A residual function that keeps the parameters it was given sees them unchanged after the fit."""
+    residuals, jacobian, start = _exponential()
+    kept = []
+    scipy_kernels.levenberg_marquardt(lambda p: kept.append((p, p.copy())) or residuals(p), jacobian, start, 100)
+    assert len(kept) > 3 and all(np.array_equal(p, q) for p, q in kept)
 
 
 def test_wrong_kernels_fail_their_checks():
@@ -154,6 +206,8 @@ def test_the_kernels_load_no_scipy_package_and_leave_scipy_to_load_its_own():
         "res = lambda p: p[0] * np.exp(-p[1] * t) - y\n"
         "jac = lambda p: np.column_stack([np.exp(-p[1] * t), -p[0] * t * np.exp(-p[1] * t)])\n"
         "ours = levenberg_marquardt(res, jac, np.array([1.0, 1.0]), 100)\n"
+        "from aerofid import scipy_kernels\n"
+        "assert scipy_kernels._minpack() is not None  # loaded from its file, not the public fallback\n"
         "half = float(ndtr(np.array([0.0]))[0])\n"
         "rows, cols = linear_sum_assignment(np.array([[1.0, 0.0], [0.0, 5.0]]))\n"
         "print(sorted(m for m in sys.modules if m.startswith(('scipy.optimize', 'scipy.special', 'scipy.sparse',"

@@ -7,7 +7,8 @@ the standard normal distribution function (``ndtr``), which the cross fit of a '
 ``aerofid orient`` that fits one '+' (``python -X importtime``, this machine, 2026-11-28), against a few
 milliseconds for the extension modules that hold the kernels, ``scipy/optimize/_minpack``,
 ``scipy/special/_special_ufuncs`` and ``scipy/optimize/_lsap``. This module loads those files by themselves, under
-their own names (without running any package ``__init__``), and calls them as
+their own names (without the ``__init__`` of scipy.optimize or scipy.special; ``_minpack`` imports scipy's light top
+package and ``scipy._lib._ccallback``), and calls them as
 ``scipy.optimize.least_squares(..., method="lm")``, ``scipy.special.ndtr`` and
 ``scipy.optimize.linear_sum_assignment`` call them: the same compiled code on the same numbers, so the same answers to
 the bit (the tests compare them).
@@ -40,7 +41,8 @@ LM_STEP_BOUND = 100.0
 FROM_MINPACK = {0: -1, 1: 2, 2: 3, 3: 4, 4: 1, 5: 0}
 """MINPACK's ``info`` -> least_squares' ``status`` (scipy.optimize._lsq.least_squares.FROM_MINPACK_TO_COMMON):
 -1 improper input, 0 the evaluations ran out, 1-4 converged. MINPACK's 6-8 (no further reduction possible at
-machine precision) count as converged here (scipy's table has no entry for them)."""
+machine precision) would count as converged here (scipy's table has no entry for them); with tolerances of 1e-8 the
+tests for 1, 2 and 4 end a run before them."""
 
 
 @dataclass(frozen=True)
@@ -62,22 +64,29 @@ def levenberg_marquardt(residuals: Callable[[np.ndarray], np.ndarray], jacobian:
     """``scipy.optimize.least_squares(residuals, x0, jac=jacobian, method="lm", x_scale="jac",
     max_nfev=max_evaluations)``: MINPACK's ``lmder`` with the parameters scaled by the Jacobian's column norms.
 
-    Raises ValueError, as least_squares does, where the residuals at ``x0`` are not finite or fewer than the
-    parameters."""
+    The functions are given copies of the parameters (MINPACK's own arrays change under a function that kept them).
+    Raises ValueError, as least_squares does, for a start that is not a vector, no evaluations, residuals at ``x0``
+    that are not finite or fewer than the parameters, and a Jacobian at ``x0`` that is not (residuals x parameters)."""
     x = np.atleast_1d(np.asarray(x0, dtype=float))
-    f0 = np.atleast_1d(residuals(x))
+    if x.ndim > 1:
+        raise ValueError("`x0` must have at most 1 dimension.")
+    if max_evaluations < 1:
+        raise ValueError("`max_nfev` must be None or positive integer.")
+    f0 = np.atleast_1d(residuals(x.copy()))
     if not np.all(np.isfinite(f0)):
         raise ValueError("Residuals are not finite in the initial point.")
     if f0.size < x.size:
         raise ValueError("Method 'lm' doesn't work when the number of residuals is less than the number of variables.")
+    if np.shape(jacobian(x.copy())) != (f0.size, x.size):
+        raise ValueError(f"The return value of `jac` has wrong shape: expected {(f0.size, x.size)}.")
     lmder = _minpack()
     if lmder is None:
         from scipy.optimize import least_squares
 
         sol = least_squares(residuals, x, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_evaluations)
         return LMSolution(np.asarray(sol.x, float), int(sol.status), int(sol.nfev))
-    end, info, code = lmder(residuals, jacobian, x.copy(), (), True, False, LM_TOLERANCE, LM_TOLERANCE,
-                            LM_TOLERANCE, max_evaluations, LM_STEP_BOUND, None)
+    end, info, code = lmder(lambda p: residuals(p.copy()), lambda p: jacobian(p.copy()), x.copy(), (), True, False,
+                            LM_TOLERANCE, LM_TOLERANCE, LM_TOLERANCE, max_evaluations, LM_STEP_BOUND, None)
     return LMSolution(np.asarray(end, float), FROM_MINPACK.get(int(code), 1), int(info["nfev"]))
 
 
@@ -140,6 +149,7 @@ def _extension(name: str, parts: tuple[str, ...]) -> ModuleType | None:
 
 def _load(name: str, parts: tuple[str, ...]) -> ModuleType | None:
     """:func:`_extension`'s loading of the file."""
+    module: ModuleType | None = None
     try:
         spec = importlib.util.find_spec("scipy")          # finds the package without importing it
         if spec is None or spec.origin is None:
@@ -158,7 +168,8 @@ def _load(name: str, parts: tuple[str, ...]) -> ModuleType | None:
     except Exception:  # another scipy's layout: the public functions answer
         return None
     finally:
-        sys.modules.pop(name, None)  # a single-phase extension registers itself; scipy loads its own copy later
+        if module is not None and sys.modules.get(name) is module:
+            del sys.modules[name]   # a single-phase extension registers itself; scipy loads its own copy later
     return module
 
 

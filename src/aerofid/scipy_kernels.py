@@ -105,18 +105,15 @@ def linear_sum_assignment(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @functools.cache
 def _minpack() -> Callable[..., Any] | None:
     """scipy's ``_minpack._lmder`` where it loads and passes :func:`_lmder_works`, else None."""
-    module = _extension("scipy.optimize._minpack", ("optimize", "_minpack"))
-    lmder = getattr(module, "_lmder", None)
-    return lmder if lmder is not None and _lmder_works(lmder) else None
+    return _compiled("scipy.optimize._minpack", ("optimize", "_minpack"), "_lmder", _lmder_works)
 
 
 @functools.cache
 def _ndtr() -> Callable[[np.ndarray], np.ndarray]:
     """scipy's ``ndtr`` ufunc from ``_special_ufuncs`` where it loads and gives known values, else
     ``scipy.special.ndtr``."""
-    module = _extension("scipy.special._special_ufuncs", ("special", "_special_ufuncs"))
-    fast = getattr(module, "ndtr", None)
-    if fast is not None and _ndtr_works(fast):
+    fast = _compiled("scipy.special._special_ufuncs", ("special", "_special_ufuncs"), "ndtr", _ndtr_works)
+    if fast is not None:
         return fast
     from scipy.special import ndtr as public
 
@@ -126,13 +123,19 @@ def _ndtr() -> Callable[[np.ndarray], np.ndarray]:
 @functools.cache
 def _lsap() -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """scipy's ``_lsap.linear_sum_assignment`` where it loads and solves a known problem, else the public one."""
-    module = _extension("scipy.optimize._lsap", ("optimize", "_lsap"))
-    fast = getattr(module, "linear_sum_assignment", None)
-    if fast is not None and _lsap_works(fast):
+    fast = _compiled("scipy.optimize._lsap", ("optimize", "_lsap"), "linear_sum_assignment", _lsap_works)
+    if fast is not None:
         return fast
     from scipy.optimize import linear_sum_assignment as public
 
     return public
+
+
+def _compiled(name: str, parts: tuple[str, ...], attribute: str, works: Callable[[Any], bool]) -> Any:
+    """The function ``attribute`` of the extension module ``name`` (:func:`_extension`) where it has one that passes
+    its check ``works``, else None."""
+    fn = getattr(_extension(name, parts), attribute, None)
+    return fn if fn is not None and works(fn) else None
 
 
 _LOADING = threading.Lock()

@@ -6,7 +6,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from aerofid.detect.spline import cubic_prefilter, grid_differences, grid_values, square_grid
+from aerofid.detect.spline import (
+    EDGE_PAD,
+    NEAR_REACH,
+    cubic_coefficients,
+    cubic_prefilter,
+    grid_differences,
+    grid_values,
+    near,
+    square_grid,
+)
 from aerofid.detect.symmetry import moving_mean, point_symmetry_centre
 
 
@@ -62,6 +71,26 @@ def test_square_grid_equals_map_coordinates_with_nearest_edges(xc, yc, r, order,
     want = ndimage.map_coordinates(img.astype(float), [yy + yc, xx + xc], order=order, mode="nearest")
     np.testing.assert_allclose(square_grid(img, xc, yc, r, order), want, rtol=0, atol=1e-6)
 
+
+
+@settings(max_examples=60, deadline=None)
+@given(r=st.integers(1, 60), fx=st.floats(0.0, 1.0, exclude_max=True), fy=st.floats(0.0, 1.0, exclude_max=True),
+       dx=st.integers(-8, 8), dy=st.integers(-8, 8), seed=st.integers(0, 2**16))
+def test_inner_square_of_a_larger_grid_is_the_smaller_grid(r, fx, fy, dx, dy, seed):
+    """symmetry's final checks take the (2r + 1)-square about the centre from the (2r + 3)-square its covariance
+    resamples: the same values, to the last bit where r >= EDGE_PAD (the grids' origins are then exact), within
+    1e-14 of the grey levels below it."""
+    n = 2 * (r + 1 + NEAR_REACH) + 21
+    img = np.random.default_rng(seed).random((n, n)).astype(np.float32)
+    xc, yc = n // 2 + dx + fx, n // 2 + dy + fy
+    part, x0, y0 = near(img, xc, yc, r + 1 + NEAR_REACH)
+    coeffs = cubic_coefficients(part)
+    inner = square_grid(part, xc - x0, yc - y0, r + 1, 3, coeffs)[1:-1, 1:-1]
+    alone = square_grid(part, xc - x0, yc - y0, r, 3, coeffs)
+    if r >= EDGE_PAD:
+        np.testing.assert_array_equal(inner, alone)
+    else:
+        np.testing.assert_allclose(inner, alone, rtol=0, atol=1e-14)
 
 @settings(max_examples=40, deadline=None)
 @given(h=st.integers(1, 70), w=st.integers(1, 70), seed=st.integers(0, 2**16))

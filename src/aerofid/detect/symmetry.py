@@ -537,11 +537,13 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     if p.point_refine:
         t.centre_eq15 = (xs, ys)
         xs, ys = _refine(img, xs, ys, r, p)
-    # the final centre's checks and covariance interpolate the same part of the window: its coefficients once
+    # the final centre's checks and covariance interpolate the same part of the window about the same centre:
+    # one (2r + 3)-square of the spline, whose inner (2r + 1)-square is the checks' (the same taps and sums; the
+    # same fractions too, to the last bit from r = spline.EDGE_PAD on, below it within 1e-14 of the grey levels)
     part, x0, y0 = near(img, xs, ys, r + 1 + NEAR_REACH)
-    coeffs = cubic_coefficients(part)
-    score = _verify_centre(img, xs, ys, r, noise, p, t, (part, x0, y0, coeffs))
-    cov = centre_covariance(part, xs - x0, ys - y0, r, noise, p.sigma_inefficiency, p.sigma_floor, coeffs)
+    grid = square_grid(part, xs - x0, ys - y0, r + 1, 3, cubic_coefficients(part))
+    score = _verify_centre(img, xs, ys, r, noise, p, t, grid[1:-1, 1:-1].astype(np.float32))
+    cov = centre_covariance(part, xs - x0, ys - y0, r, noise, p.sigma_inefficiency, p.sigma_floor, grid)
     # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
     t.sigma_x = float(np.hypot(np.sqrt(cov[0, 0]), xs - x15))
     t.sigma_y = float(np.hypot(np.sqrt(cov[1, 1]), ys - y15))
@@ -698,16 +700,12 @@ def _refine(img: np.ndarray, xs: float, ys: float, r: int, p: SymmetryParams,
 
 
 def _verify_centre(img: np.ndarray, xs: float, ys: float, r: int, noise: float, p: SymmetryParams,
-                   t: _Trace, spline: tuple[np.ndarray, int, int, np.ndarray] | None = None) -> float:
+                   t: _Trace, subs: np.ndarray | None = None) -> float:
     """The checks at the final centre: self-diagnosis (seed 3.3), point symmetry (``p.max_asymmetry``, ours)
-    and faintness (seed 3.4); returns ``R_self`` there. ``spline``: a part of ``img`` around the centre, its
-    origin and its :func:`~aerofid.detect.spline.cubic_coefficients`, if known (the part must hold the
-    :data:`~aerofid.detect.spline.NEAR_REACH` the resampling needs)."""
-    if spline is None:
+    and faintness (seed 3.4); returns ``R_self`` there. ``subs``: the (2r + 1)-square about the centre
+    (:func:`_resample`), if known."""
+    if subs is None:
         subs = _resample(img, xs, ys, r)
-    else:
-        part, x0, y0, coeffs = spline
-        subs = _resample(part, xs - x0, ys - y0, r, coeffs)
     diag = self_diagnosis(subs)
     t.R_self, t.R_parts = diag.r_self, diag
     _check_self_diagnosis(diag, p, "sub-pixel", xs, ys)
@@ -1086,19 +1084,16 @@ def _weighted_peak(prof: AxisProfile, peak: int) -> float:
     return float((xs[lo:hi + 1] * wgt).sum() / wgt.sum())
 
 
-def _resample(img: np.ndarray, xc: float, yc: float, r: int, coeffs: np.ndarray | None = None) -> np.ndarray:
-    """The ``(2r + 1)``-square sub-image centred on the sub-pixel point (xc, yc), by cubic interpolation
-    (``coeffs``: :func:`aerofid.detect.spline.cubic_coefficients` of ``img``, if known)."""
-    return square_grid(img, xc, yc, r, 3, coeffs).astype(np.float32)
+def _resample(img: np.ndarray, xc: float, yc: float, r: int) -> np.ndarray:
+    """The ``(2r + 1)``-square sub-image centred on the sub-pixel point (xc, yc), by cubic interpolation."""
+    return square_grid(img, xc, yc, r, 3).astype(np.float32)
 
 
 # --- noise and precision -----------------------------------------------------------------------------------
 
-def _mirror_step(img: np.ndarray, xc: float, yc: float, r: int, order: int,
-                 coeffs: np.ndarray | None = None) -> np.ndarray:
-    """One Gauss-Newton step (x, y) towards the mirror-symmetric centre of the (2r+1)-square around (xc, yc),
-    resampled with spline ``order``: minimises sum (J - mirror(J))^2 over a shift of the centre."""
-    j = square_grid(img, xc, yc, r, order, coeffs)
+def _mirror_step(j: np.ndarray) -> np.ndarray:
+    """One Gauss-Newton step (x, y) towards the mirror-symmetric centre of ``j``, a square resampled about a
+    centre (float64): minimises sum (J - mirror(J))^2 over a shift of the centre."""
     gy, gx = _gradient(j, 0), _gradient(j, 1)
     out = []
     for dd, dg in ((j - j[:, ::-1], gx - gx[:, ::-1]), (j - j[::-1], gy - gy[::-1])):
@@ -1196,7 +1191,7 @@ def centre_sigma(img: np.ndarray, xc: float, yc: float, r: int, noise: float, in
 
 
 def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: float, inefficiency: float,
-                      floor: float, coeffs: np.ndarray | None = None) -> np.ndarray:
+                      floor: float, grid: np.ndarray | None = None) -> np.ndarray:
     """Covariance of the centre (2 x 2, px^2): per axis the variances below, and between the axes the
     noise part's covariance.
 
@@ -1217,21 +1212,19 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
     (the sampling and floor terms are independent per axis). A mark that is long along a diagonal (a '+'
     with one long arm at 45 degrees) has gradients across that arm, and its centre's x and y errors correlate.
 
-    ``coeffs``: :func:`~aerofid.detect.spline.cubic_coefficients` of ``img``, if known (then ``img`` is already
-    the part of the window around the centre that the resampling needs); else those of that part.
+    ``grid``: the (2r + 3)-square of ``img``'s cubic spline about the centre (float64, :func:`_resample`
+    before its rounding to float32), if known.
     """
-    if coeffs is None:
-        part, x0, y0 = near(img, xc, yc, r + 1 + NEAR_REACH)
-        img, xc, yc = part, xc - x0, yc - y0
-        coeffs = cubic_coefficients(img)
-    sub = _resample(img, xc, yc, r + 1, coeffs).astype(np.float64)
+    if grid is None:
+        grid = square_grid(img, xc, yc, r + 1, 3)
+    sub = grid.astype(np.float32).astype(np.float64)
     gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])
     gy = 0.5 * (sub[2:, 1:-1] - sub[:-2, 1:-1])
     nn = gx.size * noise ** 2 * 0.5
     ex = max(float((gx * gx).sum()) - nn, 1e-12)
     ey = max(float((gy * gy).sum()) - nn, 1e-12)
     rho = float(np.clip(-float((gx * gy).sum()) / np.sqrt(ex * ey), -1.0, 1.0))
-    alias = np.abs(_mirror_step(img, xc, yc, r, 1) - _mirror_step(img, xc, yc, r, 3, coeffs))
+    alias = np.abs(_mirror_step(square_grid(img, xc, yc, r, 1)) - _mirror_step(grid[1:-1, 1:-1]))
     vx, vy = (inefficiency * noise) ** 2 / ex, (inefficiency * noise) ** 2 / ey
     cxy = rho * float(np.sqrt(vx * vy))
     return np.array([[vx + alias[0] ** 2 + floor ** 2, cxy], [cxy, vy + alias[1] ** 2 + floor ** 2]])

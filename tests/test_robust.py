@@ -1,4 +1,6 @@
-"""aerofid.robust: the medians from one sort are numpy's."""
+"""aerofid.robust: the medians from one sort are numpy's (of all the values, or along an axis)."""
+
+import warnings
 
 import numpy as np
 from hypothesis import given
@@ -15,6 +17,17 @@ _SHAPES = st.tuples(st.integers(1, 40), st.integers(1, 7))
 def test_median_is_numpys_in_value_and_type(values):
     ours, numpys = median(values), np.median(values)
     assert ours == numpys and type(ours) is type(numpys)
+
+
+@given(arrays(_FLOATS, st.tuples(st.integers(0, 6), st.integers(0, 9), st.integers(1, 5)),
+              elements=st.floats(-1e3, 1e3, width=32) | st.just(np.nan)), st.integers(-3, 2))
+def test_median_along_an_axis_is_numpys_in_values_and_type(values, axis):
+    with warnings.catch_warnings():                 # numpy warns of an empty slice, whose median is nan
+        warnings.simplefilter("ignore", RuntimeWarning)
+        numpys = np.median(values, axis=axis)
+    ours = median(values, axis=axis)
+    assert ours.dtype == numpys.dtype and ours.shape == numpys.shape
+    np.testing.assert_array_equal(ours, numpys)
 
 
 @given(arrays(np.int64, _SHAPES, elements=st.integers(-100, 100)))

@@ -446,8 +446,9 @@ def test_remeasure_equals_detect_on_other_windows(style):
                 assert np.hypot(known.x - full.x, known.y - full.y) < 1e-3
                 assert again.radius == full.radius == known.radius
                 same_radius += again.radius == first.radius
-                if again.radius == first.radius:   # the same disc: the known centre itself
+                if again.radius == first.radius:   # the same disc: the known centre itself, no noise estimate
                     assert (known.x, known.y) == (first.x - x0, first.y - y0)
+                    assert np.isnan(known.noise_sigma) and again.noise_sigma == full.noise_sigma > 0
     assert compared >= 8 and same_radius >= 1
 
 

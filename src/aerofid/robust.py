@@ -8,7 +8,7 @@ its selection, and the absolute deviations' median of :func:`robust_std` is read
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -16,17 +16,38 @@ MAD_TO_SIGMA = 1.4826
 """Median absolute deviation -> standard deviation of a Gaussian."""
 
 
-def median(values: np.ndarray) -> np.floating[Any]:
-    """``np.median(values)`` of all the values, from a sort: the same value and floating type (float32 values give a
-    float32 median, integers a float64 one; nan if any value is nan or there are none).
+@overload
+def median(values: np.ndarray) -> np.floating[Any]: ...
+
+
+@overload
+def median(values: np.ndarray, axis: int) -> np.ndarray: ...
+
+
+def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np.ndarray:
+    """``np.median(values, axis=axis)``, from a sort: the same values and floating type (float32 values give
+    float32 medians, integers float64 ones; nan where a value is nan or there are none). ``axis`` None: the median
+    of all the values.
 
     Examples
     --------
     >>> float(median(np.array([3.0, 1.0, 2.0, 10.0])))
     2.5
+    >>> median(np.array([[3.0, 1.0, 2.0], [4.0, np.nan, 0.0]]), axis=1).tolist()
+    [2.0, nan]
     """
-    s = np.sort(np.asarray(values), axis=None)
-    return _middle(s if np.issubdtype(s.dtype, np.floating) else s.astype(np.float64))
+    s = np.sort(np.asarray(values), axis=axis)
+    if not np.issubdtype(s.dtype, np.floating):
+        s = s.astype(np.float64)
+    if axis is None:
+        return _middle(s)
+    s = np.moveaxis(s, axis, -1)
+    n, nan = s.shape[-1], s.dtype.type(np.nan)
+    if n == 0:
+        return np.full(s.shape[:-1], nan)
+    k = n // 2
+    middle = s[..., k] if n % 2 else (s[..., k - 1] + s[..., k]) / s.dtype.type(2)
+    return np.where(np.isnan(s[..., -1]), nan, middle)
 
 
 def robust_std(values: np.ndarray) -> float:

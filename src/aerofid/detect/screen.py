@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from aerofid.parallel import THREADS, map_in_threads
+from aerofid.robust import median
 
 RADII = (3, 5, 7)
 """Disc radii (level pixels) screened on each pyramid level; level k covers radii 3 * 2^k .. 7 * 2^k of the
@@ -148,13 +149,20 @@ def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.
     specks would outrank the mark). On white noise it reads 0.87-0.88 of the true sigma (5 seeds of 256 x 256
     px): the minimum over neighbouring blocks is biased low, which only scales every strength alike."""
     h, w = img.shape
-    dx = np.abs(np.diff(img, axis=1, append=img[:, -1:]))
-    dy = np.abs(np.diff(img, axis=0, append=img[-1:, :]))
     bh, bw = -(-h // block), -(-w // block)
-    d = np.maximum(dx, dy)
-    d = np.pad(d, ((0, bh * block - h), (0, bw * block - w)), mode="edge")
+    # max(|dx|, |dy|) of the first differences forward (0 on the last column and row: the edge value repeated),
+    # on blocks of whole size (the edge values repeated)
+    d = np.empty((bh * block, bw * block), img.dtype)
+    dx, dy = d[:h, :w], np.empty_like(img)
+    np.subtract(img[:, 1:], img[:, :-1], out=dx[:, :-1])
+    np.subtract(img[:, -1:], img[:, -1:], out=dx[:, -1:])
+    np.subtract(img[1:], img[:-1], out=dy[:-1])
+    np.subtract(img[-1:], img[-1:], out=dy[-1:])
+    np.maximum(np.abs(dx, out=dx), np.abs(dy, out=dy), out=dx)
+    d[h:, :w] = dx[-1]
+    d[:, w:] = d[:, w - 1:w]
     blocks = d.reshape(bh, block, bw, block).transpose(0, 2, 1, 3).reshape(bh, bw, -1)
-    med = np.median(blocks, axis=2).astype(np.float32) / np.float32(MEDIAN_MAX_DIFFERENCE)
+    med = median(blocks, axis=2).astype(np.float32) / np.float32(MEDIAN_MAX_DIFFERENCE)
     sigma = cv2.erode(med, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
     up = cv2.resize(sigma, (bw * block, bh * block), interpolation=cv2.INTER_LINEAR)[:h, :w]
     return np.maximum(up, np.float32(floor))

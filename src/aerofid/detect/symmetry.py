@@ -458,7 +458,8 @@ def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = D
     answer is not one, and the full refinement runs). Where stage 1 gives the kernel radius ``final`` was refined
     with, the disc about the centre holds the same pixels: the refinement would stop where it starts (within its
     convergence, 1e-4 px), so it does not run, nor do the final centre's checks (which ``final`` passed; here they
-    would differ only through this window's own noise estimate), and the answer is (x, y) with ``final``'s score.
+    would differ only through this window's own noise estimate, which is then not made: ``noise_sigma`` is
+    ``nan``), and the answer is (x, y) with ``final``'s score.
 
     Examples
     --------
@@ -495,12 +496,13 @@ def _run_again(img: np.ndarray, x: float, y: float, p: SymmetryParams, final: De
                t: _Trace) -> tuple[float, float, float, float]:
     """:func:`remeasure`'s stages on a usable window; fills ``t``; returns (x, y, score, nan) or raises
     :class:`Refused`."""
-    noise, bounds, r = _area_stage(img, p, t)
+    bounds, r = _area_stage(img, p, t)
     t.aoi = aoi = search_range(bounds, r, p, img.shape)
     t.centre_pixel = (int(round(x)), int(round(y)))
     _check_in_range(*t.centre_pixel, aoi)
     if isinstance(final, SymmetryResult) and final.found and final.radius == r:
         return float(x), float(y), final.score, float("nan")
+    noise = _noise(img, t)
     xs, ys = _refine(img, x, y, r, p, start="the known centre")
     score = _verify_centre(img, xs, ys, r, noise, p, t)
     return float(xs), float(ys), float(np.clip(score, 0.0, 1.0)), float("nan")
@@ -524,7 +526,8 @@ def _window_problem(img: np.ndarray, p: SymmetryParams) -> str | None:
 def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, float, float]:
     """The four stages on a usable window; fills ``t``; returns (x, y, score, sigma) or raises :class:`Refused`
     (sigma: the mean of ``sigma_x`` and ``sigma_y``)."""
-    noise, bounds, r = _area_stage(img, p, t)
+    noise = _noise(img, t)
+    bounds, r = _area_stage(img, p, t)
     t.log = i2 = simplified_log(img, p.log_inner, p.log_gap, p.log_outer)
     t.aoi = aoi = search_range(bounds, r, p, img.shape)
     x, y, d = _unit_pixel_centre(i2, bounds, r, aoi, p, t)
@@ -551,14 +554,19 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     return float(xs), float(ys), float(np.clip(score, 0.0, 1.0)), float(0.5 * (t.sigma_x + t.sigma_y))
 
 
-def _area_stage(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, FiducialArea, int]:
-    """The window's noise and stage 1 (seed 3.1): the fiducial area and the kernel radius it gives; fills ``t``."""
+def _noise(img: np.ndarray, t: _Trace) -> float:
+    """The window's noise (:func:`~aerofid.detect.noise.laplacian_noise_sigma`); fills ``t``."""
     t.noise_sigma = noise = laplacian_noise_sigma(img)
+    return noise
+
+
+def _area_stage(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[FiducialArea, int]:
+    """Stage 1 (seed 3.1): the fiducial area and the kernel radius it gives; fills ``t``."""
     area_img = img if p.area_smooth <= 1 else cv2.blur(img, (p.area_smooth, p.area_smooth),
                                                         borderType=cv2.BORDER_REFLECT)
     t.bounds = bounds = fiducial_area(area_img, edge_step=p.edge_step, diagonal=p.diagonal)
     t.radius = r = kernel_radius(bounds, p, img.shape)
-    return noise, bounds, r
+    return bounds, r
 
 
 def kernel_radius(bounds: FiducialArea, p: SymmetryParams, shape: tuple[int, ...]) -> int:

@@ -191,8 +191,9 @@ def test_a_chance_fit_of_all_fiducials_but_one_does_not_end_the_search():
 
 def test_a_mark_the_frames_method_misses_is_sought_at_least_as_large_as_its_feature(monkeypatch):
     """Where the frame's method alone finds a later mark nowhere, ``auto`` seeks it at its prediction on a window at
-    least as large as its screening feature sizes, not only the marks' extent so far (which a '+' measured on a ring
-    and cross makes a third of the ring's radius; here all marks seem 3 px): the marks are measured, the frame ok."""
+    least as large as its screening feature sizes (or, once 3 marks are found, as the features of the marks of its
+    kind found, where those are smaller), not only the marks' extent so far (which a '+' measured on a ring and cross
+    makes a third of the ring's radius; here all marks seem 3 px): the marks are measured, the frame ok."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     sized: list[Candidate] = []
     first_window = orient_module._first_window
@@ -218,7 +219,28 @@ def test_a_mark_the_frames_method_misses_is_sought_at_least_as_large_as_its_feat
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     assert res.status == "ok" and len(res.found) >= 7, res.reasons
     assert len(later) >= 5            # the layout's features: a corner's lies 23 px off its mark, unmatched
-    assert all(start.radius >= size.radius and (start.x, start.y) == at for start, size, at in later)
+    assert all(start.radius > 3.0 and (start.x, start.y) == at for start, size, at in later)
+    assert sum(start.radius >= size.radius for start, size, at in later) >= 3
+
+
+def test_a_mark_missed_once_three_are_found_is_sought_no_larger_than_the_features_of_its_kind():
+    """A fiducial whose feature is larger than the features of the marks of its kind found (a blot painted over the
+    mark) is sought, once 3 marks are found, on windows sized by those: a camera's marks of one kind are alike. Before
+    3 marks, or with none of its kind found, its own feature sizes the search; never below the marks' extent."""
+    fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0], [0.0, -110.0],
+                    [110.0, 0.0], [0.0, 110.0], [-110.0, 0.0]])
+    assert orient_module.fiducial_kinds(fid) == [1, 1, 1, 1, 0, 0, 0, 0]
+    features = tuple(Candidate(0.0, 0.0, r, 1.0, r) for r in (100.0, 110.0, 96.0, 260.0, 90.0, 90.0, 95.0, 240.0))
+
+    class Layout:
+        matched = list(range(8))
+
+    start = Candidate(500.0, 500.0, 94.0, 0.0)
+    sought = [orient_module._fallback_start(start, k, done, Layout(), fid, features).radius
+              for k, done in ((3, [0, 1, 2]), (3, [0, 1]), (7, [0, 1, 2]), (7, [0, 1, 4, 5]), (3, []))]
+    assert sought == [100.0, 260.0, 240.0, 94.0, 94.0]
+    small = Candidate(500.0, 500.0, 150.0, 0.0)            # the marks' extent is the floor
+    assert orient_module._fallback_start(small, 3, [0, 1, 2], Layout(), fid, features).radius == 150.0
 
 
 @pytest.mark.parametrize("displaced", [True, False])

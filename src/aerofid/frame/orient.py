@@ -468,9 +468,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
     :data:`REFINED_TOLERANCE_MM`), on a window at least as large as its own screening feature sizes where it has
-    one (the marks' extent so far can be another style's: a '+' that ``hough`` measured on a ring and cross gives
-    its arms' half length, a third of the ring's radius that a ring and X in the corners has). A mark not found
-    there either is sought in its area (:func:`measure_fiducial`), but before :data:`MIN_REFIT` marks are found
+    one, but then no larger than the features of the marks of its kind found (:func:`_fallback_start`). A mark not
+    found there either is sought in its area (:func:`measure_fiducial`), but before :data:`MIN_REFIT` marks are found
     only after the fiducials that follow it have been measured (then sought again first where the others put it,
     by ``auto`` as the first marks are, in their polarity first: not by the frame's method alone, which lacks
     ``auto``'s checks and took a square of clutter left where a mark was erased; unless none of them was found): a
@@ -510,10 +509,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             template = templates[k] if templates and reach > 0 else None
             near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
             quick = _by_method(measurer, name, near, at, alone_tolerance)
+        if quick is None and radii is None and profile is None:
+            start = _fallback_start(start, k, done, layout, fiducials_mm, features)
         if quick is None:
-            m = layout.matched[k]
-            if done and m is not None and radii is None and profile is None:   # at least its own feature's size
-                start = replace(start, radius=max(start.radius, _first_window(features[m]).radius))
             quick = _coarse_first(measurer, start, at, tolerance)
         if quick is None:
             quick, why = _at_start(measurer, start, at, tolerance, other)
@@ -655,6 +653,44 @@ def _xy(m: Located | None) -> tuple[float, float]:
 
 def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> float:
     return float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
+
+
+def _fallback_start(start: Candidate, k: int, done: list[int], layout: LayoutMatch, fiducials_mm: np.ndarray,
+                    features: tuple[Candidate, ...]) -> Candidate:
+    """Where and how large :func:`measure_marks` seeks fiducial ``k`` by ``auto`` once the frame's method alone has
+    not found it (``start``: its prediction, sized like the marks found, ``done``): at least as large as its own
+    screening feature (the marks' extent so far can be another style's: a '+' that ``hough`` measured on a ring and
+    cross gives its arms' half length, a third of the ring's radius that a ring and X in the corners has), but from
+    :data:`MIN_REFIT` marks on (the prediction within a few px) no larger than the features of the marks of its kind
+    found (:func:`fiducial_kinds`: corners or midsides; the median): a camera's marks of one kind are alike, and the
+    feature the layout matched there may be something else (a blot painted over the mark, 2.4-2.9 times the marks'
+    radius on the damaged frames of ``benchmarks/bench_frames.py``, whose windows and areas of that size took
+    seconds of failed searches)."""
+    m = layout.matched[k]
+    if not done or m is None:
+        return start
+    size = _first_window(features[m]).radius
+    kinds = fiducial_kinds(fiducials_mm)
+    alike = [_first_window(features[a]).radius for j in done
+             if kinds[j] == kinds[k] and (a := layout.matched[j]) is not None]
+    if len(done) >= MIN_REFIT and alike:
+        size = min(size, float(np.median(alike)))
+    return replace(start, radius=max(start.radius, size))
+
+
+def fiducial_kinds(fiducials_mm: np.ndarray) -> list[int]:
+    """Each fiducial's kind by its direction from the frame's centre on the film: 1 a corner (nearer a diagonal),
+    0 a midside (nearer an axis). A camera's marks of one kind are alike (the Wild cameras' corner rings with an X
+    and a dot, their midside rings with a '+'; a film that lies turned by 90 degrees in the scanner turns one axis's
+    midsides into the other's).
+
+    Examples
+    --------
+    >>> fiducial_kinds(np.array([[-106.0, -106.0], [0.0, -110.0], [110.0, 0.5], [105.0, 107.0], [80.0, 20.0]]))
+    [1, 0, 0, 1, 0]
+    """
+    angle = np.degrees(np.arctan2(np.abs(fiducials_mm[:, 1]), np.abs(fiducials_mm[:, 0])))
+    return (np.abs(angle - 45.0) < 22.5).astype(int).tolist()
 
 
 def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str | None:

@@ -8,6 +8,7 @@ import math
 import os
 import subprocess
 import sys
+import types
 from dataclasses import replace
 from pathlib import Path
 
@@ -241,6 +242,47 @@ def test_a_mark_missed_once_three_are_found_is_sought_no_larger_than_the_feature
     assert sought == [100.0, 260.0, 240.0, 94.0, 94.0]
     small = Candidate(500.0, 500.0, 150.0, 0.0)            # the marks' extent is the floor
     assert orient_module._fallback_start(small, 3, [0, 1, 2], Layout(), fid, features).radius == 150.0
+
+
+def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monkeypatch):
+    """From 3 marks on, a fiducial the frame's method alone misses while no mark of its kind is found yet waits until
+    the others of its kind have been measured; then ``auto`` seeks it sized by them, not by its own feature (the
+    damaged frames' blotted midside, sought after three corners, took 3 s at its blot's size). Where none of its kind
+    is found, each is sought once the others have been."""
+    fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0], [0.0, -110.0],
+                    [110.0, 0.0], [0.0, 110.0], [-110.0, 0.0]])
+    # fiducial k's feature at (100 k, 50), strongest first; 4's a blot 2.4 times the marks' size
+    features = tuple(Candidate(100.0 * k, 50.0, 240.0 if k == 4 else 100.0, 10.0 - k, 90.0) for k in range(8))
+    layout = types.SimpleNamespace(matched=list(range(8)))
+    calls: list[tuple[str, int, float]] = []
+
+    def sought(k, *args):
+        return orient_module._Sought((100.0 * k, 50.0), Candidate(100.0 * k, 50.0, 94.0, 0.0), 40.0, 10.0, "symmetry")
+
+    def alone(measurer, name, start, at, tolerance):
+        calls.append(("alone", round(at[0] / 100.0), start.radius))
+        return None if round(at[0] / 100.0) in missing else types.SimpleNamespace(x=at[0], y=at[1], extent=94.0)
+
+    def by_auto(measurer, start, at, *args):
+        calls.append(("auto", round(at[0] / 100.0), start.radius))
+        return None
+
+    for name, fn in (("_sought", sought), ("_by_method", alone), ("_coarse_first", by_auto),
+                     ("_at_start", lambda *a: (by_auto(*a), "no mark")), ("_probed_area", lambda *a: (None, "no mark")),
+                     ("_outside", lambda *a: ""), ("_coarse", lambda measurer, name, start, *a: start)):
+        monkeypatch.setattr(orient_module, name, fn)
+    measurer = types.SimpleNamespace(polarities=("light",))
+    for missing, want in (({4}, [("alone", k, 94.0) for k in (0, 1, 2, 3, 4, 5, 6, 7, 4)] + [("auto", 4, 94.9)] * 2),
+                          ({4, 5, 6, 7}, None)):
+        calls.clear()
+        out = orient_module.measure_marks(measurer, layout, fid, features)
+        assert [k for k, (m, _) in enumerate(out) if m is not None] == sorted(set(range(8)) - missing)
+        if want is not None:
+            assert [(w, k, round(r, 1)) for w, k, r in calls] == want
+        else:       # every midside waits once for the others, then each is sought by auto at its own feature's size
+            assert [k for w, k, r in calls if w == "alone"] == [0, 1, 2, 3, 4, 5, 6, 7, 4, 5, 6, 7]
+            assert {(k, round(r, 1)) for w, k, r in calls if w == "auto"} == {(4, 147.0), (5, 94.9), (6, 94.9),
+                                                                              (7, 94.9)}
 
 
 @pytest.mark.parametrize("displaced", [True, False])

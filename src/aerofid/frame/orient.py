@@ -468,7 +468,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
     :data:`REFINED_TOLERANCE_MM`), on a window at least as large as its own screening feature sizes where it has
-    one, but then no larger than the features of the marks of its kind found (:func:`_fallback_start`). A mark not
+    one, but then no larger than the features of the marks of its kind found (:func:`_fallback_start`; one of a kind
+    none of whose marks is found yet waits, once, until the others of its kind have been measured). A mark not
     found there either is sought in its area (:func:`measure_fiducial`), but before :data:`MIN_REFIT` marks are found
     only after the fiducials that follow it have been measured (then sought again first where the others put it,
     by ``auto`` as the first marks are, in their polarity first: not by the frame's method alone, which lacks
@@ -493,7 +494,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
         other = opposite(profile.polarity)
     later: dict[int, tuple[int, Candidate, str]] = {}   # an area search put off: the marks found then, start, why
     vain: list[int] = []                        # fiducials whose areas held no mark before MIN_REFIT were found
-    for k in order:                             # (a put-off fiducial is appended to ``order``)
+    waiting: set[int] = set()                   # put off from MIN_REFIT on until a mark of their kind is found
+    kinds = fiducial_kinds(fiducials_mm)
+    for i, k in enumerate(order):               # (a put-off fiducial is appended to ``order``)
         done = [j for j in range(n) if out[j][0] is not None]
         at, start, tolerance, alone_tolerance, name = _sought(k, out, done, layout, fiducials_mm, features, profile,
                                                               follow, radii)
@@ -510,6 +513,11 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
             quick = _by_method(measurer, name, near, at, alone_tolerance)
         if quick is None and radii is None and profile is None:
+            if (len(done) >= MIN_REFIT and k not in waiting and all(kinds[j] != kinds[k] for j in done)
+                    and any(kinds[j] == kinds[k] and j != k for j in order[i + 1:])):
+                waiting.add(k)                  # sought by ``auto`` once its kind's marks size it (_fallback_start)
+                order.append(k)
+                continue
             start = _fallback_start(start, k, done, layout, fiducials_mm, features)
         if quick is None:
             quick = _coarse_first(measurer, start, at, tolerance)

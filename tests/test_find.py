@@ -11,6 +11,7 @@ import threading
 from dataclasses import replace
 from unittest import mock
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -49,6 +50,23 @@ def _err(r, truth):
 def test_local_noise_reads_white_noise():
     img = np.random.default_rng(0).normal(0.5, 0.03, (256, 256)).astype(np.float32)
     assert 0.024 < float(np.median(local_noise(img))) < 0.036
+
+
+@pytest.mark.parametrize("shape", [(256, 256), (37, 53), (100, 31), (17, 1), (1, 40)])
+def test_local_noise_is_its_block_median_written_out(shape):
+    """The plainest neighbouring block's median of max(|dx|, |dy|) (forward differences, 0 on the last row and
+    column; blocks of 16 completed by the edge values), scaled, spread bilinearly: written out with numpy's own
+    functions, to the bit, on sizes that are no multiple of 16 and on images one pixel across."""
+    img = np.random.default_rng(sum(shape)).random(shape).astype(np.float32)
+    h, w = shape
+    d = np.maximum(np.abs(np.diff(img, axis=1, append=img[:, -1:])), np.abs(np.diff(img, axis=0, append=img[-1:])))
+    bh, bw = -(-h // 16), -(-w // 16)
+    d = np.pad(d, ((0, bh * 16 - h), (0, bw * 16 - w)), mode="edge")
+    med = np.median(d.reshape(bh, 16, bw, 16).transpose(0, 2, 1, 3).reshape(bh, bw, -1), axis=2)
+    sigma = cv2.erode(med.astype(np.float32) / np.float32(1.0518 * np.sqrt(2.0)), np.ones((3, 3), np.uint8),
+                      borderType=cv2.BORDER_REPLICATE)
+    want = cv2.resize(sigma, (bw * 16, bh * 16), interpolation=cv2.INTER_LINEAR)[:h, :w]
+    np.testing.assert_array_equal(local_noise(img, floor=0.0), want)
 
 
 @given(h=st.integers(1, 40), w=st.integers(1, 40), channels=st.integers(1, 4), radius=st.sampled_from((3, 5, 7)),

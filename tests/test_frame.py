@@ -237,11 +237,13 @@ def test_a_mark_missed_once_three_are_found_is_sought_no_larger_than_the_feature
         matched = list(range(8))
 
     start = Candidate(500.0, 500.0, 94.0, 0.0)
-    sought = [orient_module._fallback_start(start, k, done, Layout(), fid, features).radius
+    kinds = orient_module.fiducial_kinds(fid)
+    sought = [orient_module._fallback_start(start, k, done, Layout(), kinds, features).radius
               for k, done in ((3, [0, 1, 2]), (3, [0, 1]), (7, [0, 1, 2]), (7, [0, 1, 4, 5]), (3, []))]
     assert sought == [100.0, 260.0, 240.0, 94.0, 94.0]
     small = Candidate(500.0, 500.0, 150.0, 0.0)            # the marks' extent is the floor
-    assert orient_module._fallback_start(small, 3, [0, 1, 2], Layout(), fid, features).radius == 150.0
+    assert orient_module._fallback_start(small, 3, [0, 1, 2], Layout(), kinds, features).radius == 150.0
+    assert orient_module.fiducial_kinds(fid + 116.0) == kinds   # a certificate whose origin is a corner
 
 
 def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monkeypatch):
@@ -272,10 +274,15 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
                      ("_outside", lambda *a: ""), ("_coarse", lambda measurer, name, start, *a: start)):
         monkeypatch.setattr(orient_module, name, fn)
     measurer = types.SimpleNamespace(polarities=("light",))
-    for missing, want in (({4}, [("alone", k, 94.0) for k in (0, 1, 2, 3, 4, 5, 6, 7, 4)] + [("auto", 4, 94.9)] * 2),
-                          ({4, 5, 6, 7}, None)):
+    lone = fid.copy()
+    lone[5:] = [[50.0, 52.0], [-50.0, 49.0], [51.0, -50.0]]    # 4 the only midside: nothing of its kind to wait for
+    for layout_mm, missing, want in (
+            (fid, {4}, [("alone", k, 94.0) for k in (0, 1, 2, 3, 4, 5, 6, 7, 4)] + [("auto", 4, 94.9)] * 2),
+            (lone, {4}, [("alone", k, 94.0) for k in (0, 1, 2, 3, 4)] + [("auto", 4, 147.0)] * 2
+             + [("alone", k, 94.0) for k in (5, 6, 7)]),
+            (fid, {4, 5, 6, 7}, None)):
         calls.clear()
-        out = orient_module.measure_marks(measurer, layout, fid, features)
+        out = orient_module.measure_marks(measurer, layout, layout_mm, features)
         assert [k for k, (m, _) in enumerate(out) if m is not None] == sorted(set(range(8)) - missing)
         if want is not None:
             assert [(w, k, round(r, 1)) for w, k, r in calls] == want

@@ -72,14 +72,13 @@ def test_square_grid_equals_map_coordinates_with_nearest_edges(xc, yc, r, order,
     np.testing.assert_allclose(square_grid(img, xc, yc, r, order), want, rtol=0, atol=1e-6)
 
 
-
 @settings(max_examples=60, deadline=None)
 @given(r=st.integers(1, 60), fx=st.floats(0.0, 1.0, exclude_max=True), fy=st.floats(0.0, 1.0, exclude_max=True),
        dx=st.integers(-8, 8), dy=st.integers(-8, 8), seed=st.integers(0, 2**16))
 def test_inner_square_of_a_larger_grid_is_the_smaller_grid(r, fx, fy, dx, dy, seed):
     """symmetry's final checks take the (2r + 1)-square about the centre from the (2r + 3)-square its covariance
-    resamples: the same values, to the last bit where r >= EDGE_PAD (the grids' origins are then exact), within
-    1e-14 of the grey levels below it."""
+    resamples: the same values, to the last bit where r >= EDGE_PAD (the grids' origins are then exact) and the
+    centre lies inside the part as the method's search range keeps it, within 1e-14 of the grey levels below."""
     n = 2 * (r + 1 + NEAR_REACH) + 21
     img = np.random.default_rng(seed).random((n, n)).astype(np.float32)
     xc, yc = n // 2 + dx + fx, n // 2 + dy + fy
@@ -91,6 +90,7 @@ def test_inner_square_of_a_larger_grid_is_the_smaller_grid(r, fx, fy, dx, dy, se
         np.testing.assert_array_equal(inner, alone)
     else:
         np.testing.assert_allclose(inner, alone, rtol=0, atol=1e-14)
+
 
 @settings(max_examples=40, deadline=None)
 @given(h=st.integers(1, 70), w=st.integers(1, 70), seed=st.integers(0, 2**16))

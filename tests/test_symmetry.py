@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from aerofid import synth
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.registry import METHODS
+from aerofid.detect.spline import square_grid
 from aerofid.detect.symmetry import (
     FiducialArea,
     SymmetryParams,
@@ -99,6 +100,9 @@ def test_typed_diagnostics_for_plots(runs):
     assert d.subpixel is not None and d.subpixel.enlarge == 4
     assert d.R_parts is not None and d.R_self == pytest.approx(d.R_parts.r_self) and d.score == pytest.approx(d.R_self)
     assert d.radius is not None and d.radius >= 3 and d.noise_sigma > 0
+    # the final checks are made on the (2r + 1)-square resampled about the final centre
+    assert self_diagnosis(square_grid(s.image, d.x, d.y, d.radius).astype(np.float32)).r_self == pytest.approx(
+        d.R_self, abs=1e-12)
     assert 0 <= d.asymmetry <= SymmetryParams().max_asymmetry
     assert d.sigma == pytest.approx(0.5 * (d.sigma_x + d.sigma_y))
     assert d.to_dict()["status"] == "found"

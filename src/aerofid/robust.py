@@ -26,8 +26,8 @@ def median(values: np.ndarray, axis: int) -> np.ndarray: ...
 
 def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np.ndarray:
     """``np.median(values, axis=axis)``, from a sort: the same values and floating type (float32 values give
-    float32 medians, integers float64 ones; nan where a value is nan or there are none). ``axis`` None: the median
-    of all the values.
+    float32 medians, integers float64 ones; nan where a value is nan or there are none; float16 aside, which numpy
+    averages in float32). ``axis`` None (or a 1-D ``values``): the median of all the values, a scalar.
 
     Examples
     --------
@@ -47,7 +47,7 @@ def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np
         return np.full(s.shape[:-1], nan)
     k = n // 2
     middle = s[..., k] if n % 2 else (s[..., k - 1] + s[..., k]) / s.dtype.type(2)
-    return np.where(np.isnan(s[..., -1]), nan, middle)
+    return np.where(np.isnan(s[..., -1]), nan, middle)[()]
 
 
 def robust_std(values: np.ndarray) -> float:

@@ -458,8 +458,8 @@ def remeasure(window: np.ndarray, x: float, y: float, params: SymmetryParams = D
     answer is not one, and the full refinement runs). Where stage 1 gives the kernel radius ``final`` was refined
     with, the disc about the centre holds the same pixels: the refinement would stop where it starts (within its
     convergence, 1e-4 px), so it does not run, nor do the final centre's checks (which ``final`` passed; here they
-    would differ only through this window's own noise estimate, which is then not made: ``noise_sigma`` is
-    ``nan``), and the answer is (x, y) with ``final``'s score.
+    would differ only through this window's own noise estimate), and the answer is (x, y) with ``final``'s score.
+    The window's noise is estimated only where the refinement runs (else ``noise_sigma`` is ``nan``).
 
     Examples
     --------
@@ -1221,9 +1221,12 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
     with one long arm at 45 degrees) has gradients across that arm, and its centre's x and y errors correlate.
 
     ``grid``: the (2r + 3)-square of ``img``'s cubic spline about the centre (float64, :func:`_resample`
-    before its rounding to float32), if known.
+    before its rounding to float32), if known (then ``img`` is already the part of the window around the centre
+    that the resampling needs); else that part's.
     """
     if grid is None:
+        part, x0, y0 = near(img, xc, yc, r + 1 + NEAR_REACH)
+        img, xc, yc = part, xc - x0, yc - y0
         grid = square_grid(img, xc, yc, r + 1, 3)
     sub = grid.astype(np.float32).astype(np.float64)
     gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])

@@ -467,22 +467,22 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     where the method settles at the cost of its stage 1: :func:`_alone`); if that fails,
     like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
-    :data:`REFINED_TOLERANCE_MM`), on a window at least as large as its own screening feature sizes where it has
-    one, but then no larger than the features of the marks of its kind found (:func:`_fallback_start`; one of a kind
-    none of whose marks is found yet waits, once, until the others of its kind have been measured). A mark not
-    found there either is sought in its area (:func:`measure_fiducial`), but before :data:`MIN_REFIT` marks are found
-    only after the fiducials that follow it have been measured (then sought again first where the others put it,
-    by ``auto`` as the first marks are, in their polarity first: not by the frame's method alone, which lacks
-    ``auto``'s checks and took a square of clutter left where a mark was erased; unless none of them was found): a
-    feature that is no mark (an erased or hidden corner's clutter) is the strongest one on some frames, and its area,
-    searched in both polarities within the layout's tolerance, took seconds that the refined prediction and
-    tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until :data:`AREA_PROBES` of them
-    held no mark; the others are then left unsearched (a layout matched on features that are not the frame's marks:
-    its areas cost tens of seconds of failed searches). The adjustment's blunder tests check them all. A roll
-    ``profile`` gives the polarity, the method and the marks' size from the first mark on. With ``follow`` (a roll's
-    layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved by the
-    found marks' mean shift from theirs, and each is sought first where its learnt template correlates best within
-    the layout's tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per
+    :data:`REFINED_TOLERANCE_MM`), on a window sized by its own screening feature where it has one, or by the features
+    of the marks of its kind found where those are smaller, never below the marks' extent (:func:`_fallback_start`; one
+    of a kind none of whose marks is found yet, with a feature, waits once until the others of its kind have been
+    sought). A mark not found there either is sought in its area (:func:`measure_fiducial`), but before
+    :data:`MIN_REFIT` marks are found only after the fiducials that follow it have been measured (then sought again
+    first where the others put it, by ``auto`` as the first marks are, in their polarity first: not by the frame's
+    method alone, which lacks ``auto``'s checks and took a square of clutter left where a mark was erased; unless none
+    of them was found): a feature that is no mark (an erased or hidden corner's clutter) is the strongest one on some
+    frames, and its area, searched in both polarities within the layout's tolerance, took seconds that the refined
+    prediction and tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until
+    :data:`AREA_PROBES` of them held no mark; the others are then left unsearched (a layout matched on features that are
+    not the frame's marks: its areas cost tens of seconds of failed searches). The adjustment's blunder tests check them
+    all. A roll ``profile`` gives the polarity, the method and the marks' size from the first mark on. With ``follow``
+    (a roll's layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks are moved
+    by the found marks' mean shift from theirs, and each is sought first where its learnt template correlates best
+    within the layout's tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per
     fiducial: a roll's learnt sizes) size each mark's window."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
@@ -494,7 +494,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
         other = opposite(profile.polarity)
     later: dict[int, tuple[int, Candidate, str]] = {}   # an area search put off: the marks found then, start, why
     vain: list[int] = []                        # fiducials whose areas held no mark before MIN_REFIT were found
-    waiting: set[int] = set()                   # put off from MIN_REFIT on until a mark of their kind is found
+    waiting: set[int] = set()                   # put off from MIN_REFIT on until the others of their kind are sought
     kinds = fiducial_kinds(fiducials_mm)
     for i, k in enumerate(order):               # (a put-off fiducial is appended to ``order``)
         done = [j for j in range(n) if out[j][0] is not None]
@@ -513,12 +513,13 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
             quick = _by_method(measurer, name, near, at, alone_tolerance)
         if quick is None and radii is None and profile is None:
-            if (len(done) >= MIN_REFIT and k not in waiting and all(kinds[j] != kinds[k] for j in done)
+            if (len(done) >= MIN_REFIT and k not in waiting and layout.matched[k] is not None
+                    and all(kinds[j] != kinds[k] for j in done)
                     and any(kinds[j] == kinds[k] and j != k for j in order[i + 1:])):
-                waiting.add(k)                  # sought by ``auto`` once its kind's marks size it (_fallback_start)
+                waiting.add(k)                  # sought again once the others of its kind are (_fallback_start)
                 order.append(k)
                 continue
-            start = _fallback_start(start, k, done, layout, fiducials_mm, features)
+            start = _fallback_start(start, k, done, layout, kinds, features)
         if quick is None:
             quick = _coarse_first(measurer, start, at, tolerance)
         if quick is None:
@@ -663,41 +664,44 @@ def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> fl
     return float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
 
 
-def _fallback_start(start: Candidate, k: int, done: list[int], layout: LayoutMatch, fiducials_mm: np.ndarray,
+def _fallback_start(start: Candidate, k: int, done: list[int], layout: LayoutMatch, kinds: Sequence[int],
                     features: tuple[Candidate, ...]) -> Candidate:
     """Where and how large :func:`measure_marks` seeks fiducial ``k`` by ``auto`` once the frame's method alone has
-    not found it (``start``: its prediction, sized like the marks found, ``done``): at least as large as its own
-    screening feature (the marks' extent so far can be another style's: a '+' that ``hough`` measured on a ring and
-    cross gives its arms' half length, a third of the ring's radius that a ring and X in the corners has), but from
-    :data:`MIN_REFIT` marks on (the prediction within a few px) no larger than the features of the marks of its kind
-    found (:func:`fiducial_kinds`: corners or midsides; the median): a camera's marks of one kind are alike, and the
-    feature the layout matched there may be something else (a blot painted over the mark, 2.4-2.9 times the marks'
-    radius on the damaged frames of ``benchmarks/bench_frames.py``, whose windows and areas of that size took
-    seconds of failed searches)."""
+    not found it (``start``: its prediction, sized like the marks found, ``done``): as large as its own screening
+    feature, but from :data:`MIN_REFIT` marks on (the prediction within a few px) no larger than the features of the
+    marks of its kind found (``kinds``, :func:`fiducial_kinds`: corners or midsides; their median), and never smaller
+    than ``start`` (the marks' extent so far can be another style's: a '+' that ``hough`` measured on a ring and
+    cross gives its arms' half length, a third of the ring's radius that a ring and X in the corners has). A
+    camera's marks of one kind are alike, and the feature the layout matched there may be something else (a blot
+    painted over the mark, 2.4-2.9 times the marks' radius on the damaged frames of ``benchmarks/bench_frames.py``,
+    whose windows and areas of that size took seconds of failed searches)."""
     m = layout.matched[k]
     if not done or m is None:
         return start
     size = _first_window(features[m]).radius
-    kinds = fiducial_kinds(fiducials_mm)
-    alike = [_first_window(features[a]).radius for j in done
-             if kinds[j] == kinds[k] and (a := layout.matched[j]) is not None]
-    if len(done) >= MIN_REFIT and alike:
-        size = min(size, float(np.median(alike)))
+    alike = [j for j in done if kinds[j] == kinds[k]]
+    if len(done) >= MIN_REFIT and any(layout.matched[j] is not None for j in alike):
+        size = min(size, _median_radius(layout, features, alike))
     return replace(start, radius=max(start.radius, size))
 
 
 def fiducial_kinds(fiducials_mm: np.ndarray) -> list[int]:
-    """Each fiducial's kind by its direction from the frame's centre on the film: 1 a corner (nearer a diagonal),
-    0 a midside (nearer an axis). A camera's marks of one kind are alike (the Wild cameras' corner rings with an X
-    and a dot, their midside rings with a '+'; a film that lies turned by 90 degrees in the scanner turns one axis's
-    midsides into the other's).
+    """Each fiducial's kind by its direction on the film from the middle of the layout (the centre of the fiducials'
+    bounding box: a certificate's origin may be a corner): 1 a corner (nearer a diagonal), 0 a midside (nearer an
+    axis). A camera's marks of one kind are alike (the Wild cameras' corner rings with an X and a dot, their
+    midside rings with a '+'; a film that lies turned by 90 degrees in the scanner turns one axis's midsides into
+    the other's).
 
     Examples
     --------
-    >>> fiducial_kinds(np.array([[-106.0, -106.0], [0.0, -110.0], [110.0, 0.5], [105.0, 107.0], [80.0, 20.0]]))
+    >>> fiducial_kinds(np.array([[-106.0, -106.0], [0.0, -110.0], [110.0, 0.5], [106.0, 106.0], [-110.0, 0.0]]))
     [1, 0, 0, 1, 0]
+    >>> fiducial_kinds(np.array([[10.0, 10.0], [116.0, 10.0], [222.0, 10.0], [222.0, 116.0], [222.0, 222.0]]))
+    [1, 0, 1, 0, 1]
     """
-    angle = np.degrees(np.arctan2(np.abs(fiducials_mm[:, 1]), np.abs(fiducials_mm[:, 0])))
+    xy = np.asarray(fiducials_mm, float)
+    d = xy - (xy.min(axis=0) + xy.max(axis=0)) / 2.0
+    angle = np.degrees(np.arctan2(np.abs(d[:, 1]), np.abs(d[:, 0])))
     return (np.abs(angle - 45.0) < 22.5).astype(int).tolist()
 
 
@@ -822,8 +826,11 @@ def _first_window(c: Candidate) -> Candidate:
     return replace(c, radius=math.sqrt(c.radius * c.inner))
 
 
-def _median_radius(layout: LayoutMatch, features: tuple[Candidate, ...]) -> float:
-    return float(np.median([_first_window(features[m]).radius for m in layout.matched if m is not None]))
+def _median_radius(layout: LayoutMatch, features: tuple[Candidate, ...], among: Sequence[int] | None = None) -> float:
+    """The median first-window radius (:func:`_first_window`) of the features matched to the fiducials ``among``
+    (default: all of them)."""
+    matched = layout.matched if among is None else [layout.matched[j] for j in among]
+    return float(np.median([_first_window(features[m]).radius for m in matched if m is not None]))
 
 
 def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,

@@ -112,30 +112,25 @@ def _minpack() -> Callable[..., Any] | None:
 def _ndtr() -> Callable[[np.ndarray], np.ndarray]:
     """scipy's ``ndtr`` ufunc from ``_special_ufuncs`` where it loads and gives known values, else
     ``scipy.special.ndtr``."""
-    fast = _compiled("scipy.special._special_ufuncs", ("special", "_special_ufuncs"), "ndtr", _ndtr_works)
-    if fast is not None:
-        return fast
-    from scipy.special import ndtr as public
-
-    return public
+    return _compiled("scipy.special._special_ufuncs", ("special", "_special_ufuncs"), "ndtr", _ndtr_works,
+                     public="scipy.special")
 
 
 @functools.cache
 def _lsap() -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """scipy's ``_lsap.linear_sum_assignment`` where it loads and solves a known problem, else the public one."""
-    fast = _compiled("scipy.optimize._lsap", ("optimize", "_lsap"), "linear_sum_assignment", _lsap_works)
-    if fast is not None:
-        return fast
-    from scipy.optimize import linear_sum_assignment as public
-
-    return public
+    return _compiled("scipy.optimize._lsap", ("optimize", "_lsap"), "linear_sum_assignment", _lsap_works,
+                     public="scipy.optimize")
 
 
-def _compiled(name: str, parts: tuple[str, ...], attribute: str, works: Callable[[Any], bool]) -> Any:
+def _compiled(name: str, parts: tuple[str, ...], attribute: str, works: Callable[[Any], bool],
+              public: str | None = None) -> Any:
     """The function ``attribute`` of the extension module ``name`` (:func:`_extension`) where it has one that passes
-    its check ``works``, else None."""
+    its check ``works``, else the same name of the package ``public`` (imported then), or None without one."""
     fn = getattr(_extension(name, parts), attribute, None)
-    return fn if fn is not None and works(fn) else None
+    if fn is not None and works(fn):
+        return fn
+    return None if public is None else getattr(importlib.import_module(public), attribute)
 
 
 _LOADING = threading.Lock()

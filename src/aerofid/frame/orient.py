@@ -513,9 +513,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
             quick = _by_method(measurer, name, near, at, alone_tolerance)
         if quick is None and radii is None and profile is None:
-            if (len(done) >= MIN_REFIT and k not in waiting and layout.matched[k] is not None
-                    and all(kinds[j] != kinds[k] for j in done)
-                    and any(kinds[j] == kinds[k] and j != k for j in order[i + 1:])):
+            if k not in waiting and _waits(k, done, order[i + 1:], kinds, layout):
                 waiting.add(k)                  # sought again once the others of its kind are (_fallback_start)
                 order.append(k)
                 continue
@@ -662,6 +660,14 @@ def _xy(m: Located | None) -> tuple[float, float]:
 
 def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> float:
     return float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
+
+
+def _waits(k: int, done: list[int], pending: list[int], kinds: Sequence[int], layout: LayoutMatch) -> bool:
+    """Whether :func:`measure_marks` puts off fiducial ``k``, which the frame's method alone missed: from
+    :data:`MIN_REFIT` marks on (``done``), where it has a feature, no mark of its kind is found yet and another of its
+    kind is still to be sought (``pending``), by whose feature :func:`_fallback_start` will size its search."""
+    return (len(done) >= MIN_REFIT and layout.matched[k] is not None and all(kinds[j] != kinds[k] for j in done)
+            and any(kinds[j] == kinds[k] and j != k for j in pending))
 
 
 def _fallback_start(start: Candidate, k: int, done: list[int], layout: LayoutMatch, kinds: Sequence[int],

@@ -113,79 +113,22 @@ def test_an_unknown_pixel_size_search_can_end_at_the_first_complete_layout():
     assert len(corners) > 1
 
 
-def _chunks_counted(monkeypatch) -> list[int]:
-    """Count the chunks of hypotheses the layout search asks for (one entry per chunk)."""
-    from aerofid.frame import layout as layout_module
 
-    chunks = layout_module._hypothesis_chunks
-    asked: list[int] = []
-
-    def counted(*args):
-        for chunk in chunks(*args):
-            asked.append(1)
-            yield chunk
-
-    monkeypatch.setattr(layout_module, "_hypothesis_chunks", counted)
-    return asked
-
-
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_a_layout_with_all_fiducials_but_one_on_close_features_ends_the_search(monkeypatch, seed):
-    """Seven of eight marks among ~500 features (the eighth a faint midside that ranks below the strongest 512, or
-    painted over): the refined layout that puts those seven within the fit's tolerance, closely, ends the search in
-    its first chunks - the layout the whole search finds (which asked for every chunk of 400 000 hypotheses)."""
-    from aerofid.frame import layout as layout_module
-
+@pytest.mark.parametrize("seed", [1, 2])
+def test_clutter_close_to_seven_fiducials_of_a_shifted_layout_does_not_hide_the_complete_one(seed):
+    """Seven clutter features 10-20 px from seven fiducials of the layout shifted 300 px (as straight edges along a
+    frame's border give them), the strongest, and all eight marks among the weakest: the search goes on to the
+    complete layout of the marks. (An early end at a refined layout with all fiducials but one on close features,
+    tried in session 32, ended on the shifted one; found by a review.)"""
     rng = np.random.default_rng(seed)
-    s = 0.0227
-    rot, mir = int(rng.choice([0, 90, 180, 270])), bool(rng.random() < 0.5)
-    marks = CAMERA.xy_mm @ np.linalg.inv(arrangement_matrix(rot, mir, "up")).T * [1, -1] / s + 5500
-    keep = rng.permutation(8)[:7]
-    features = rng.permutation(np.vstack([marks[keep] + rng.normal(0, 8, (7, 2)), rng.uniform(0, 11000, (505, 2))]))
-    asked = _chunks_counted(monkeypatch)
-    early = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
-    n_early = len(asked)
-    monkeypatch.setattr(layout_module, "NEARLY_COMPLETE", 99)        # the whole search
-    whole = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
-    assert early is not None and whole is not None
-    assert early.decisive and not early.complete and early.n_matched == 7
-    assert set(early.matched) == set(whole.matched)
-    assert _farthest(early.predicted, marks) < 10
-    assert 3 * n_early < len(asked) - n_early, (n_early, len(asked) - n_early)
-
-
-def test_a_chance_layout_of_seven_loose_features_does_not_end_the_search():
-    """Seven features each 45-55 px from a layout shifted 300 px along the frame (within the fit's tolerance of 0.3
-    mm plus the features' 48 px position error, as a frame's border clutter gives them; they are the strongest, so
-    their hypotheses come in the first chunk) and seven marks close to their fiducials among the weakest features:
-    the refit loose seven's support falls short of their number by more than
-    :data:`aerofid.frame.layout.NEARLY_SHORTFALL` (by 3.0 here), so they do not end the search, and the marks win (a
-    frame with a mark painted over, session 32)."""
-    rng = np.random.default_rng(6)
     s = 0.0227
     marks = CAMERA.xy_mm * [1, -1] / s + 5500
     angle = rng.uniform(0, 2 * np.pi, 8)
-    chance = marks + (300.0, -120.0) + rng.uniform(45, 55, (8, 1)) * np.c_[np.cos(angle), np.sin(angle)]
-    features = np.vstack([chance[1:], rng.uniform(0, 11000, (300, 2)), marks[:7] + rng.normal(0, 3, (7, 2))])
+    chance = marks + (300.0, -120.0) + rng.uniform(10, 20, (8, 1)) * np.c_[np.cos(angle), np.sin(angle)]
+    features = np.vstack([chance[1:], rng.uniform(0, 11000, (300, 2)), marks + rng.normal(0, 3, (8, 2))])
     m = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
-    assert m is not None and m.decisive
+    assert m is not None and m.complete
     assert _farthest(m.predicted, marks) < 10
-    assert {k for k in m.matched if k is not None} == set(range(307, 314))
-
-
-def test_an_unknown_pixel_size_search_ends_at_a_layout_with_all_fiducials_but_one_on_close_features():
-    """The search over unknown pixel sizes ends at a layout with 7 of its 8 fiducials on close features (a decisive
-    one) as it does at a complete one: one layout, at the pixel size, on the marks."""
-    rng = np.random.default_rng(7)
-    s = 0.0227
-    marks = CAMERA.xy_mm * [1, -1] / s + 5500
-    features = rng.permutation(np.vstack([rng.uniform(0, 11000, (200, 2)), marks[1:] + rng.normal(0, 3, (7, 2))]))
-    first = layout_candidates(features, CAMERA.xy_mm, position_error_px=48, scan_size=(11000, 11000),
-                              first_complete=True)
-    assert len(first) == 1 and first[0].decisive and not first[0].complete
-    assert first[0].pixel_size_mm == pytest.approx(s, rel=0.002)
-    assert _farthest(first[0].predicted, marks) < 10
-
 
 def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_others(monkeypatch):
     """The early end of the search over unknown sizes is only an order: when that layout's frame is not ok the

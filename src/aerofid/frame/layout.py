@@ -61,18 +61,6 @@ DECISIVE = 4
 """Hypotheses of a chunk with every fiducial on a feature (within the loose tolerance) refined at once, the closest
 first: one that keeps every fiducial within :data:`FIT_TOLERANCE_MM` after its refit ends the search (no chance
 match does that on the benchmark's frames; the true layout is usually among the first chunks)."""
-NEARLY_COMPLETE = 7
-"""Fewest fiducials, all of the layout's but one, whose features lie within :data:`FIT_TOLERANCE_MM` of a refined
-hypothesis's predictions, closely enough (:data:`NEARLY_SHORTFALL`), for it to end the search as a complete one
-does (:func:`_decisive`). A faint midside mark ranks below the 512 strongest features on 5 of the 20 frames of
-``benchmarks/bench_frames.py``, and a painted-over one is no feature at all; the search then ran through every
-hypothesis (0.5-0.8 s of an 11000^2 frame) to the same layout (docs/benchmarks_frames.md, session 32). Fewer do
-not end it: session 23's early end on all but one of six fiducials stopped on chance features (tests/test_frame.py)."""
-NEARLY_SHORTFALL = 1.0
-"""Most that the support (:func:`support`) of a layout with all its fiducials but one on features may fall short of
-their number for it to end the search (:data:`NEARLY_COMPLETE`): the true layouts of the benchmark's frames fall
-short by 0.05-0.7, a chance layout along a frame's border (seven features within the tolerance, 300 px from the
-marks, on a frame with a mark painted over) by 2.3."""
 PRIOR_SPAN = 0.85
 """Share of a scan's longer side that its fiducials usually span (a 23 cm frame's marks 212-226 mm apart, scanned
 with a margin): the pixel size tried first when the scan says none (:func:`prior_order`)."""
@@ -117,9 +105,6 @@ class LayoutMatch:
     complete: bool = False
     """Every fiducial has a feature within :data:`FIT_TOLERANCE_MM` (plus the features' position error) of the
     refined prediction."""
-    decisive: bool = False
-    """Complete, or all fiducials but one have a feature there, closely (:data:`NEARLY_COMPLETE`): the layout ends
-    a pixel size's search (:func:`_decisive`), and an unknown pixel size's (:func:`layout_candidates`)."""
 
     @property
     def n_matched(self) -> int:
@@ -184,7 +169,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     (a frame's image corners and edges can mimic a square layout at another scale).
 
     With ``first_complete``, unknown sizes are tried nearest the usual one first (:func:`prior_order`) and the
-    search ends at the first :attr:`~LayoutMatch.decisive` layout of at least :data:`SETTLING_FIDUCIALS`
+    search ends at the first :attr:`~LayoutMatch.complete` layout of at least :data:`SETTLING_FIDUCIALS`
     fiducials, which is then the one returned (the frame's measurement asks for the whole search when its marks
     do not make the frame ok)."""
     features = np.asarray(features, float).reshape(-1, 2)
@@ -202,7 +187,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
                                position_error_px)
         if got is None or got[1].n_matched < MIN_MATCHED:
             continue
-        if settle and got[1].decisive:
+        if settle and got[1].complete:
             return [got[1]]
         key = got[1].matched + (got[1].rotation_deg, got[1].mirrored)
         if key not in found or got[0] > found[key][0]:
@@ -338,8 +323,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     texture offers chance matches for all 8 fiducials (tests/test_frame.py: 512 features with 6 true marks),
     while the true features fit a transformation to a few reduced pixels. The hypotheses are scored a chunk at
     a time, pairs of strong features first; a refined hypothesis that puts every fiducial within that tight
-    tolerance of a feature ends the search (:data:`DECISIVE`), as does one that puts all but one there, closely
-    (:data:`NEARLY_COMPLETE`)."""
+    tolerance of a feature ends the search (:data:`DECISIVE`)."""
     near: _NearFeatures | None = None
     fit_tol = FIT_TOLERANCE_MM / s + position_error_px
     turned = [fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s  # layout in scan axes, px
@@ -350,7 +334,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     for hyp, pair in _hypothesis_chunks(pairs, fiducials_mm, s):
         near = near or _NearFeatures(features, tol, pairs)
         fid_pair = _pair_index(hyp[:, 2], hyp[:, 3], len(fiducials_mm))
-        decisive: list[tuple[int, float, int, np.ndarray]] = []
+        complete: list[tuple[float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
             turning = hyp[_may_turn_within(pairs.directions(pair), directions[a][fid_pair])]
             pred, kept = _predict(features, cp, turning)
@@ -367,11 +351,12 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
                 key = (*match, a)
                 if key not in shortlist or (c, md, a) < shortlist[key][:3]:
                     shortlist[key] = (c, md, a, pred[h])
-                if c <= -_decisive_count(len(fiducials_mm)):
-                    decisive.append((c, md, a, pred[h]))
-        ended = _decisive(features, fiducials_mm, decisive, y_axis, tol, fit_tol)
-        if ended is not None:
-            return ended
+                if c == -len(fiducials_mm):
+                    complete.append((md, a, pred[h]))
+        for _, a, pred_h in sorted(complete, key=lambda c: c[:2])[:DECISIVE]:
+            scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
+            if scored[1].complete:
+                return scored
     if near is None:                                            # no hypotheses
         return None
     best: tuple[tuple[float, float], LayoutMatch] | None = None
@@ -380,28 +365,6 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
         if best is None or scored[0] > best[0]:      # ties: the first lie
             best = scored
     return best
-
-
-def _decisive_count(n: int) -> int:
-    """Fewest of ``n`` fiducials on a feature for a hypothesis or a refined layout that may end the search: all of
-    them, or all but one where those are :data:`NEARLY_COMPLETE`."""
-    return n - 1 if n - 1 >= NEARLY_COMPLETE else n
-
-
-def _decisive(features: np.ndarray, fiducials_mm: np.ndarray, decisive: list[tuple[int, float, int, np.ndarray]],
-              y_axis: str, tol: float, fit_tol: float) -> tuple[tuple[float, float], LayoutMatch] | None:
-    """What ends :func:`_best_hypothesis`'s search in a chunk: of its hypotheses with enough fiducials on a feature
-    within ``tol`` (:func:`_decisive_count`; ``decisive``: minus their count, mean distance, lie and prediction), the
-    :data:`DECISIVE` first, those with the most first, then the closest, refined: the first complete one, else the
-    best scored :attr:`~LayoutMatch.decisive` one; else None."""
-    nearly: tuple[tuple[float, float], LayoutMatch] | None = None
-    for _, _, a, pred_h in sorted(decisive, key=lambda c: c[:3])[:DECISIVE]:
-        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol)
-        if scored[1].complete:
-            return scored
-        if scored[1].decisive and (nearly is None or scored[0] > nearly[0]):
-            nearly = scored
-    return nearly
 
 
 @functools.lru_cache(maxsize=8)
@@ -466,17 +429,13 @@ class _NearFeatures:
 def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a: int, y_axis: str, tol: float,
             fit_tol: float) -> tuple[tuple[float, float], LayoutMatch]:
     """A hypothesis of lie ``ARRANGEMENTS[a]`` refined (:func:`_refine`) and its score: the support of the fiducials
-    within ``fit_tol`` of a feature (:func:`support`), then minus the RMS of those distances; whether it is
-    :attr:`~LayoutMatch.complete` and :attr:`~LayoutMatch.decisive`."""
+    within ``fit_tol`` of a feature (:func:`support`), then minus the RMS of those distances."""
     rot, mir = ARRANGEMENTS[a]
     m = _refine(features, fiducials_mm, pred, rot, mir, y_axis, tol, fit_tol)
     d = np.array([math.hypot(*(features[k] - m.predicted[f])) for f, k in enumerate(m.matched) if k is not None])
     close = d[d <= fit_tol]
-    held = round(support(d, fit_tol), 6)
-    n = len(fiducials_mm)
-    nearly = len(close) >= _decisive_count(n) and held >= len(close) - NEARLY_SHORTFALL
-    return ((held, -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0),
-            replace(m, complete=len(close) == n, decisive=len(close) == n or nearly))
+    return ((round(support(d, fit_tol), 6), -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close)
+             else 0.0), replace(m, complete=len(close) == len(fiducials_mm)))
 
 
 def support(distances: np.ndarray, tol: float) -> float:

@@ -337,14 +337,14 @@ def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_
               size: float | None, layouts: list[LayoutMatch]) -> Iterator[LayoutMatch]:
     """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known; else the
     first :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
-    (:func:`aerofid.frame.layout.can_end_early`) at a decisive layout, the others of the whole search (made only
+    (:func:`aerofid.frame.layout.can_end_early`) at a complete layout, the others of the whole search (made only
     if it is asked for)."""
     if size is not None:
         yield layouts[0]
         return
     yield from layouts[:ALTERNATIVES]
     first = layouts[0]
-    if len(layouts) == 1 and first.decisive and can_end_early(fid_mm, size):
+    if len(layouts) == 1 and first.complete and can_end_early(fid_mm, size):
         same = (first.matched, first.rotation_deg, first.mirrored)
         others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None)
                   if (m.matched, m.rotation_deg, m.mirrored) != same]

@@ -325,28 +325,34 @@ def _first(layout: LayoutMatch, n: int) -> LayoutMatch:
 
 
 def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
-             size: float | None, first_complete: bool = False) -> list[LayoutMatch]:
+             size: float | None, first_complete: bool = False, nearly: bool = True) -> list[LayoutMatch]:
     """Step 2: the camera's layouts among the ``features`` screened at reduction ``f``, best first (with
-    ``first_complete``: :func:`aerofid.frame.layout.layout_candidates`)."""
+    ``first_complete`` and ``nearly``: :func:`aerofid.frame.layout.layout_candidates`)."""
     return layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, y_axis, size,
                              position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height),
-                             first_complete=first_complete)
+                             first_complete=first_complete, nearly=nearly)
 
 
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
               size: float | None, layouts: list[LayoutMatch]) -> Iterator[LayoutMatch]:
-    """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known; else the
-    first :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
-    (:func:`aerofid.frame.layout.can_end_early`) at a complete layout, the others of the whole search (made only
-    if it is asked for)."""
+    """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known, and where
+    its search ended at all fiducials but one on close features (:attr:`~aerofid.frame.layout.LayoutMatch.decisive`,
+    not complete: a chance layout can end it before the complete one is formed), the best of the whole search on other
+    features; else the first :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
+    (:func:`aerofid.frame.layout.can_end_early`) at a decisive layout, the others of the whole search. The whole
+    search is made only if it is asked for."""
+    first = layouts[0]
     if size is not None:
-        yield layouts[0]
+        yield first
+        if first.decisive and not first.complete:
+            taken = set(first.matched) - {None}
+            yield from [m for m in _layouts(source, features, f, fid_mm, y_axis, size, nearly=False)
+                        if set(m.matched) - {None} != taken][:1]
         return
     yield from layouts[:ALTERNATIVES]
-    first = layouts[0]
-    if len(layouts) == 1 and first.complete and can_end_early(fid_mm, size):
+    if len(layouts) == 1 and first.decisive and can_end_early(fid_mm, size):
         same = (first.matched, first.rotation_deg, first.mirrored)
-        others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None)
+        others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None, nearly=False)
                   if (m.matched, m.rotation_deg, m.mirrored) != same]
         yield from others[:ALTERNATIVES - 1]
 

@@ -227,6 +227,30 @@ def test_an_unknown_pixel_size_search_ends_at_a_layout_with_all_fiducials_but_on
     assert first[0].pixel_size_mm == pytest.approx(s, rel=0.002)
     assert _farthest(first[0].predicted, marks) < 10
 
+def test_a_frame_whose_layout_search_ended_on_a_chance_layout_is_measured_on_the_whole_searchs(monkeypatch):
+    """The layout search with the pixel size known ends on a chance layout with all fiducials but one on close
+    features (here: the frame's own layout moved 3 mm, on its 7 weakest features): its marks are not found, so the
+    frame is measured again on the whole search's best layout, and is ok with every mark."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    layouts = orient_module._layouts
+    asked: list[bool] = []
+
+    def chance_first(*args, nearly=True, **kwargs):
+        found = layouts(*args, nearly=nearly, **kwargs)
+        asked.append(nearly)
+        if not nearly:
+            return found
+        m = found[0]
+        weakest = len(args[1]) - 1 - np.arange(len(m.matched) - 1)          # features: the second argument
+        return [replace(m, predicted=m.predicted + 3.0 / COARSE_MM, matched=(*weakest.tolist(), None),
+                        complete=False, decisive=True)]
+
+    monkeypatch.setattr(orient_module, "_layouts", chance_first)
+    res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
+    assert asked == [True, False]
+    assert res.status == "ok" and len(res.found) == 8, res.reasons
+    assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
+
 @pytest.mark.parametrize("complete", [True, False])
 def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_others(monkeypatch, complete):
     """The early end of the search over unknown sizes, at a complete layout or at one with all fiducials but one on

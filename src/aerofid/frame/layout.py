@@ -60,8 +60,9 @@ SHORTLIST = 64
 DECISIVE = 4
 """Hypotheses of a chunk with every fiducial on a feature within the loose tolerance (or all but one:
 :data:`NEARLY_COMPLETE`) refined at once, those with the most first, then the closest: one that keeps every fiducial
-within :data:`FIT_TOLERANCE_MM` after its refit ends the search (no chance match does that on the benchmark's frames;
-the true layout is usually among the first chunks), else the best that keeps all but one there, closely."""
+within :data:`FIT_TOLERANCE_MM` after its refit ends the search (no chance match does that on the benchmark's frames
+at their pixel size, but a complete layout has no bound on its support: chance features can make one; the true
+layout is usually among the first chunks), else the best that keeps all but one there, closely."""
 NEARLY_COMPLETE = 7
 """Fewest fiducials, all of the layout's but one, whose features lie within :data:`FIT_TOLERANCE_MM` of a refined
 hypothesis's predictions, closely enough (:data:`NEARLY_SHORTFALL`), for it to end the search as a complete one
@@ -69,8 +70,10 @@ does (:func:`_decisive`; :attr:`LayoutMatch.decisive`): a camera of 8 or more fi
 below the 512 strongest features on 5 of the 20 frames of ``benchmarks/bench_frames.py``, and a painted-over one is
 no feature at all; the search then ran through every hypothesis (0.5-0.8 s of an 11000^2 frame) to the same layout
 (docs/benchmarks_frames.md, session 32). Such an end is not proof: chance features along a frame's border can make
-such a layout before the complete one is formed, so a frame whose search ended there and whose marks do not make it
-ok is measured again on the whole search's layout (:func:`aerofid.frame.orient._attempts`). Fewer do not end it:
+such a layout before the complete one is formed, so where the pixel size is known a frame whose search ended there
+and whose marks do not make it ok is measured again on the whole search's best layout where that one lies on other
+features, and is reported from it unless the first stands better (:func:`aerofid.frame.orient._attempts`; with the
+size unknown, the whole search's other layouts follow an early end, as a complete one's). Fewer do not end it:
 session 23's early end on all but one of six fiducials stopped on chance features (tests/test_frame.py)."""
 NEARLY_SHORTFALL = 1.0
 """Most that the support (:func:`support`) of a layout with all its fiducials but one on features may fall short of
@@ -124,8 +127,9 @@ class LayoutMatch:
     """Every fiducial has a feature within :data:`FIT_TOLERANCE_MM` (plus the features' position error) of the
     refined prediction."""
     decisive: bool = False
-    """Complete, or all fiducials but one have a feature there, closely (:data:`NEARLY_COMPLETE`): the layout ends
-    a pixel size's search (:func:`_decisive`), and an unknown pixel size's (:func:`layout_candidates`)."""
+    """Complete, or the search ended on it with all fiducials but one on features there, closely
+    (:data:`NEARLY_COMPLETE`; a layout the whole search ranks first is decisive only when complete): it ends an unknown
+    pixel size's search too (:func:`layout_candidates`)."""
 
     @property
     def n_matched(self) -> int:
@@ -143,7 +147,8 @@ def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "
                  pixel_size_mm: float | None = None, position_error_px: float = 0.0,
                  tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None) -> LayoutMatch | None:
     """The camera's fiducial layout on the scan (module docstring), or None when fewer than
-    :data:`MIN_MATCHED` fiducials coincide with features: the first of :func:`layout_candidates`.
+    :data:`MIN_MATCHED` fiducials coincide with features: the first of :func:`layout_candidates` (whose search may
+    end at all fiducials but one on features: :attr:`LayoutMatch.decisive`, not complete, says it did).
 
     Parameters
     ----------
@@ -388,7 +393,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
         return None
     best: tuple[tuple[float, float], LayoutMatch] | None = None
     for _, _, a, pred_h in sorted(shortlist.values(), key=lambda g: g[:3])[:SHORTLIST]:
-        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol, nearly)
+        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol, False)   # decisive: complete
         if best is None or scored[0] > best[0]:      # ties: the first lie
             best = scored
     return best

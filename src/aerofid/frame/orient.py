@@ -288,18 +288,21 @@ class _Search:
 
     def best(self, fid_mm: np.ndarray, judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]],
                                                          FrameOrientation]) -> FrameOrientation | None:
-        """The best frame (:func:`_standing`) of the layouts of ``fid_mm`` measured in turn (:func:`_attempts`)
-        until one is ok (a nominal layout's: once half its marks are found), each judged by ``judged``; None
-        when the features do not hold the layout."""
+        """The best frame (:func:`_standing`; of equals the first, but for a layout that its search ended on with all
+        fiducials but one on features, :func:`_ended_nearly`, which gives way to the whole search's) of the layouts of
+        ``fid_mm`` measured in turn (:func:`_attempts`) until one is ok (a nominal layout's: once half its marks are
+        found), each judged by ``judged``; None when the features do not hold the layout."""
         layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True)
         if not layouts:
             return None
         best: FrameOrientation | None = None
+        best_layout = layouts[0]
         for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts):
             located = measure_marks(self.measurer, layout, fid_mm, self.features, self.profile)
             res = _second_look(self.measurer, layout, located, judged(layout, located), judged)
-            if best is None or _standing(res) > _standing(best):
-                best = res
+            if best is None or _standing(res) > _standing(best) or (_standing(res) == _standing(best)
+                                                                     and _ended_nearly(best_layout)):
+                best, best_layout = res, layout
             if res.ok or (self.nominal and res.orientation is not None and 2 * len(res.found) >= len(fid_mm)):
                 break
         return best
@@ -336,15 +339,15 @@ def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_m
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
               size: float | None, layouts: list[LayoutMatch]) -> Iterator[LayoutMatch]:
     """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known, and where
-    its search ended at all fiducials but one on close features (:attr:`~aerofid.frame.layout.LayoutMatch.decisive`,
-    not complete: a chance layout can end it before the complete one is formed), the best of the whole search on other
-    features; else the first :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
+    its search ended at all fiducials but one on close features (:func:`_ended_nearly`: a chance layout can end it
+    before the complete one is formed), the whole search's best where it lies on other features; else the first
+    :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
     (:func:`aerofid.frame.layout.can_end_early`) at a decisive layout, the others of the whole search. The whole
     search is made only if it is asked for."""
     first = layouts[0]
     if size is not None:
         yield first
-        if first.decisive and not first.complete:
+        if _ended_nearly(first):
             taken = set(first.matched) - {None}
             yield from [m for m in _layouts(source, features, f, fid_mm, y_axis, size, nearly=False)
                         if set(m.matched) - {None} != taken][:1]
@@ -355,6 +358,12 @@ def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_
         others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None, nearly=False)
                   if (m.matched, m.rotation_deg, m.mirrored) != same]
         yield from others[:ALTERNATIVES - 1]
+
+
+def _ended_nearly(layout: LayoutMatch) -> bool:
+    """Whether ``layout``'s search ended on it with all its fiducials but one on features
+    (:data:`aerofid.frame.layout.NEARLY_COMPLETE`): decisive, not complete."""
+    return layout.decisive and not layout.complete
 
 
 def _judged(cam: Camera, layout: LayoutMatch, located: list[tuple[Located | None, str]], model: str,

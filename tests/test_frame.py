@@ -280,6 +280,35 @@ def test_a_frame_whose_layout_search_ended_on_a_chance_layout_is_measured_on_the
     assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
 
 
+@pytest.mark.parametrize("nearly", [True, False])
+def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_ended_layout(monkeypatch, nearly):
+    """With the pixel size known, a frame measured on a layout that its search ended on with all fiducials but one
+    (``nearly``) and not ok, then on the whole search's: of the two, standing alike (both doubtful, as many marks),
+    the whole search's is the answer, as before the early end; after a complete layout the first stays."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(7)
+    marks = CAMERA.xy_mm * [1, -1] / 0.0227 + 5500
+    features = np.vstack([rng.uniform(0, 11000, (200, 2)), marks])
+    complete = layout_candidates(features, CAMERA.xy_mm, pixel_size_mm=0.0227, position_error_px=48)[0]
+    first = replace(complete, complete=not nearly, matched=(*range(7), None))
+    whole = replace(complete, matched=tuple(range(10, 18)))
+
+    def layouts(*args, first_complete=False, nearly=True):
+        return [first] if nearly else [whole]
+
+    monkeypatch.setattr(orient_module, "_layouts", layouts)
+    monkeypatch.setattr(orient_module, "measure_marks", lambda *args: [])
+    monkeypatch.setattr(orient_module, "_second_look", lambda measurer, layout, located, res, judged: res)
+    judged = {id(first): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="first"),
+              id(whole): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="whole")}
+    source = types.SimpleNamespace(width=11000, height=11000)
+    search = orient_module._Search(source, tuple(Candidate(x, y, 6.0, 1.0) for x, y in features), 16, "up", 0.0227,
+                                   None, None, False)
+    best = search.best(CAMERA.xy_mm, lambda layout, located: judged[id(layout)])
+    assert best.name == ("whole" if nearly else "first")
+
+
 @pytest.mark.parametrize("complete", [True, False])
 def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_others(monkeypatch, complete):
     """The early end of the search over unknown sizes, at a complete layout or at one with all fiducials but one on

@@ -123,8 +123,7 @@ def test_clutter_close_to_seven_fiducials_of_a_shifted_layout_is_measured_then_t
     rng = np.random.default_rng(seed)
     s = 0.0227
     marks = CAMERA.xy_mm * [1, -1] / s + 5500
-    angle = rng.uniform(0, 2 * np.pi, 8)
-    chance = marks + (300.0, -120.0) + rng.uniform(10, 20, (8, 1)) * np.c_[np.cos(angle), np.sin(angle)]
+    chance = _shifted_clutter(rng, marks, (10, 20))
     features = np.vstack([chance[1:], rng.uniform(0, 11000, (300, 2)), marks + rng.normal(0, 3, (8, 2))])
     early = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
     assert early is not None and early.decisive and not early.complete and _farthest(early.predicted, marks) > 200
@@ -149,6 +148,13 @@ def test_clutter_close_to_seven_fiducials_of_a_shifted_layout_is_measured_then_t
     complete = layout_candidates(features[7:], CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)[0]
     assert complete.complete
     assert list(orient_module._attempts(source, candidates, 16, CAMERA.xy_mm, "up", s, [complete])) == [complete]
+
+
+def _shifted_clutter(rng: np.random.Generator, marks: np.ndarray, within: tuple[float, float]) -> np.ndarray:
+    """One clutter feature per mark of the layout shifted (300, -120) px, each ``within`` (px, least and most) of its
+    shifted place in a random direction: what straight edges along a frame's border give a chance layout."""
+    angle = rng.uniform(0, 2 * np.pi, len(marks))
+    return marks + (300.0, -120.0) + rng.uniform(*within, (len(marks), 1)) * np.c_[np.cos(angle), np.sin(angle)]
 
 
 def _chunks_counted(monkeypatch) -> list[int]:
@@ -232,8 +238,7 @@ def test_a_chance_layout_of_seven_loose_features_does_not_end_the_search():
     rng = np.random.default_rng(1)
     s = 0.0227
     marks = CAMERA.xy_mm * [1, -1] / s + 5500
-    angle = rng.uniform(0, 2 * np.pi, 8)
-    chance = marks + (300.0, -120.0) + rng.uniform(32, 38, (8, 1)) * np.c_[np.cos(angle), np.sin(angle)]
+    chance = _shifted_clutter(rng, marks, (32, 38))
     features = np.vstack([chance[1:], rng.uniform(0, 11000, (300, 2)), marks[:7] + rng.normal(0, 3, (7, 2))])
     m = match_layout(features, CAMERA.xy_mm, pixel_size_mm=s, position_error_px=48)
     assert m is not None and m.decisive

@@ -364,6 +364,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     j, l = _fiducial_pairs(len(fiducials_mm))
     directions = [np.arctan2(*(cp[l] - cp[j]).T[::-1]) for cp in turned]       # each lie's fiducial pairs'
     shortlist: dict[tuple[int, ...], tuple[int, float, int, np.ndarray]] = {}
+    enough = -_decisive_count(len(fiducials_mm), nearly)        # minus the count of a hypothesis refined at once
     for hyp, pair in _hypothesis_chunks(pairs, fiducials_mm, s):
         near = near or _NearFeatures(features, tol, pairs)
         fid_pair = _pair_index(hyp[:, 2], hyp[:, 3], len(fiducials_mm))
@@ -384,7 +385,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
                 key = (*match, a)
                 if key not in shortlist or (c, md, a) < shortlist[key][:3]:
                     shortlist[key] = (c, md, a, pred[h])
-                if c <= -_decisive_count(len(fiducials_mm), nearly):
+                if c <= enough:
                     decisive.append((c, md, a, pred[h]))
         ended = _decisive(features, fiducials_mm, decisive, y_axis, tol, fit_tol, nearly)
         if ended is not None:

@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import replace
-from unittest import mock
 
 import cv2
 import numpy as np
@@ -147,6 +146,13 @@ def test_a_ring_and_its_centre_dot_are_one_candidate_with_both_radii():
     assert (merged[0].radius, merged[0].inner, merged[0].x) == (24.0, 3.0, 102)
 
 
+def test_a_candidate_exactly_at_the_reach_on_a_cells_edge_is_merged():
+    """Half the radius 12 is the reach and the cells' side: the weaker candidate lies on the edge of the next cell."""
+    merged = merge_candidates([Candidate(0.0, 0.0, 12.0, 50.0), Candidate(6.0, 0.0, 12.0, 40.0),
+                               Candidate(0.0, 6.0, 12.0, 30.0), Candidate(6.0, 6.0, 12.0, 20.0)], 10)
+    assert [(c.x, c.y) for c in merged] == [(0.0, 0.0), (6.0, 6.0)]
+
+
 def _merged_one_by_one(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:
     """The rule of merge_candidates, candidate by candidate in plain Python (the reference)."""
     kept: list[Candidate] = []
@@ -163,19 +169,19 @@ def _merged_one_by_one(found: list[Candidate], max_candidates: int) -> tuple[Can
     return tuple(kept)
 
 
-@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 150), max_candidates=st.integers(0, 40),
-       batch=st.sampled_from([1, 2, 7, 64]))
-@settings(max_examples=120, deadline=None)
-def test_merging_follows_the_rule_candidate_by_candidate(seed, n, max_candidates, batch):
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(0, 400), max_candidates=st.integers(0, 40),
+       spread=st.sampled_from([20, 40, 400]))
+@settings(max_examples=150, deadline=None)
+def test_merging_follows_the_rule_candidate_by_candidate(seed, n, max_candidates, spread):
     """Strongest first, each candidate merged into the first kept one within reach, else kept while there is room
-    (candidates on a coarse grid, so that distances equal to the reach occur), whatever the batches the reaches
-    are computed in."""
+    (candidates on a coarse grid, so that distances equal to the reach occur; radii of 1.5-200, so that a kept one's
+    reach passes many cells of the smaller ones), also once no more are kept and only the candidates a kept one
+    reaches are visited."""
     rng = np.random.default_rng(seed)
     found = [Candidate(float(x), float(y), float(r), float(s)) for x, y, r, s in
-             zip(rng.integers(0, 40, n) / 2, rng.integers(0, 40, n) / 2, rng.choice([1.5, 2, 3, 4.5, 6, 12, 24], n),
-                 rng.integers(0, 20, n))]
-    with mock.patch.object(screen_module, "MERGE_BATCH", batch):
-        assert merge_candidates(found, max_candidates) == _merged_one_by_one(found, max_candidates)
+             zip(rng.integers(-2, spread, n) / 2, rng.integers(0, spread, n) / 2,
+                 rng.choice([1.5, 2, 3, 4.5, 6, 12, 24, 50, 200], n), rng.integers(0, 20, n))]
+    assert merge_candidates(found, max_candidates) == _merged_one_by_one(found, max_candidates)
 
 
 def test_reduction_keeps_the_screened_image_within_its_budget():

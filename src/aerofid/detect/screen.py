@@ -27,6 +27,9 @@ stronger kept). A candidate is a hint for the detectors, never an answer.
 
 from __future__ import annotations
 
+import bisect
+import heapq
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -49,8 +52,6 @@ MEDIAN_MAX_DIFFERENCE = 1.0518 * np.sqrt(2.0)
 median t of the larger of two half-normals solves (2 Phi(t) - 1)^2 = 1/2, t = 1.0518."""
 MERGE_SHARE = 0.25
 """Two candidates closer than this share of the larger radius are one structure (module docstring)."""
-MERGE_BATCH = 64
-"""Candidates whose reach to every kept one the merge (:func:`merge_candidates`, :func:`_merged`) computes at once."""
 ENERGY_ROWS = 128
 """Rows of a level that :func:`symmetric_energy` sums over every offset before the next (a band that stays in the
 cache: 1.6 times faster on a 688 px level than whole levels, with the same sums)."""
@@ -317,70 +318,143 @@ def merge_candidates(found: list[Candidate], max_candidates: int) -> tuple[Candi
 
 def _merged(found: Found, max_candidates: int) -> tuple[Candidate, ...]:
     """:func:`merge_candidates` on arrays. The rule is sequential (a merge moves a kept one, and a kept one that was
-    not there could take the next), but which kept ones each candidate reaches is computed :data:`MERGE_BATCH`
-    candidates at a time against all kept ones, and only the one kept candidate that a merge or an addition changed
-    is tested again for the rest of the batch: the same decisions, with the same arithmetic, as one candidate after
-    another."""
+    not there could take the next), but which candidates a kept one reaches is found once for all that follow it
+    when it is kept, and again when a merge changes its reach (:class:`_Merge`): every candidate is visited until
+    ``max_candidates`` are kept, then only those a kept one reaches (a few hundred of the thousands of a whole
+    frame). The same decisions, with the same arithmetic (:func:`_reaches`), as one candidate after another (a third
+    of the time of session 32's reach tests in batches of candidates, docs/benchmarks_frames.md)."""
     ordered = np.argsort(-found.strength, kind="stable")
-    xs, ys, radii, inners = (getattr(found, f)[ordered] for f in ("x", "y", "radius", "inner"))
-    kx: list[float] = []
-    ky: list[float] = []
-    kr: list[float] = []
-    kin: list[float] = []
-    kept: list[int] = []                                # each kept one's candidate (its strength)
-    # the kept ones' centres (as x + iy: |z - z_c| is the distance, np.hypot's), MERGE_SHARE x and half their
-    # radii, filled in order; a slot not yet filled is infinitely far
-    size = min(len(ordered), max_candidates)
-    z, share, half = np.full(size, complex(np.inf, np.inf)), np.zeros(size), np.zeros(size)
-    for b0 in range(0, len(ordered), MERGE_BATCH):
-        b1 = min(b0 + MERGE_BATCH, len(ordered))
-        zc = np.empty(b1 - b0, complex)
-        zc.real, zc.imag = xs[b0:b1], ys[b0:b1]
-        # MERGE_SHARE max(R, r) and min(R, r) / 2 as the max and min of the products (the same numbers: rounding
-        # is monotonic), so that the kept ones' products are computed once
-        radius = radii[b0:b1]
-        a, h = MERGE_SHARE * radius, 0.5 * radius
-        n = len(kept)
-        hits = np.zeros((b1 - b0, size), bool)
-        hits[:, :n] = _reaches(z[:n], share[:n], half[:n], zc[:, None], a[:, None], h[:, None])
-        counts = hits.sum(axis=1).tolist()
-        for b in range(b1 - b0):
-            c = b0 + b
-            if counts[b]:
-                i = int(np.argmax(hits[b]))                 # the first kept one within reach
-                moved, grew = radii[c] < kin[i], radii[c] > kr[i]
-                if moved:                                   # the finer scale's position
-                    kx[i], ky[i] = float(xs[c]), float(ys[c])
-                kr[i], kin[i] = max(kr[i], float(radii[c])), min(kin[i], float(inners[c]))
-                if not (moved or grew):                     # its reach is as it was
-                    continue
-            elif len(kept) < max_candidates:
-                i = len(kept)
-                kept.append(c)
-                kx.append(float(xs[c]))
-                ky.append(float(ys[c]))
-                kr.append(float(radii[c]))
-                kin.append(float(inners[c]))
-            else:
-                continue
-            z[i] = complex(kx[i], ky[i])
-            share[i], half[i] = MERGE_SHARE * kr[i], 0.5 * kr[i]
-            if b + 1 < b1 - b0:
-                now = _reaches(z[i], share[i], half[i], zc[b + 1:], a[b + 1:], h[b + 1:])
-                was = hits[b + 1:, i]
-                for j in np.flatnonzero(now != was).tolist():
-                    counts[b + 1 + j] += 1 if now[j] else -1
-                hits[b + 1:, i] = now
-    strength = found.strength[ordered]
+    merge = _Merge(*(getattr(found, f)[ordered] for f in ("x", "y", "radius", "inner")))
+    c = 0
+    while c < len(ordered) and len(merge.kept.of) < max_candidates:
+        merge.visit(c, room=True)
+        c += 1
+    todo = sorted(j for j, by in merge.reached.items() if by and j >= c)    # a heap
+    while todo:
+        for j in merge.visit(heapq.heappop(todo), room=False):
+            heapq.heappush(todo, j)
+    kept, strength = merge.kept, found.strength[ordered]
     return tuple(Candidate(x, y, r, float(strength[c]), inner)
-                 for x, y, r, inner, c in zip(kx, ky, kr, kin, kept, strict=True))
+                 for x, y, r, inner, c in zip(kept.x, kept.y, kept.r, kept.inner, kept.of, strict=True))
 
 
-def _reaches(z: np.ndarray, share: np.ndarray, half: np.ndarray, zc: np.ndarray, a: np.ndarray,
-             h: np.ndarray) -> np.ndarray:
-    """Whether candidates (centre ``zc``, MERGE_SHARE and half their radius ``a``, ``h``) lie within reach of kept
-    ones (``z``, ``share``, ``half``), broadcast: ``|z - zc| <= max(share, a, min(half, h))``."""
-    return np.abs(z - zc) <= np.maximum(np.maximum(share, a), np.minimum(half, h))
+class _Kept:
+    """The kept candidates as :func:`_merged` runs: centres, largest and smallest radii, and which candidate each is
+    (its strength)."""
+
+    def __init__(self) -> None:
+        self.x: list[float] = []
+        self.y: list[float] = []
+        self.r: list[float] = []
+        self.inner: list[float] = []
+        self.of: list[int] = []
+
+    def merge(self, i: int, x: float, y: float, r: float, inner: float) -> bool:
+        """A candidate merged into kept one ``i``: the finer scale's position, the largest radius and the smallest
+        inner one; whether its reach changed (it moved or grew)."""
+        moved, grew = r < self.inner[i], r > self.r[i]
+        if moved:
+            self.x[i], self.y[i] = x, y
+        self.r[i], self.inner[i] = max(self.r[i], r), min(self.inner[i], inner)
+        return moved or grew
+
+    def add(self, c: int, x: float, y: float, r: float, inner: float) -> int:
+        """Candidate ``c`` kept; its slot."""
+        self.of.append(c)
+        self.x.append(x)
+        self.y.append(y)
+        self.r.append(r)
+        self.inner.append(inner)
+        return len(self.of) - 1
+
+
+class _Merge:
+    """The state of :func:`_merged`: the candidates (strongest first), the kept ones, and which kept ones reach
+    each candidate not yet visited (``reached``), and which candidates after it each kept one reaches
+    (``reaches``)."""
+
+    def __init__(self, xs: np.ndarray, ys: np.ndarray, radii: np.ndarray, inners: np.ndarray) -> None:
+        self.candidates = list(zip(xs.tolist(), ys.tolist(), radii.tolist(), inners.tolist(), strict=True))
+        self.cells = _Cells(xs.tolist(), ys.tolist(), radii.tolist())
+        self.kept = _Kept()
+        self.reached: dict[int, set[int]] = {}
+        self.reaches: list[list[int]] = []
+
+    def visit(self, c: int, room: bool) -> list[int]:
+        """Candidate ``c`` merged into the first kept one that reaches it, else kept if there is ``room``; the
+        candidates after it that a kept one now reaches and none did before."""
+        by = self.reached.pop(c, None)
+        args = self.candidates[c]
+        if by:
+            i = min(by)                                 # the first kept one within reach
+            if not self.kept.merge(i, *args):           # its reach is as it was
+                return []
+            for j in self.reaches[i]:
+                if j > c:
+                    self.reached[j].discard(i)
+        elif room:
+            i = self.kept.add(c, *args)
+            self.reaches.append([])
+        else:
+            return []
+        self.reaches[i] = self.cells.near(self.kept, i, c)
+        fresh = []
+        for j in self.reaches[i]:
+            by = self.reached.setdefault(j, set())
+            if not by:
+                fresh.append(j)
+            by.add(i)
+        return fresh
+
+
+GROUP_SPAN = 4.0
+"""Candidates whose radii lie within this factor of the smallest of theirs are one group of :class:`_Cells`."""
+
+
+class _Cells:
+    """Candidates (centres ``xs``, ``ys``, ``radii``) in groups of radii (:data:`GROUP_SPAN`), each group's in square
+    cells of half its largest radius: a kept one's reach (:func:`_reaches`) grows with a candidate's radius, so only the
+    cells that its reach of the group's largest radius touches hold the candidates of the group it may reach (those
+    of a kept one no larger than the group's radii, in the 2 x 2 or 3 x 3 cells about it)."""
+
+    def __init__(self, xs: list[float], ys: list[float], radii: list[float]) -> None:
+        self.xs, self.ys = xs, ys
+        self.a, self.h = [MERGE_SHARE * r for r in radii], [0.5 * r for r in radii]
+        firsts: list[float] = []                        # each group's smallest radius
+        largest: list[float] = []
+        for r in sorted(set(radii)):
+            if not firsts or r > GROUP_SPAN * firsts[-1]:
+                firsts.append(r)
+                largest.append(r)
+            largest[-1] = r
+        self.groups: list[tuple[float, float, dict[tuple[int, int], list[int]]]] = [(r, 0.5 * r, {}) for r in largest]
+        for j, (x, y, r) in enumerate(zip(xs, ys, radii, strict=True)):
+            _, size, cells = self.groups[bisect.bisect_right(firsts, r) - 1]
+            cells.setdefault((math.floor(x / size), math.floor(y / size)), []).append(j)
+
+    def near(self, kept: _Kept, i: int, after: int) -> list[int]:
+        """The candidates after ``after`` within kept one ``i``'s reach."""
+        x, y, share, half = kept.x[i], kept.y[i], MERGE_SHARE * kept.r[i], 0.5 * kept.r[i]
+        xs, ys, a, h = self.xs, self.ys, self.a, self.h
+        got: list[int] = []
+        for largest, size, cells in self.groups:
+            reach = max(share, MERGE_SHARE * largest, min(half, 0.5 * largest))
+            reach += 1e-9 * (reach + abs(x) + abs(y))   # the cells of a little more: the test below is exact
+            x0, x1 = math.floor((x - reach) / size), math.floor((x + reach) / size)
+            y0, y1 = math.floor((y - reach) / size), math.floor((y + reach) / size)
+            if (x1 - x0 + 1) * (y1 - y0 + 1) > len(cells):          # a reach larger than the candidates' spread
+                members = [j for js in cells.values() for j in js]
+            else:
+                members = [j for cx in range(x0, x1 + 1) for cy in range(y0, y1 + 1) for j in cells.get((cx, cy), ())]
+            got += [j for j in members if j > after and _reaches(x - xs[j], y - ys[j], share, half, a[j], h[j])]
+        return got
+
+
+def _reaches(dx: float, dy: float, share: float, half: float, a: float, h: float) -> bool:
+    """Whether a candidate (:data:`MERGE_SHARE` and half its radius ``a``, ``h``) lies within reach of a kept one
+    (``share``, ``half``) at (``dx``, ``dy``) from it: ``hypot(dx, dy) <= max(share, a, min(half, h))``, the larger
+    radius's share or half the smaller."""
+    return math.hypot(dx, dy) <= max(share, a, min(half, h))
 
 
 __all__ = ["Candidate", "half_disc_offsets", "local_noise", "merge_candidates", "screen", "strength_maps"]

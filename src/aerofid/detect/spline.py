@@ -17,12 +17,13 @@ method does not import scipy (a one-mark ``aerofid locate`` pays for scipy's sta
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-__all__ = ["EDGE_PAD", "NEAR_REACH", "bspline3_weights", "cubic_coefficients", "cubic_prefilter", "grid_differences",
-           "grid_values", "near", "square_grid"]
+__all__ = ["EDGE_PAD", "NEAR_REACH", "SplinePart", "bspline3_weights", "cubic_coefficients", "cubic_prefilter",
+           "grid_differences", "grid_values", "near", "square_grid"]
 
 POLE = math.sqrt(3.0) - 2.0
 """The pole of the cubic B-spline's inverse filter."""
@@ -186,3 +187,33 @@ def square_grid(img: np.ndarray, xc: float, yc: float, r: int, order: int = 3,
                           yc - r + 1 + extra, (n, n), 1)
     assert got is not None
     return got
+
+
+@dataclass(frozen=True)
+class SplinePart:
+    """The cubic spline coefficients of the part of an image within some px of a pixel (:func:`near`), mirrored at
+    the part's edges (:func:`cubic_prefilter`), with 2 edge values more around them (the spline's support reaches
+    1-2 px beyond a grid point on the part's edge, where the edge coefficient repeats, as scipy's mode="nearest"):
+    ``coeffs[y - y0 + 2, x - x0 + 2]`` is pixel (x, y)'s."""
+
+    coeffs: np.ndarray
+    x0: int
+    y0: int
+
+    @classmethod
+    def about(cls, img: np.ndarray, xc: float, yc: float, reach: int) -> SplinePart:
+        """The coefficients of ``img`` within ``reach`` px of the pixel nearest (xc, yc)."""
+        part, x0, y0 = near(img, xc, yc, reach)
+        return cls(np.pad(cubic_prefilter(part), 2, mode="edge"), x0, y0)
+
+    def square(self, xc: float, yc: float, r: int) -> np.ndarray | None:
+        """The (2r + 1)-square of the image's spline about (xc, yc) (image pixels), as :func:`square_grid` gives it,
+        where every coefficient it takes lies :data:`PREFILTER_REACH` px or more inside the part: such a coefficient
+        is the image's own, whatever part of it was filtered (the same taps over the same pixels, to the last bit),
+        and the grid's fractions are too (the centre less whole numbers). Else None."""
+        h, w = self.coeffs.shape[0] - 4, self.coeffs.shape[1] - 4
+        fx, fy = math.floor(xc) - self.x0, math.floor(yc) - self.y0      # the taps: fx - r - 1 .. fx + r + 2
+        if min(fx, fy) - r - 1 < PREFILTER_REACH or fx + r + 2 > w - 1 - PREFILTER_REACH or (
+                fy + r + 2 > h - 1 - PREFILTER_REACH):
+            return None
+        return grid_values(self.coeffs, xc - self.x0 - r + 2, yc - self.y0 - r + 2, (2 * r + 1, 2 * r + 1))

@@ -57,7 +57,7 @@ from aerofid.detect.asymmetry import disc_mask, point_asymmetry
 from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused
-from aerofid.detect.spline import NEAR_REACH, cubic_coefficients, cubic_prefilter, grid_differences, near, square_grid
+from aerofid.detect.spline import NEAR_REACH, SplinePart, cubic_coefficients, grid_differences, near, square_grid
 from aerofid.robust import MAD_TO_SIGMA, median
 
 if TYPE_CHECKING:
@@ -503,8 +503,9 @@ def _run_again(img: np.ndarray, x: float, y: float, p: SymmetryParams, final: De
     if isinstance(final, SymmetryResult) and final.found and final.radius == r:
         return float(x), float(y), final.score, float("nan")
     noise = _noise(img, t)
-    xs, ys = _refine(img, x, y, r, p, start="the known centre")
-    score = _verify_centre(img, xs, ys, r, noise, p, t)
+    xs, ys, spline = _refine(img, x, y, r, p, start="the known centre")
+    square = spline.square(xs, ys, r)
+    score = _verify_centre(img, xs, ys, r, noise, p, t, None if square is None else square.astype(np.float32))
     return float(xs), float(ys), float(np.clip(score, 0.0, 1.0)), float("nan")
 
 
@@ -537,14 +538,17 @@ def _run(img: np.ndarray, p: SymmetryParams, t: _Trace) -> tuple[float, float, f
     _check_self_diagnosis(diag, p, "unit-pixel", x, y)
     xs, ys = _subpixel_stage(img, x, y, r, d, p, t)
     x15, y15 = xs, ys
+    grid = None
     if p.point_refine:
         t.centre_eq15 = (xs, ys)
-        xs, ys = _refine(img, xs, ys, r, p)
+        xs, ys, spline = _refine(img, xs, ys, r, p)
+        grid = spline.square(xs, ys, r + 1)                   # the refinement's own coefficients, where they reach
     # the final centre's checks and covariance interpolate the same part of the window about the same centre:
     # one (2r + 3)-square of the spline, whose inner (2r + 1)-square is the checks' (the same taps and sums; the
     # same fractions too, to the last bit from r = spline.EDGE_PAD on, below it within 1e-14 of the grey levels)
     part, x0, y0 = near(img, xs, ys, r + 1 + NEAR_REACH)
-    grid = square_grid(part, xs - x0, ys - y0, r + 1, 3, cubic_coefficients(part))
+    if grid is None:
+        grid = square_grid(part, xs - x0, ys - y0, r + 1, 3, cubic_coefficients(part))
     score = _verify_centre(img, xs, ys, r, noise, p, t, grid[1:-1, 1:-1].astype(np.float32))
     cov = centre_covariance(part, xs - x0, ys - y0, r, noise, p.sigma_inefficiency, p.sigma_floor, grid)
     # the two centres' disagreement is part of the uncertainty (texture pulls them apart; 0 without point_refine)
@@ -694,10 +698,11 @@ def _subpixel_stage(img: np.ndarray, x: int, y: int, r: int, d: int, p: Symmetry
 
 
 def _refine(img: np.ndarray, xs: float, ys: float, r: int, p: SymmetryParams,
-            start: str = "eq. (15)'s") -> tuple[float, float]:
+            start: str = "eq. (15)'s") -> tuple[float, float, SplinePart]:
     """Beyond the seed: :func:`point_symmetry_centre` from the ``start`` centre (xs, ys), eq. (15)'s; it must
-    converge and stay within ``p.max_refine_shift`` of it."""
-    got = point_symmetry_centre(img, xs, ys, r)
+    converge and stay within ``p.max_refine_shift`` of it. With the spline coefficients it ended on (which
+    resample the window about the centre where they reach: :meth:`~aerofid.detect.spline.SplinePart.square`)."""
+    got = _point_symmetry(img, xs, ys, r)
     if got is None:
         raise Refused("the point-symmetry refinement did not converge (a flat or one-sided pattern)")
     shift = float(np.hypot(got[0] - xs, got[1] - ys))
@@ -1145,22 +1150,24 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
     (xc, yc): minimises ``sum_u (I(c + u) - I(c - u))^2`` over the offsets u in one half of the disc of radius
     ``r`` (cubic-spline resampling; derivatives by central differences of the spline). None when the normal
     matrix is singular, the iteration leaves the window or does not settle."""
+    got = _point_symmetry(img, xc, yc, r)
+    return None if got is None else got[:2]
+
+
+def _point_symmetry(img: np.ndarray, xc: float, yc: float, r: int) -> tuple[float, float, SplinePart] | None:
+    """:func:`point_symmetry_centre`, with the spline coefficients of its last iteration."""
     h, w = img.shape
     if r < 2:
         return None
     half = _half_disc(r)
-    step, start = np.inf, None
+    step, start, spline = np.inf, (xc, yc), None
     for _ in range(REFINE_ITERATIONS):
         if not (r <= xc <= w - 1 - r and r <= yc <= h - 1 - r):
             return None
-        if start is None or max(abs(xc - start[0]), abs(yc - start[1])) > REFINE_DRIFT:
-            # the coefficients of the part of the window the disc needs, mirrored at the window's edges, 2 edge
-            # values more around them: the spline's support reaches 1-2 px beyond a grid point on the window's
-            # edge, where the edge coefficient repeats (scipy's mode="nearest")
-            start = (xc, yc)
-            part, x0, y0 = near(img, xc, yc, r + NEAR_REACH + REFINE_DRIFT)
-            coeffs = np.pad(cubic_prefilter(part), 2, mode="edge")
-        e, gx, gy = _mirror_terms(coeffs, xc - x0, yc - y0, r, half)
+        if spline is None or max(abs(xc - start[0]), abs(yc - start[1])) > REFINE_DRIFT:
+            # the coefficients of the part of the window the disc needs (made again when the centre moves away)
+            start, spline = (xc, yc), SplinePart.about(img, xc, yc, r + NEAR_REACH + REFINE_DRIFT)
+        e, gx, gy = _mirror_terms(spline.coeffs, xc - spline.x0, yc - spline.y0, r, half)
         # Huber weights: texture that is not point-symmetric (aerial ground around the mark) must not pull
         scale = max(MAD_TO_SIGMA * float(median(np.abs(e))), 1e-9)
         wgt = np.minimum(1.0, HUBER_K * scale / np.maximum(np.abs(e), 1e-12))
@@ -1173,7 +1180,7 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
         step = float(np.hypot(*d))
         if step < 1e-4:
             break
-    return (xc, yc) if step < 1e-2 else None
+    return (xc, yc, spline) if step < 1e-2 and spline is not None else None
 
 
 def _mirror_terms(coeffs: np.ndarray, xc: float, yc: float, r: int, half: np.ndarray

@@ -9,6 +9,8 @@ from scipy import ndimage
 from aerofid.detect.spline import (
     EDGE_PAD,
     NEAR_REACH,
+    PREFILTER_REACH,
+    SplinePart,
     cubic_coefficients,
     cubic_prefilter,
     grid_differences,
@@ -122,3 +124,33 @@ def test_square_grid_far_outside_the_image_is_the_edge_value():
         want = ndimage.map_coordinates(img, [np.mgrid[-2:3, -2:3][0] + yc, np.mgrid[-2:3, -2:3][1] + xc], order=3,
                                        mode="nearest")
         np.testing.assert_allclose(square_grid(img, xc, yc, 2), want, rtol=0, atol=1e-6)
+
+
+@settings(max_examples=80, deadline=None)
+@given(xc=st.floats(0.0, 119.0), yc=st.floats(0.0, 99.0), dx=st.floats(-5.0, 5.0), dy=st.floats(-5.0, 5.0),
+       r=st.integers(1, 30), reach=st.integers(20, 60), seed=st.integers(0, 2**16))
+def test_a_part_s_coefficients_resample_as_the_window_s_to_the_last_bit(xc, yc, dx, dy, r, reach, seed):
+    """A square resampled from the coefficients of a part made about another point (the refinement's start) is
+    square_grid's of the window, bit for bit, wherever it answers: where every tap lies PREFILTER_REACH px inside
+    the part (the whole part is the window's interior, or the window's edge is that far)."""
+    img = np.random.default_rng(seed).random((100, 120)).astype(np.float32)
+    part = SplinePart.about(img, xc + dx, yc + dy, reach)
+    got = part.square(xc, yc, r)
+    fx, fy = int(np.floor(xc)) - part.x0, int(np.floor(yc)) - part.y0
+    h, w = part.coeffs.shape[0] - 4, part.coeffs.shape[1] - 4
+    inside = min(fx, fy) - r - 1 >= PREFILTER_REACH and fx + r + 2 <= w - 1 - PREFILTER_REACH and (
+        fy + r + 2 <= h - 1 - PREFILTER_REACH)
+    assert (got is not None) == inside
+    if got is not None:
+        assert np.array_equal(got, square_grid(img, xc, yc, r, 3))
+
+
+def test_a_part_s_coefficients_one_px_nearer_its_edge_are_not_the_window_s():
+    """The bound of SplinePart.square is needed: a tap PREFILTER_REACH - 1 px inside the part has met its edge."""
+    img = np.random.default_rng(5).random((100, 120)).astype(np.float32)
+    part = SplinePart.about(img, 60.0, 50.0, 30)               # columns 30-90, rows 20-80
+    r, xc, yc = 5, 30 + PREFILTER_REACH + 5 + 1 + 0.3, 50.2    # the first tap PREFILTER_REACH px inside
+    assert np.array_equal(part.square(xc, yc, r), square_grid(img, xc, yc, r, 3))
+    assert part.square(xc - 1, yc, r) is None
+    nearer = grid_values(part.coeffs, xc - 1 - part.x0 - r + 2, yc - part.y0 - r + 2, (2 * r + 1, 2 * r + 1))
+    assert not np.array_equal(nearer, square_grid(img, xc - 1, yc, r, 3))

@@ -321,8 +321,8 @@ def _merged(found: Found, max_candidates: int) -> tuple[Candidate, ...]:
     not there could take the next), but which candidates a kept one reaches is found once for all that follow it
     when it is kept, and again when a merge changes its reach (:class:`_Merge`): every candidate is visited until
     ``max_candidates`` are kept, then only those a kept one reaches (a few hundred of the thousands of a whole
-    frame). The same decisions, with the same arithmetic (:func:`_reaches`), as one candidate after another (a third
-    of the time of session 32's reach tests in batches of candidates, docs/benchmarks_frames.md)."""
+    frame). The same decisions, with the same arithmetic (:func:`_reaches`), as one candidate after another (0.75 of
+    the time of session 32's reach tests in batches of candidates on a whole frame's, docs/benchmarks_frames.md)."""
     ordered = np.argsort(-found.strength, kind="stable")
     merge = _Merge(*(getattr(found, f)[ordered] for f in ("x", "y", "radius", "inner")))
     c = 0
@@ -375,7 +375,7 @@ class _Merge:
 
     def __init__(self, xs: np.ndarray, ys: np.ndarray, radii: np.ndarray, inners: np.ndarray) -> None:
         self.candidates = list(zip(xs.tolist(), ys.tolist(), radii.tolist(), inners.tolist(), strict=True))
-        self.cells = _Cells(xs.tolist(), ys.tolist(), radii.tolist())
+        self.cells = _Cells(xs, ys, radii)
         self.kept = _Kept()
         self.reached: dict[int, set[int]] = {}
         self.reaches: list[list[int]] = []
@@ -415,38 +415,67 @@ class _Cells:
     """Candidates (centres ``xs``, ``ys``, ``radii``) in groups of radii (:data:`GROUP_SPAN`), each group's in square
     cells of half its largest radius: a kept one's reach (:func:`_reaches`) grows with a candidate's radius, so only the
     cells that its reach of the group's largest radius touches hold the candidates of the group it may reach (those
-    of a kept one no larger than the group's radii, in the 2 x 2 or 3 x 3 cells about it)."""
+    of a kept one no larger than the group's radii, in the 2 x 2 or 3 x 3 cells about it). A group's candidates are
+    sorted by their cells' numbers, column by column, so that a column of cells is one run found by bisection."""
 
-    def __init__(self, xs: list[float], ys: list[float], radii: list[float]) -> None:
-        self.xs, self.ys = xs, ys
-        self.a, self.h = [MERGE_SHARE * r for r in radii], [0.5 * r for r in radii]
-        firsts: list[float] = []                        # each group's smallest radius
-        largest: list[float] = []
-        for r in sorted(set(radii)):
-            if not firsts or r > GROUP_SPAN * firsts[-1]:
-                firsts.append(r)
-                largest.append(r)
-            largest[-1] = r
-        self.groups: list[tuple[float, float, dict[tuple[int, int], list[int]]]] = [(r, 0.5 * r, {}) for r in largest]
-        for j, (x, y, r) in enumerate(zip(xs, ys, radii, strict=True)):
-            _, size, cells = self.groups[bisect.bisect_right(firsts, r) - 1]
-            cells.setdefault((math.floor(x / size), math.floor(y / size)), []).append(j)
+    def __init__(self, xs: np.ndarray, ys: np.ndarray, radii: np.ndarray) -> None:
+        self.xs, self.ys = xs.tolist(), ys.tolist()
+        self.a, self.h = (MERGE_SHARE * radii).tolist(), (0.5 * radii).tolist()
+        self.groups: list[_CellGroup] = []
+        classes = np.unique(radii)
+        while len(classes):
+            group = classes[classes <= GROUP_SPAN * classes[0]]
+            classes = classes[len(group):]
+            these = np.flatnonzero((radii >= group[0]) & (radii <= group[-1]))
+            self.groups.append(_CellGroup.of_candidates(these, xs[these], ys[these], float(group[-1])))
 
     def near(self, kept: _Kept, i: int, after: int) -> list[int]:
         """The candidates after ``after`` within kept one ``i``'s reach."""
         x, y, share, half = kept.x[i], kept.y[i], MERGE_SHARE * kept.r[i], 0.5 * kept.r[i]
         xs, ys, a, h = self.xs, self.ys, self.a, self.h
         got: list[int] = []
-        for largest, size, cells in self.groups:
-            reach = max(share, MERGE_SHARE * largest, min(half, 0.5 * largest))
+        for g in self.groups:
+            reach = max(share, MERGE_SHARE * g.largest, min(half, 0.5 * g.largest))
             reach += 1e-9 * (reach + abs(x) + abs(y))   # the cells of a little more: the test below is exact
-            x0, x1 = math.floor((x - reach) / size), math.floor((x + reach) / size)
-            y0, y1 = math.floor((y - reach) / size), math.floor((y + reach) / size)
-            if (x1 - x0 + 1) * (y1 - y0 + 1) > len(cells):          # a reach larger than the candidates' spread
-                members = [j for js in cells.values() for j in js]
-            else:
-                members = [j for cx in range(x0, x1 + 1) for cy in range(y0, y1 + 1) for j in cells.get((cx, cy), ())]
-            got += [j for j in members if j > after and _reaches(x - xs[j], y - ys[j], share, half, a[j], h[j])]
+            got += [j for j in g.within(x, y, reach)
+                    if j > after and _reaches(x - xs[j], y - ys[j], share, half, a[j], h[j])]
+        return got
+
+
+@dataclass(frozen=True)
+class _CellGroup:
+    """One group of :class:`_Cells`: its largest radius, the cells' side (half of it), and its candidates sorted by
+    their cells' numbers ``(column - first column) * rows + row - first row``."""
+
+    largest: float
+    side: float
+    first: tuple[int, int]
+    rows: int
+    number: list[int]
+    of: list[int]
+
+    @classmethod
+    def of_candidates(cls, these: np.ndarray, xs: np.ndarray, ys: np.ndarray, largest: float) -> _CellGroup:
+        side = 0.5 * largest
+        col, row = np.floor(xs / side).astype(np.int64), np.floor(ys / side).astype(np.int64)
+        c0, r0 = int(col.min()), int(row.min())
+        rows = int(row.max()) - r0 + 1
+        number = (col - c0) * rows + (row - r0)
+        order = np.argsort(number, kind="stable")
+        return cls(largest, side, (c0, r0), rows, number[order].tolist(), these[order].tolist())
+
+    def within(self, x: float, y: float, reach: float) -> list[int]:
+        """The candidates in the cells that the square of half-side ``reach`` about (x, y) touches."""
+        (c0, r0), rows = self.first, self.rows
+        row_lo = max(math.floor((y - reach) / self.side) - r0, 0)
+        row_hi = min(math.floor((y + reach) / self.side) - r0, rows - 1)
+        if row_lo > row_hi:
+            return []
+        got: list[int] = []
+        for col in range(max(math.floor((x - reach) / self.side) - c0, 0),
+                         min(math.floor((x + reach) / self.side) - c0, self.number[-1] // rows) + 1):
+            lo = bisect.bisect_left(self.number, col * rows + row_lo)
+            got += self.of[lo:bisect.bisect_right(self.number, col * rows + row_hi, lo)]
         return got
 
 

@@ -467,8 +467,11 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
     def sought(k, *args):
         return orient_module._Sought((100.0 * k, 50.0), Candidate(100.0 * k, 50.0, 94.0, 0.0), 40.0, 10.0, "symmetry")
 
-    def alone(measurer, name, start, at, tolerance):
+    windowed: list[int | None] = []             # the windows the frame's method alone may try
+
+    def alone(measurer, name, start, at, tolerance, windows=None):
         calls.append(("alone", round(at[0] / 100.0), start.radius))
+        windowed.append(windows)
         return None if round(at[0] / 100.0) in missing else types.SimpleNamespace(x=at[0], y=at[1], extent=94.0)
 
     def by_auto(measurer, start, at, *args):
@@ -488,6 +491,7 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
              + [("alone", k, 94.0) for k in (5, 6, 7)]),
             (fid, {4, 5, 6, 7}, None)):
         calls.clear()
+        windowed.clear()
         out = orient_module.measure_marks(measurer, layout, layout_mm, features)
         assert [k for k, (m, _) in enumerate(out) if m is not None] == sorted(set(range(8)) - missing)
         if want is not None:
@@ -496,6 +500,8 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
             assert [k for w, k, r in calls if w == "alone"] == [0, 1, 2, 3, 4, 5, 6, 7, 4, 5, 6, 7]
             assert {(k, round(r, 1)) for w, k, r in calls if w == "auto"} == {(4, 147.0), (5, 94.9), (6, 94.9),
                                                                               (7, 94.9)}
+        if layout_mm is fid and missing == {4}:     # a kind none of whose marks is found: the first window alone
+            assert windowed == [1, None, None, None, 1, 1, None, None, None]
 
 
 @pytest.mark.parametrize("displaced", [True, False])

@@ -476,8 +476,10 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
     strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at
     full resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is
-    measured first by the method that found most of the marks so far, alone (:func:`_by_method`), on a window sized by
-    their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks are found, then from the
+    measured first by the method that found most of the marks so far, alone (:func:`_by_method`; while no mark of its
+    kind is found, :func:`fiducial_kinds`, on the first of its windows only: ``hough``, which measured a midside's ring
+    and '+', spent 0.4-1.4 s per window failing on a corner's ring and X on a frame of ``benchmarks/bench_frames.py``'s
+    roll), on a window sized by their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks are found, then from the
     refined prediction (within 3 px of the mark on the synthetic frames of ``benchmarks/bench_frames.py``, from
     where the method settles at the cost of its stage 1: :func:`_alone`); if that fails,
     like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
@@ -526,7 +528,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
         if name is not None and len(measurer.polarities) == 1 and k not in later:
             template = templates[k] if templates and reach > 0 else None
             near = start if len(done) >= MIN_REFIT else _coarse(measurer, name, start, reach, template)
-            quick = _by_method(measurer, name, near, at, alone_tolerance)
+            alike = profile is not None or any(kinds[j] == kinds[k] for j in done)
+            quick = _by_method(measurer, name, near, at, alone_tolerance, windows=None if alike else 1)
         if quick is None and radii is None and profile is None:
             if k not in waiting and _waits(k, done, order[i + 1:], kinds, layout):
                 waiting.add(k)                  # sought again once the others of its kind are (_fallback_start)
@@ -735,16 +738,17 @@ def _frame_method(out: list[tuple[Located | None, str]], done: list[int]) -> str
 
 
 def _by_method(measurer: Measurer, name: str, start: Candidate, at: tuple[float, float],
-               tolerance: float) -> Located | None:
+               tolerance: float, windows: int | None = None) -> Located | None:
     """A mark measured by the method ``name`` alone (the marks of one frame, or of one roll, are alike), on the
     window the marks' extent (``start.radius``) sizes at ``start`` (the prediction, or a coarse answer):
     :data:`ALONE_WINDOWS` in turn, else a box's re-centred window (:data:`aerofid.find.RECENTRED_WINDOW`: the real
     RC20 frame's marks, on a busy border, are refused on some of the tight ones); re-centred and with
     its window term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within ``tolerance`` px of the
     prediction ``at``, else None (then ``auto`` measures it). The geometry of the marks found (or the layout) is what
-    replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross."""
+    replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross.
+    ``windows``: only the first so many of these (None: all)."""
     alone = measurer.alone(name)
-    for window in (*ALONE_WINDOWS, RECENTRED_WINDOW):
+    for window in (*ALONE_WINDOWS, RECENTRED_WINDOW)[:windows]:
         got = _alone(alone, start, at, tolerance, window)
         if got is not None:
             return got

@@ -479,8 +479,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     measured first by the method that found most of the marks so far, alone (:func:`_by_method`; while no mark of its
     kind is found, :func:`fiducial_kinds`, on the first of its windows only: ``hough``, which measured a midside's ring
     and '+', spent 0.4-1.4 s per window failing on a corner's ring and X on a frame of ``benchmarks/bench_frames.py``'s
-    roll), on a window sized by their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks are found, then from the
-    refined prediction (within 3 px of the mark on the synthetic frames of ``benchmarks/bench_frames.py``, from
+    roll), on a window sized by their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks
+    are found, then from the refined prediction (within 3 px of the mark on the synthetic frames of ``benchmarks/bench_frames.py``, from
     where the method settles at the cost of its stage 1: :func:`_alone`); if that fails,
     like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,

@@ -480,9 +480,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     kind is found, :func:`fiducial_kinds`, on the first of its windows only: ``hough``, which measured a midside's ring
     and '+', spent 0.4-1.4 s per window failing on a corner's ring and X on a frame of ``benchmarks/bench_frames.py``'s
     roll), on a window sized by their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks
-    are found, then from the refined prediction (within 3 px of the mark on the synthetic frames of ``benchmarks/bench_frames.py``, from
-    where the method settles at the cost of its stage 1: :func:`_alone`); if that fails,
-    like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
+    are found, then from the refined prediction (within 3 px of the mark on the synthetic frames of
+    ``benchmarks/bench_frames.py``, from where the method settles at the cost of its stage 1: :func:`_alone`); if that
+    fails, like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
     of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
     :data:`REFINED_TOLERANCE_MM`), on a window sized by its own screening feature where it has one, or by the features
     of the marks of its kind found where those are smaller, never below the marks' extent (:func:`_fallback_start`; one

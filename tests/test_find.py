@@ -153,6 +153,27 @@ def test_a_candidate_exactly_at_the_reach_on_a_cells_edge_is_merged():
     assert [(c.x, c.y) for c in merged] == [(0.0, 0.0), (6.0, 6.0)]
 
 
+@pytest.mark.parametrize("found", [
+    [Candidate(0.0, 0.0, 0.0, 1.0)],                                               # a radius of 0
+    [Candidate(0.0, 0.0, 0.0, 2.0), Candidate(0.0, 0.0, 3.0, 1.0), Candidate(1.0, 1.0, 0.0, 0.5)],
+    [Candidate(0.0, 1e6, 1e-4, 3.0), Candidate(1e6, 0.0, 1e-4, 2.0), Candidate(1e6 + 1e-5, 0.0, 1e-4, 1.0)],
+    [Candidate(0.0, 0.0, 1e9, 3.0), Candidate(0.0, 0.0, 1.0, 2.0), Candidate(1e7, 0.0, 1.0, 1.0)],
+    [Candidate(-1e300, 0.0, 5.0, 2.0), Candidate(1e300, 0.0, 5.0, 1.0)],
+])
+def test_merging_far_spread_or_degenerate_candidates_follows_the_rule(found):
+    """Tiny radii over a huge extent (the cells grow: their numbers stay small), a huge kept one among small
+    candidates (its reach spans at most a bounded number of columns), radii of 0 (every candidate tested)."""
+    assert merge_candidates(found, 5) == _merged_one_by_one(found, 5)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -1.0])
+def test_merging_candidates_with_a_radius_or_place_not_finite_answers(bad):
+    """Not a screen's candidates, but an answer, not an exception, as the rule candidate by candidate gives one."""
+    for found in ([Candidate(0.0, 0.0, bad, 2.0), Candidate(1.0, 0.0, 3.0, 1.0)],
+                  [Candidate(bad, 0.0, 3.0, 2.0), Candidate(1.0, 0.0, 3.0, 1.0)]):
+        assert len(merge_candidates(found, 5)) == len(_merged_one_by_one(found, 5))
+
+
 def _merged_one_by_one(found: list[Candidate], max_candidates: int) -> tuple[Candidate, ...]:
     """The rule of merge_candidates, candidate by candidate in plain Python (the reference)."""
     kept: list[Candidate] = []

@@ -321,8 +321,10 @@ def _merged(found: Found, max_candidates: int) -> tuple[Candidate, ...]:
     not there could take the next), but which candidates a kept one reaches is found once for all that follow it
     when it is kept, and again when a merge changes its reach (:class:`_Merge`): every candidate is visited until
     ``max_candidates`` are kept, then only those a kept one reaches (a few hundred of the thousands of a whole
-    frame). The same decisions, with the same arithmetic (:func:`_reaches`), as one candidate after another (0.75 of
-    the time of session 32's reach tests in batches of candidates on a whole frame's, docs/benchmarks_frames.md)."""
+    frame). The same decisions, with the same arithmetic (:func:`_reaches`: ``math.hypot``), as one candidate after
+    another (0.75 of the time of session 32's reach tests in batches of candidates on a whole frame's,
+    docs/benchmarks_frames.md; those took numpy's complex ``abs``, which differs from ``math.hypot`` in the last bit
+    for about a third of pairs: at an exact tie with the reach their decision could differ, on no benchmark frame)."""
     ordered = np.argsort(-found.strength, kind="stable")
     merge = _Merge(*(getattr(found, f)[ordered] for f in ("x", "y", "radius", "inner")))
     c = 0
@@ -409,6 +411,9 @@ class _Merge:
 
 GROUP_SPAN = 4.0
 """Candidates whose radii lie within this factor of the smallest of theirs are one group of :class:`_Cells`."""
+MAX_CELLS = 4096
+"""Cells of a group of :class:`_Cells` along an axis at most (their side grows where the candidates spread further:
+the cells' numbers stay small, a reach spans at most so many columns)."""
 
 
 class _Cells:
@@ -422,17 +427,23 @@ class _Cells:
         self.xs, self.ys = xs.tolist(), ys.tolist()
         self.a, self.h = (MERGE_SHARE * radii).tolist(), (0.5 * radii).tolist()
         self.groups: list[_CellGroup] = []
+        self.every: list[int] | None = None
         classes = np.unique(radii)
-        while len(classes):
+        while len(classes) and classes[0] > 0 and np.isfinite(classes[-1]):
             group = classes[classes <= GROUP_SPAN * classes[0]]
             classes = classes[len(group):]
             these = np.flatnonzero((radii >= group[0]) & (radii <= group[-1]))
             self.groups.append(_CellGroup.of_candidates(these, xs[these], ys[these], float(group[-1])))
+        if len(classes) or not all(np.isfinite(g.side) for g in self.groups):
+            self.every = list(range(len(self.xs)))      # radii not positive or not finite, coordinates not finite:
+            self.groups = []                            # every candidate is tested (what the rule makes of them)
 
     def near(self, kept: _Kept, i: int, after: int) -> list[int]:
         """The candidates after ``after`` within kept one ``i``'s reach."""
         x, y, share, half = kept.x[i], kept.y[i], MERGE_SHARE * kept.r[i], 0.5 * kept.r[i]
         xs, ys, a, h = self.xs, self.ys, self.a, self.h
+        if self.every is not None:
+            return [j for j in self.every if j > after and _reaches(x - xs[j], y - ys[j], share, half, a[j], h[j])]
         got: list[int] = []
         for g in self.groups:
             reach = max(share, MERGE_SHARE * g.largest, min(half, 0.5 * g.largest))
@@ -444,8 +455,9 @@ class _Cells:
 
 @dataclass(frozen=True)
 class _CellGroup:
-    """One group of :class:`_Cells`: its largest radius, the cells' side (half of it), and its candidates sorted by
-    their cells' numbers ``(column - first column) * rows + row - first row``."""
+    """One group of :class:`_Cells`: its largest radius, the cells' side (half of it, or more where the candidates
+    spread over more than :data:`MAX_CELLS` cells along an axis), and its candidates sorted by their cells' numbers
+    ``(column - first column) * rows + row - first row``."""
 
     largest: float
     side: float
@@ -456,7 +468,9 @@ class _CellGroup:
 
     @classmethod
     def of_candidates(cls, these: np.ndarray, xs: np.ndarray, ys: np.ndarray, largest: float) -> _CellGroup:
-        side = 0.5 * largest
+        side = max(0.5 * largest, float(max(np.ptp(xs), np.ptp(ys))) / MAX_CELLS)
+        if not (np.isfinite(side) and np.isfinite(xs).all() and np.isfinite(ys).all()):
+            return cls(largest, np.inf, (0, 0), 1, [], [])
         col, row = np.floor(xs / side).astype(np.int64), np.floor(ys / side).astype(np.int64)
         c0, r0 = int(col.min()), int(row.min())
         rows = int(row.max()) - r0 + 1

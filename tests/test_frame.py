@@ -421,7 +421,7 @@ def test_a_mark_the_frames_method_misses_is_sought_at_least_as_large_as_its_feat
 
     monkeypatch.setattr(orient_module, "_first_window", recorded)
     monkeypatch.setattr(orient_module, "_coarse_first", seen)
-    monkeypatch.setattr(orient_module, "_by_method", lambda *args: None)
+    monkeypatch.setattr(orient_module, "_by_method", lambda *args, **kwargs: None)
     monkeypatch.setattr(orient_module, "_median_extent", lambda out, done: 3.0)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     assert res.status == "ok" and len(res.found) >= 7, res.reasons
@@ -580,9 +580,9 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
         calls.append(("at_start", at))
         return (None, "refused (test)") if refused("at_start") else at_start(measurer, start, at, tolerance, other)
 
-    def method_alone(measurer, name, start, at, tolerance):
+    def method_alone(measurer, name, start, at, tolerance, windows=None):
         calls.append(("by_method", at))
-        return by_method(measurer, name, start, at, tolerance)
+        return by_method(measurer, name, start, at, tolerance, windows)
 
     areas: list[tuple[tuple[float, float], float, tuple[str, ...]]] = []
     in_area = orient_module._in_area
@@ -646,7 +646,7 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
     monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
-    monkeypatch.setattr(orient_module, "_by_method", lambda *a: None)
+    monkeypatch.setattr(orient_module, "_by_method", lambda *a, **k: None)
     monkeypatch.setattr(orient_module, "_at_start", lambda *a: refused)
     areas: list[tuple[float, float]] = []
     in_area = orient_module._in_area

@@ -146,8 +146,9 @@ def test_a_ring_and_its_centre_dot_are_one_candidate_with_both_radii():
     assert (merged[0].radius, merged[0].inner, merged[0].x) == (24.0, 3.0, 102)
 
 
-def test_a_candidate_exactly_at_the_reach_on_a_cells_edge_is_merged():
+def test_a_candidate_exactly_at_the_reach_on_a_cells_edge_is_merged(monkeypatch):
     """Half the radius 12 is the reach and the cells' side: the weaker candidate lies on the edge of the next cell."""
+    monkeypatch.setattr(screen_module, "FEW_CANDIDATES", 0)
     merged = merge_candidates([Candidate(0.0, 0.0, 12.0, 50.0), Candidate(6.0, 0.0, 12.0, 40.0),
                                Candidate(0.0, 6.0, 12.0, 30.0), Candidate(6.0, 6.0, 12.0, 20.0)], 10)
     assert [(c.x, c.y) for c in merged] == [(0.0, 0.0), (6.0, 6.0)]
@@ -160,15 +161,19 @@ def test_a_candidate_exactly_at_the_reach_on_a_cells_edge_is_merged():
     [Candidate(0.0, 0.0, 1e9, 3.0), Candidate(0.0, 0.0, 1.0, 2.0), Candidate(1e7, 0.0, 1.0, 1.0)],
     [Candidate(-1e300, 0.0, 5.0, 2.0), Candidate(1e300, 0.0, 5.0, 1.0)],
 ])
-def test_merging_far_spread_or_degenerate_candidates_follows_the_rule(found):
+def test_merging_far_spread_or_degenerate_candidates_follows_the_rule(found, monkeypatch):
     """Tiny radii over a huge extent (the cells grow: their numbers stay small), a huge kept one among small
-    candidates (its reach spans at most a bounded number of columns), radii of 0 (every candidate tested)."""
+    candidates (its reach spans at most a bounded number of columns), radii of 0 (every candidate tested); in cells
+    (however few the candidates) and one by one."""
+    assert merge_candidates(found, 5) == _merged_one_by_one(found, 5)
+    monkeypatch.setattr(screen_module, "FEW_CANDIDATES", 0)
     assert merge_candidates(found, 5) == _merged_one_by_one(found, 5)
 
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), -1.0])
-def test_merging_candidates_with_a_radius_or_place_not_finite_answers(bad):
+def test_merging_candidates_with_a_radius_or_place_not_finite_answers(bad, monkeypatch):
     """Not a screen's candidates, but an answer, not an exception, as the rule candidate by candidate gives one."""
+    monkeypatch.setattr(screen_module, "FEW_CANDIDATES", 0)          # not tested one by one for being few
     for found in ([Candidate(0.0, 0.0, bad, 2.0), Candidate(1.0, 0.0, 3.0, 1.0)],
                   [Candidate(bad, 0.0, 3.0, 2.0), Candidate(1.0, 0.0, 3.0, 1.0)]):
         assert len(merge_candidates(found, 5)) == len(_merged_one_by_one(found, 5))

@@ -411,6 +411,8 @@ class _Merge:
 
 GROUP_SPAN = 4.0
 """Candidates whose radii lie within this factor of the smallest of theirs are one group of :class:`_Cells`."""
+FEW_CANDIDATES = 48
+"""Candidates at most that :class:`_Cells` tests one by one (a box's screen: the cells cost more than they save)."""
 MAX_CELLS = 4096
 """Cells of a group of :class:`_Cells` along an axis at most (their side grows where the candidates spread further:
 the cells' numbers stay small, a reach spans at most so many columns)."""
@@ -429,14 +431,14 @@ class _Cells:
         self.groups: list[_CellGroup] = []
         self.every: list[int] | None = None
         classes = np.unique(radii)
-        while len(classes) and classes[0] > 0 and np.isfinite(classes[-1]):
+        while len(xs) > FEW_CANDIDATES and len(classes) and classes[0] > 0 and np.isfinite(classes[-1]):
             group = classes[classes <= GROUP_SPAN * classes[0]]
             classes = classes[len(group):]
             these = np.flatnonzero((radii >= group[0]) & (radii <= group[-1]))
             self.groups.append(_CellGroup.of_candidates(these, xs[these], ys[these], float(group[-1])))
-        if len(classes) or not all(np.isfinite(g.side) for g in self.groups):
-            self.every = list(range(len(self.xs)))      # radii not positive or not finite, coordinates not finite:
-            self.groups = []                            # every candidate is tested (what the rule makes of them)
+        if len(xs) <= FEW_CANDIDATES or len(classes) or not all(np.isfinite(g.side) for g in self.groups):
+            self.every = list(range(len(self.xs)))      # few, or radii not positive or not finite, or coordinates
+            self.groups = []                            # not finite: every candidate is tested (as the rule says)
 
     def near(self, kept: _Kept, i: int, after: int) -> list[int]:
         """The candidates after ``after`` within kept one ``i``'s reach."""

@@ -474,16 +474,14 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                   follow: bool = False, radii: Sequence[float] | None = None,
                   templates: Sequence[MarkTemplate | None] = ()) -> list[tuple[Located | None, str]]:
     """Step 3: each fiducial's mark (None if not found) and, if not found, why. Fiducials with a feature go first,
-    strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at
-    full resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is
-    measured first by the method that found most of the marks so far, alone (:func:`_by_method`; while no mark of its
-    kind is found, :func:`fiducial_kinds`, on the first of its windows only: ``hough``, which measured a midside's ring
-    and '+', spent 0.4-1.4 s per window failing on a corner's ring and X on a frame of ``benchmarks/bench_frames.py``'s
-    roll), on a window sized by their extent, from its coarse answer (:func:`_coarse`) until :data:`MIN_REFIT` marks
-    are found, then from the refined prediction (within 3 px of the mark on the synthetic frames of
-    ``benchmarks/bench_frames.py``, from where the method settles at the cost of its stage 1: :func:`_alone`); if that
-    fails, like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction
-    of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
+    strongest first. The first mark is measured by ``auto`` (on the reduced scan, :func:`_coarse_first`, else at full
+    resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is measured
+    first by the method that found most of the marks so far, alone (:func:`_by_method`; on its first window only while
+    no mark of its kind is found), on a window sized by their extent, from its coarse answer (:func:`_coarse`) until
+    :data:`MIN_REFIT` marks are found, then from the refined prediction (within 3 px of the mark on the synthetic frames
+    of ``benchmarks/bench_frames.py``, from where the method settles at the cost of its stage 1: :func:`_alone`); if
+    that fails, like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the
+    prediction of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
     :data:`REFINED_TOLERANCE_MM`), on a window sized by its own screening feature where it has one, or by the features
     of the marks of its kind found where those are smaller, never below the marks' extent (:func:`_fallback_start`; one
     of a kind none of whose marks is found yet, with a feature, waits once until the others of its kind have been
@@ -746,7 +744,9 @@ def _by_method(measurer: Measurer, name: str, start: Candidate, at: tuple[float,
     its window term (:meth:`aerofid.find.Measurer.recentre`); kept only when it lies within ``tolerance`` px of the
     prediction ``at``, else None (then ``auto`` measures it). The geometry of the marks found (or the layout) is what
     replaces ``auto``'s cross-checks and uniqueness pass here, three quarters of its time on a ring and cross.
-    ``windows``: only the first so many of these (None: all)."""
+    ``windows``: only the first so many of these (None: all); :func:`measure_marks` asks for one on a fiducial of a kind
+    (:func:`fiducial_kinds`) none of whose marks is found yet: ``hough``, which measured a midside's ring and '+',
+    spent 0.4-1.4 s per window failing on a corner's ring and X on a frame of ``benchmarks/bench_frames.py``'s roll."""
     alone = measurer.alone(name)
     for window in (*ALONE_WINDOWS, RECENTRED_WINDOW)[:windows]:
         got = _alone(alone, start, at, tolerance, window)

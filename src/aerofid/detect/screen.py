@@ -429,30 +429,30 @@ class _Cells:
         self.xs, self.ys = xs.tolist(), ys.tolist()
         self.a, self.h = (MERGE_SHARE * radii).tolist(), (0.5 * radii).tolist()
         self.groups: list[_CellGroup] = []
-        self.every: list[int] | None = None
+        # every candidate, tested one by one where they are few, or their radii not positive or not finite, or their
+        # places not finite (as the rule says of them); None: by cells
+        self.every: list[int] | None = list(range(len(self.xs)))
+        if len(xs) <= FEW_CANDIDATES:
+            return
         classes = np.unique(radii)
-        while len(xs) > FEW_CANDIDATES and len(classes) and classes[0] > 0 and np.isfinite(classes[-1]):
+        while len(classes) and classes[0] > 0 and np.isfinite(classes[-1]):
             group = classes[classes <= GROUP_SPAN * classes[0]]
             classes = classes[len(group):]
             these = np.flatnonzero((radii >= group[0]) & (radii <= group[-1]))
             self.groups.append(_CellGroup.of_candidates(these, xs[these], ys[these], float(group[-1])))
-        if len(xs) <= FEW_CANDIDATES or len(classes) or not all(np.isfinite(g.side) for g in self.groups):
-            self.every = list(range(len(self.xs)))      # few, or radii not positive or not finite, or coordinates
-            self.groups = []                            # not finite: every candidate is tested (as the rule says)
+        if len(classes) or not all(np.isfinite(g.side) for g in self.groups):
+            self.groups = []
+        else:
+            self.every = None
 
     def near(self, kept: _Kept, i: int, after: int) -> list[int]:
         """The candidates after ``after`` within kept one ``i``'s reach."""
         x, y, share, half = kept.x[i], kept.y[i], MERGE_SHARE * kept.r[i], 0.5 * kept.r[i]
         xs, ys, a, h = self.xs, self.ys, self.a, self.h
-        if self.every is not None:
-            return [j for j in self.every if j > after and _reaches(x - xs[j], y - ys[j], share, half, a[j], h[j])]
-        got: list[int] = []
-        for g in self.groups:
-            reach = max(share, MERGE_SHARE * g.largest, min(half, 0.5 * g.largest))
-            reach += 1e-9 * (reach + abs(x) + abs(y))   # the cells of a little more: the test below is exact
-            got += [j for j in g.within(x, y, reach)
-                    if j > after and _reaches(x - xs[j], y - ys[j], share, half, a[j], h[j])]
-        return got
+        runs = [self.every] if self.every is not None else [g.within(x, y, g.reach(x, y, share, half))
+                                                            for g in self.groups]
+        return [j for run in runs for j in run
+                if j > after and _reaches(x - xs[j], y - ys[j], share, half, a[j], h[j])]
 
 
 @dataclass(frozen=True)
@@ -479,6 +479,13 @@ class _CellGroup:
         number = (col - c0) * rows + (row - r0)
         order = np.argsort(number, kind="stable")
         return cls(largest, side, (c0, r0), rows, number[order].tolist(), these[order].tolist())
+
+    def reach(self, x: float, y: float, share: float, half: float) -> float:
+        """The reach from (x, y) of a kept one (:data:`MERGE_SHARE` and half its radius ``share``, ``half``) to the
+        group's largest radius, the most it reaches any candidate of the group (the reach grows with a candidate's
+        radius), and a little more: :func:`_reaches` tests the cells' candidates exactly."""
+        reach = max(share, MERGE_SHARE * self.largest, min(half, 0.5 * self.largest))
+        return reach + 1e-9 * (reach + abs(x) + abs(y))
 
     def within(self, x: float, y: float, reach: float) -> list[int]:
         """The candidates in the cells that the square of half-side ``reach`` about (x, y) touches."""

@@ -376,8 +376,8 @@ class _Merge:
     (``reaches``)."""
 
     def __init__(self, xs: np.ndarray, ys: np.ndarray, radii: np.ndarray, inners: np.ndarray) -> None:
-        self.candidates = list(zip(xs.tolist(), ys.tolist(), radii.tolist(), inners.tolist(), strict=True))
         self.cells = _Cells(xs, ys, radii)
+        self.candidates = list(zip(self.cells.xs, self.cells.ys, radii.tolist(), inners.tolist(), strict=True))
         self.kept = _Kept()
         self.reached: dict[int, set[int]] = {}
         self.reaches: list[list[int]] = []

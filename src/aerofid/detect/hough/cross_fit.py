@@ -18,6 +18,7 @@ external fiducials, for non-orthogonal arms and for arms of unequal length.
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
@@ -105,52 +106,71 @@ class CrossFit:
 SQRT_2PI = np.sqrt(2.0 * np.pi)
 
 
-def _profile(u: np.ndarray, extent: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """A box of width ``extent`` blurred by a Gaussian of std ``s`` at ``u``, and its derivatives by u,
-    extent and s: P = Phi(alpha) - Phi(beta), alpha = (u + extent/2)/s, beta = (u - extent/2)/s. ``u`` may hold
-    several profiles as rows, ``extent`` then a column of their widths (one call for all four of a cross)."""
-    al, be = (u + extent / 2.0) / s, (u - extent / 2.0) / s
+def _profile(u: np.ndarray, extent: np.ndarray, s: float,
+             derivatives: bool = True) -> tuple[np.ndarray, ...]:
+    """A box of width ``extent`` blurred by a Gaussian of std ``s`` at ``u``, and (``derivatives``) its derivatives
+    by u, extent and s: P = Phi(alpha) - Phi(beta), alpha = (u + extent/2)/s, beta = (u - extent/2)/s. ``u`` may
+    hold several profiles as rows, ``extent`` then a column of their widths (one call for all four of a cross). Both
+    edges go through each function at once (alpha's rows above beta's): on a patch of a few hundred pixels the
+    calls, not the arithmetic, are most of the time."""
+    n = len(u)
+    edges = np.concatenate([u + extent / 2.0, u - extent / 2.0])
+    edges /= s
+    phi = ndtr(edges)
+    P = phi[:n] - phi[n:]
+    if not derivatives:
+        return (P,)
     with np.errstate(over="ignore", under="ignore"):  # far from the edges the Gaussian is 0
-        pa, pb = np.exp(-0.5 * al * al) / SQRT_2PI, np.exp(-0.5 * be * be) / SQRT_2PI
-    return ndtr(al) - ndtr(be), (pa - pb) / s, (pa + pb) / (2.0 * s), -(al * pa - be * pb) / s
+        density = np.exp(-0.5 * edges * edges) / SQRT_2PI
+    (al, be), (pa, pb) = (edges[:n], edges[n:]), (density[:n], density[n:])
+    return P, (pa - pb) / s, (pa + pb) / (2.0 * s), -(al * pa - be * pb) / s
+
+
+def _sign(v: float) -> float:
+    """The sign a length, the width or the blur gives its derivatives (the model takes their magnitude): 1 at 0."""
+    return 1.0 if v >= 0 else -1.0 if v < 0 else math.nan
 
 
 def cross_model(p: np.ndarray, px: np.ndarray, py: np.ndarray, x0: float, y0: float,
                 jacobian: bool = False):
     """Grey values of the blurred-cross model with parameters ``p`` at the points (px, py), and with
-    ``jacobian=True`` also d(model)/d(p) as an (n, 12) array. The four box profiles (across and along each bar)
-    are evaluated together, as the rows (r1, u1, r2, u2) of one array."""
+    ``jacobian=True`` also d(model)/d(p) as an (n, 12) array. The four box profiles (across each bar, then along
+    each) are evaluated together, as the rows (r1, r2, u1, u2) of one array."""
     xc, yc, t1, t2, l1, l2, w, s, a, b0, bx, by = p
     # lengths, width and blur enter by their magnitude, so an unconstrained solver cannot flip their sign
-    signs = np.sign([l1, l2, w, s]) + (np.array([l1, l2, w, s]) == 0)
+    signs = np.array([[_sign(l1)], [_sign(l2)], [_sign(w)], [_sign(s)]])
     l1, l2, w, s = abs(l1), abs(l2), abs(w), max(abs(s), 0.05)
     dx, dy = px - xc, py - yc
-    cos = np.array([np.cos(t1), np.cos(t2)])
-    sin = np.array([np.sin(t1), np.sin(t2)])
-    ru = np.empty((4, px.size))
-    ru[0::2] = dx * cos[:, None] + dy * sin[:, None]      # across each bar (along its normal)
-    ru[1::2] = -dx * sin[:, None] + dy * cos[:, None]     # along each bar
-    # P and its derivatives by the coordinate, the extent and the blur; rows 0, 2 across, 1, 3 along each bar
-    P, P_u, P_e, P_s = _profile(ru, np.array([[w], [l1], [w], [l2]]), s)
-    across, along = P[0::2], P[1::2]
-    c1, c2 = across * along                               # each bar's coverage
+    angles = np.array([[t1], [t2]])
+    cos, sin = np.cos(angles), np.sin(angles)
+    # across each bar (along its normal), then along each bar
+    ru = np.concatenate([dx * cos + dy * sin, -dx * sin + dy * cos])
+    # P and (with the Jacobian) its derivatives by the coordinate, the extent and the blur
+    profiles = _profile(ru, np.array([[w], [w], [l1], [l2]]), s, jacobian)
+    P = profiles[0]
+    across, along = P[:2], P[2:]
+    coverage = across * along                             # each bar's: rows c1, c2
+    c1, c2 = coverage
     union = c1 + c2 - c1 * c2
     model = b0 + bx * (px - x0) + by * (py - y0) + a * union
     if not jacobian:
         return model
-    # both bars at once, as rows k = 0, 1: d model / d c_k, and d c_k by the across (r) and along (u) coordinates
-    weight = a * (1.0 - np.stack([c2, c1]))
-    r, u = ru[0::2], ru[1::2]
-    dc_dr, dc_du = P_u[0::2] * along, across * P_u[1::2]
-    c, sn = cos[:, None], sin[:, None]
+    _, P_u, P_e, P_s = profiles
+    # both bars at once, as rows k = 0, 1: d model / d c_k, and d c_k by the across (r) and along (u) coordinates;
+    # a sum over the two rows is row 0 + row 1
+    weight = a * (1.0 - coverage[::-1])
+    r, u = ru[:2], ru[2:]
+    dc_dr, dc_du = P_u[:2] * along, across * P_u[2:]
     J = np.empty((12, px.size))      # filled by rows, handed over as its (n, 12) transpose (Fortran order)
-    J[0] = (weight * (dc_dr * -c + dc_du * sn)).sum(axis=0)     # dr/dxc = -cos t, du/dxc = sin t
-    J[1] = (weight * (dc_dr * -sn + dc_du * -c)).sum(axis=0)    # dr/dyc = -sin t, du/dyc = -cos t
+    d_xc = weight * (dc_dr * -cos + dc_du * sin)                # dr/dxc = -cos t, du/dxc = sin t
+    d_yc = weight * (dc_dr * -sin + dc_du * -cos)               # dr/dyc = -sin t, du/dyc = -cos t
+    J[0], J[1] = d_xc[0] + d_xc[1], d_yc[0] + d_yc[1]
     J[2:4] = weight * (dc_dr * u - dc_du * r)                   # dr/dt = u, du/dt = -r
-    J[4:6] = weight * across * P_e[1::2]                        # the lengths
-    J[6] = (weight * P_e[0::2] * along).sum(axis=0)             # the stroke width
-    J[7] = (weight * (P_s[0::2] * along + across * P_s[1::2])).sum(axis=0)
-    J[4:8] *= signs[:, None]
+    J[4:6] = weight * across * P_e[2:]                          # the lengths
+    d_w = weight * P_e[:2] * along                              # the stroke width
+    d_s = weight * (P_s[:2] * along + across * P_s[2:])         # the blur
+    J[6], J[7] = d_w[0] + d_w[1], d_s[0] + d_s[1]
+    J[4:8] *= signs
     J[8] = union
     J[9] = 1.0
     J[10] = px - x0

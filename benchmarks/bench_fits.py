@@ -12,6 +12,12 @@ cut short can be seen. The cross fit's own CPU time per verification is summed a
 gap (:func:`aerofid.detect.hough.detector.crossing_gap`) is recorded: beyond ``AutoParams.cross_check_crossing_gap``,
 ``auto``'s cross-check refuses a candidate before any fit.
 
+Screens not adopted (session 34, docs/benchmarks_peers.md): for each verification, the half-arms of the thresholded
+window it screens (:func:`aerofid.detect.hough.detector.half_arm_steps`) and, in its first least-squares pass, how far
+each iterate (a point where the solver asks for the Jacobian) lay from the pass's start: how many refused candidates,
+and how much of their fits' work, a rule on either would have spared, and how many accepted '+' it would have refused.
+bench_marks.py's scenes with a speck on the centre are verified too, last (a '+' whose crossing a speck hides).
+
 ``--marks N`` adds ``hough`` alone on bench_marks.py's own scenes (its seed 2026, ``N`` per condition and style,
 in its order) and reports the bounded solver's retries (a least-squares pass that ran out of evaluations, then
 the trust-region solver from the same start): how many, how many verifications they rescued, and how far the
@@ -23,7 +29,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -40,7 +46,7 @@ from aerofid.detect.hough import cross_fit  # noqa: E402
 from aerofid.detect.hough import detector as hough_detector  # noqa: E402
 from aerofid.io.raster import open_raster  # noqa: E402
 from aerofid.methods import make_detector  # noqa: E402
-from bench_marks import CONDITIONS, STYLES  # noqa: E402
+from bench_marks import CONDITIONS, SPECKED, STYLES  # noqa: E402
 from bench_marks import scene as marks_scene  # noqa: E402
 from bench_peers import scene as peers_scene  # noqa: E402
 from bench_rc20 import HALF, MARKS, REAL  # noqa: E402
@@ -56,6 +62,7 @@ class Recorder:
         self.passes: list[tuple[str, int, float]] = []
         self.source = ""
         self.analysis: Any = None
+        self.iterates: list[list[tuple[str, float]]] = []
 
     def install(self) -> None:
         solve, verify = scipy.optimize.least_squares, hough_detector.verify_candidate
@@ -74,18 +81,29 @@ class Recorder:
             return sol
 
         def levenberg_marquardt(fun: Any, jac: Any, x0: np.ndarray, max_evaluations: int) -> Any:
-            sol = lm(fun, jac, x0, max_evaluations)
+            path: list[tuple[str, float]] = []   # each evaluation: residuals or Jacobian, its distance from x0
+            self.iterates.append(path)
+
+            def traced(kind: str, f: Any) -> Any:
+                def call(p: np.ndarray) -> Any:
+                    path.append((kind, float(np.hypot(p[0] - x0[0], p[1] - x0[1]))))
+                    return f(p)
+                return call
+
+            sol = lm(traced("f", fun), traced("j", jac), x0, max_evaluations)
             self.passes.append(("lm", sol.nfev, float(np.hypot(sol.x[0] - x0[0], sol.x[1] - x0[1]))))
             return sol
 
         def verify_candidate(*args: Any, **kwargs: Any) -> Any:
-            self.passes = []
+            self.passes, self.iterates = [], []
             t = time.process_time()
             out = verify(*args, **kwargs)
             cpu = time.process_time() - t
             gap = hough_detector.crossing_gap(self.analysis, AutoParams().cross_check_crossing_gap)
             self.records.append({"source": self.source, "accepted": not isinstance(out, str),
-                                 "passes": list(self.passes), "cpu": cpu, "gap": gap})
+                                 "passes": list(self.passes), "cpu": cpu, "gap": gap,
+                                 "arms": hough_detector.half_arm_steps(self.analysis),
+                                 "first_pass": self.iterates[0] if self.iterates else []})
             return out
 
         scipy.optimize.least_squares = least_squares          # the bounded solver's retries
@@ -101,12 +119,7 @@ class Recorder:
 def collect(rec: Recorder, n: int, rng: np.random.Generator) -> list[dict[str, Any]]:
     """Every verification of the scenes of the module docstring (``n`` per cell)."""
     rec.records = []
-    for cond in CONDITIONS:
-        for style in STYLES:
-            for _ in range(n):
-                img, _, _, mark = marks_scene(style, cond, rng)
-                rec.run(f"marks/{cond}/{style}", make_detector("hough", mark, {}), img)
-                rec.run(f"marks/{cond}/{style}", auto_detect, img, AutoParams(mark=mark))
+    _marks_scenes(rec, CONDITIONS, n, rng)
     for case in ("two marks", "half mark", "film-border edge"):
         for style in REJECTION_STYLES:
             for _ in range(n):
@@ -126,7 +139,18 @@ def collect(rec: Recorder, n: int, rng: np.random.Generator) -> list[dict[str, A
             for name, (x, y) in MARKS.items():
                 crop = np.ascontiguousarray(r.read_window((x - HALF, y - HALF, x + HALF, y + HALF)))
                 rec.run(f"rc20/{name}", aerofid.locate, crop, (0, 0, crop.shape[1], crop.shape[0]), mark="external")
+    _marks_scenes(rec, SPECKED, n, rng)
     return rec.records
+
+
+def _marks_scenes(rec: Recorder, conditions: Mapping[str, str], n: int, rng: np.random.Generator) -> None:
+    """``hough`` alone and ``auto`` on ``n`` of bench_marks.py's scenes per condition and style."""
+    for cond in conditions:
+        for style in STYLES:
+            for _ in range(n):
+                img, _, _, mark = marks_scene(style, cond, rng)
+                rec.run(f"marks/{cond}/{style}", make_detector("hough", mark, {}), img)
+                rec.run(f"marks/{cond}/{style}", auto_detect, img, AutoParams(mark=mark))
 
 
 def collect_marks(rec: Recorder, n: int) -> list[dict[str, Any]]:
@@ -195,6 +219,54 @@ def crossing_report(records: list[dict[str, Any]]) -> str:
             "(`auto`'s cross-check refuses such a candidate before any fit).")
 
 
+SCREENED_RUN = 2
+"""The arm screen on steps looks only where the longest half-arm's run reaches this far (px)."""
+ITERATE_LIMITS = (3.0, 4.0, 6.0)
+"""The distances (px) from a first pass's start at which an abort of the pass is weighed."""
+
+
+def _arm_screens(arms: list[set[int]]) -> tuple[bool, bool]:
+    """(a half-arm with no bright step at 1 or 2 px from the centre; a half-arm with no bright step as far as the
+    longest half-arm's run reaches, where that is at least :data:`SCREENED_RUN` px)."""
+    runs = hough_detector.half_arm_runs(arms)
+    reach = int(max(runs))
+    empty = reach >= SCREENED_RUN and any(not any(1 <= k <= reach for k in steps) for steps in arms)
+    return min(runs) < 1.0, empty
+
+
+def _aborted(path: list[tuple[str, float]], limit: float) -> int | None:
+    """The evaluations a first pass would have been spared had it stopped at its first iterate beyond ``limit`` px
+    of its start (None: no iterate went that far)."""
+    k = next((i for i, (kind, d) in enumerate(path) if kind == "j" and d > limit), None)
+    return None if k is None else sum(kind == "f" for kind, _ in path[k + 1:])
+
+
+def screens_report(records: list[dict[str, Any]]) -> list[str]:
+    """The screens weighed and not adopted (module docstring): refused candidates each would have refused unfitted or
+    cut short, and accepted '+' it would have refused."""
+    accepted = [r for r in records if r["accepted"]]
+    refused = [r for r in records if not r["accepted"]]
+    refused_cpu = sum(r["cpu"] for r in refused)
+    out = ["| rule | refused candidates it refuses | their fits' CPU s (of the refused's) | accepted '+' it refuses |",
+           "|---|---|---|---|"]
+    for label, which in (("a half-arm's run below 1 px (no bright pixel 1-2 px from the centre)", 0),
+                         ("a half-arm with no bright pixel as far as the longest half-arm reaches", 1)):
+        hit = [r for r in refused if _arm_screens(r["arms"])[which]]
+        out.append(f"| {label} | {len(hit)} of {len(refused)} | {sum(r['cpu'] for r in hit):.1f} of "
+                   f"{refused_cpu:.1f} | {sum(_arm_screens(r['arms'])[which] for r in accepted)} of {len(accepted)} |")
+    evaluations = sum(kind == "f" for r in refused for kind, _ in r["first_pass"])
+    for limit in ITERATE_LIMITS:
+        spared = [_aborted(r["first_pass"], limit) for r in refused]
+        cut = [k for k in spared if k is not None]
+        out.append(f"| first pass stopped at an iterate beyond {limit:g} px of its start | {len(cut)} cut short | "
+                   f"{sum(cut)} of the refused first passes' {evaluations} evaluations | "
+                   f"{sum(_aborted(r['first_pass'], limit) is not None for r in accepted)} of {len(accepted)} |")
+    furthest = max((d for r in accepted for kind, d in r["first_pass"] if kind == "j"), default=0.0)
+    out.append("")
+    out.append(f"The accepted '+' furthest iterate in a first pass: {furthest:.2f} px from its start.")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=8, help="scenes per style and condition")
@@ -215,6 +287,8 @@ def main() -> None:
     print("\n".join(report(records, args.max_evaluations)))
     print("\nRetries by the bounded solver, these scenes:\n")
     print("\n".join(retry_report(records)))
+    print("\nScreens weighed and not adopted, these scenes:\n")
+    print("\n".join(screens_report(records)))
     if marks:
         print(f"\n`hough` alone on bench_marks.py's scenes ({args.marks} per condition and style):\n")
         print("\n".join(report(marks, args.max_evaluations)))

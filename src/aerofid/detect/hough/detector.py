@@ -31,11 +31,10 @@ REFINE_WINDOW_FACTOR = 1.5
 times larger, so that it sees the arms' ends."""
 
 
-def arm_half_length(analysis: WindowAnalysis, max_gap: int = 1) -> float:
-    """Half-length of the arms: along each Hough line and on each side of the centre, the run of bright
-    pixels (within 1.5 px of the line) that stays connected to the centre, allowing ``max_gap`` empty
-    1-px steps; averaged over the four half-arms. Bright texture further along a line is not counted
-    (a percentile of all bright pixels near the line overestimates a small panel's arms on aerial ground)."""
+def half_arm_steps(analysis: WindowAnalysis) -> list[set[int]]:
+    """For each of the four half-arms (along each Hough line, on each side of the centre), the 1-px steps from the
+    centre (distances along the line, rounded) at which the thresholded window holds a bright pixel within 1.5 px of
+    the line."""
     ys, xs = np.nonzero(analysis.binary)
     out = []
     for th in (analysis.theta1, analysis.theta2):
@@ -45,16 +44,31 @@ def arm_half_length(analysis: WindowAnalysis, max_gap: int = 1) -> float:
         near = np.abs(r) <= 1.5
         for side in (1.0, -1.0):
             steps = np.round(side * along[near]).astype(int)
-            occupied = set(steps[steps >= 0].tolist())
-            end, gap, k = 0, 0, 0
-            while gap <= max_gap:
-                k += 1
-                if k in occupied:
-                    end, gap = k, 0
-                else:
-                    gap += 1
-            out.append(end + 0.5)
-    return max(2.0, float(np.mean(out)))
+            out.append(set(steps[steps >= 0].tolist()))
+    return out
+
+
+def half_arm_runs(steps: list[set[int]], max_gap: int = 1) -> list[float]:
+    """Each half-arm's run (px): its bright steps (:func:`half_arm_steps`) that stay connected to the centre, allowing
+    ``max_gap`` empty steps, to the middle of the last one (0.5 where the first ``max_gap + 1`` steps are empty).
+    Bright texture further along a line is not counted (a percentile of all bright pixels near the line overestimates
+    a small panel's arms on aerial ground)."""
+    out = []
+    for occupied in steps:
+        end, gap, k = 0, 0, 0
+        while gap <= max_gap:
+            k += 1
+            if k in occupied:
+                end, gap = k, 0
+            else:
+                gap += 1
+        out.append(end + 0.5)
+    return out
+
+
+def arm_half_length(analysis: WindowAnalysis, max_gap: int = 1) -> float:
+    """Half-length of the arms: the four half-arms' runs (:func:`half_arm_runs`) averaged, at least 2 px."""
+    return max(2.0, float(np.mean(half_arm_runs(half_arm_steps(analysis), max_gap))))
 
 
 MAX_MISFIT = 1.8
@@ -360,5 +374,5 @@ def detect(window: np.ndarray, params: HoughParams = DEFAULT) -> HoughResult:
                        refinement=refinement)
 
 
-__all__ = ["HoughResult", "Verified", "arm_half_length", "crossing_gap", "detect", "quality_refusal", "refine_window",
-           "verify_like", "shape_refusal", "verify_candidate"]
+__all__ = ["HoughResult", "Verified", "arm_half_length", "crossing_gap", "detect", "half_arm_runs", "half_arm_steps",
+           "quality_refusal", "refine_window", "verify_like", "shape_refusal", "verify_candidate"]

@@ -12,10 +12,11 @@ cut short can be seen. The cross fit's own CPU time per verification is summed a
 gap (:func:`aerofid.detect.hough.detector.crossing_gap`) is recorded: beyond ``AutoParams.cross_check_crossing_gap``,
 ``auto``'s cross-check refuses a candidate before any fit.
 
-Screens not adopted (session 34, docs/benchmarks_peers.md): for each verification, the half-arms of the thresholded
+Screens weighed and not adopted (docs/benchmarks_peers.md): for each verification, the half-arms of the thresholded
 window it screens (:func:`aerofid.detect.hough.detector.half_arm_steps`) and, in its first least-squares pass, how far
-each iterate (a point where the solver asks for the Jacobian) lay from the pass's start: how many refused candidates,
-and how much of their fits' work, a rule on either would have spared, and how many accepted '+' it would have refused.
+the centre of each iterate (a point where the solver asks for the Jacobian) lay from the pass's start: how many
+refused candidates, and how much of their fits' work, a rule on either would have spared, and how many accepted '+'
+it would have refused.
 bench_marks.py's scenes with a speck on the centre are verified too, last (a '+' whose crossing a speck hides).
 
 ``--marks N`` adds ``hough`` alone on bench_marks.py's own scenes (its seed 2026, ``N`` per condition and style,
@@ -246,24 +247,24 @@ def screens_report(records: list[dict[str, Any]]) -> list[str]:
     cut short, and accepted '+' it would have refused."""
     accepted = [r for r in records if r["accepted"]]
     refused = [r for r in records if not r["accepted"]]
+    screened = {id(r): _arm_screens(r["arms"]) for r in records}
     refused_cpu = sum(r["cpu"] for r in refused)
     out = ["| rule | refused candidates it refuses | their fits' CPU s (of the refused's) | accepted '+' it refuses |",
            "|---|---|---|---|"]
     for label, which in (("a half-arm's run below 1 px (no bright pixel 1-2 px from the centre)", 0),
                          ("a half-arm with no bright pixel as far as the longest half-arm reaches", 1)):
-        hit = [r for r in refused if _arm_screens(r["arms"])[which]]
+        hit = [r for r in refused if screened[id(r)][which]]
         out.append(f"| {label} | {len(hit)} of {len(refused)} | {sum(r['cpu'] for r in hit):.1f} of "
-                   f"{refused_cpu:.1f} | {sum(_arm_screens(r['arms'])[which] for r in accepted)} of {len(accepted)} |")
+                   f"{refused_cpu:.1f} | {sum(screened[id(r)][which] for r in accepted)} of {len(accepted)} |")
     evaluations = sum(kind == "f" for r in refused for kind, _ in r["first_pass"])
     for limit in ITERATE_LIMITS:
-        spared = [_aborted(r["first_pass"], limit) for r in refused]
-        cut = [k for k in spared if k is not None]
-        out.append(f"| first pass stopped at an iterate beyond {limit:g} px of its start | {len(cut)} cut short | "
-                   f"{sum(cut)} of the refused first passes' {evaluations} evaluations | "
+        cut = [k for k in (_aborted(r["first_pass"], limit) for r in refused) if k is not None]
+        out.append(f"| first pass stopped at an iterate whose centre lies beyond {limit:g} px of its start | "
+                   f"{len(cut)} cut short | {sum(cut)} of the refused first passes' {evaluations} evaluations | "
                    f"{sum(_aborted(r['first_pass'], limit) is not None for r in accepted)} of {len(accepted)} |")
     furthest = max((d for r in accepted for kind, d in r["first_pass"] if kind == "j"), default=0.0)
     out.append("")
-    out.append(f"The accepted '+' furthest iterate in a first pass: {furthest:.2f} px from its start.")
+    out.append(f"The accepted '+'s furthest first-pass iterate: its centre {furthest:.2f} px from the pass's start.")
     return out
 
 

@@ -480,16 +480,18 @@ def test_crossing_gap_is_the_distance_to_the_nearest_bright_pixel(x, y, seed, de
 @settings(max_examples=60, deadline=None)
 @given(st.floats(-0.45, 0.45), st.floats(-0.45, 0.45), st.floats(-0.4, 0.4), st.floats(1.35, 1.8),
        st.floats(4.0, 30.0), st.floats(4.0, 30.0), st.floats(0.8, 4.0), st.floats(0.3, 2.5),
-       st.sampled_from([1.0, -1.0]), st.sampled_from([1.0, -1.0]))
-def test_the_cross_model_s_jacobian_is_its_derivative(dx, dy, t1, turn, l1, l2, w, s, sign_l, sign_w):
+       st.tuples(*[st.sampled_from([1.0, -1.0])] * 4))
+def test_the_cross_model_s_jacobian_is_its_derivative(dx, dy, t1, turn, l1, l2, w, s, signs):
     """:func:`cross_fit.cross_model`'s Jacobian against central differences of its model, for any centre, bars,
-    stroke and blur (lengths and width given with either sign: the model takes their magnitude and the Jacobian the
-    sign), on a patch about the centre; the model alone is the model that comes with the Jacobian, to the bit."""
+    stroke and blur (above the model's floor of 0.05 px; lengths, width and blur given with either sign: the model
+    takes their magnitude and the Jacobian the sign), on a patch about the centre; the model alone is the model that
+    comes with the Jacobian."""
     from aerofid.detect.hough import cross_fit
 
     yy, xx = np.mgrid[0:31, 0:31]
     px, py = xx.ravel().astype(float), yy.ravel().astype(float)
-    p = np.array([15.0 + dx, 15.0 + dy, t1, t1 + turn, sign_l * l1, l2, sign_w * w, s, 0.6, 0.2, 0.01, -0.02])
+    shape = np.array([l1, l2, w, s]) * np.array(signs)
+    p = np.array([15.0 + dx, 15.0 + dy, t1, t1 + turn, *shape, 0.6, 0.2, 0.01, -0.02])
     model, jac = cross_fit.cross_model(p, px, py, 15.0, 15.0, jacobian=True)
     assert np.array_equal(model, cross_fit.cross_model(p, px, py, 15.0, 15.0))
     h = 1e-6

@@ -16,8 +16,8 @@ Screens weighed and not adopted (docs/benchmarks_peers.md): for each verificatio
 window it screens (:func:`aerofid.detect.hough.detector.half_arm_steps`) and, in its first least-squares pass, how far
 the centre of each iterate (a point where the solver asks for the Jacobian) lay from the pass's start: how many
 refused candidates, and how much of their fits' work, a rule on either would have spared, and how many accepted '+'
-it would have refused.
-bench_marks.py's scenes with a speck on the centre are verified too, last (a '+' whose crossing a speck hides).
+it would have refused. bench_marks.py's scenes with a speck on the centre are verified too, last (a '+' whose
+crossing a speck hides).
 
 ``--marks N`` adds ``hough`` alone on bench_marks.py's own scenes (its seed 2026, ``N`` per condition and style,
 in its order) and reports the bounded solver's retries (a least-squares pass that ran out of evaluations, then

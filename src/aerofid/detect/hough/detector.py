@@ -51,9 +51,8 @@ def half_arm_steps(analysis: WindowAnalysis) -> list[set[int]]:
 def half_arm_runs(steps: list[set[int]], max_gap: int = 1) -> list[float]:
     """Each half-arm's run (px): its bright steps (:func:`half_arm_steps`) that stay connected to the centre, allowing
     ``max_gap`` empty steps, to the far side of the last one (its step + 0.5; 0.5 where the first ``max_gap + 1`` steps
-    are empty).
-    Bright texture further along a line is not counted (a percentile of all bright pixels near the line overestimates
-    a small panel's arms on aerial ground)."""
+    are empty). Bright texture further along a line is not counted (a percentile of all bright pixels near the line
+    overestimates a small panel's arms on aerial ground)."""
     out = []
     for occupied in steps:
         end, gap, k = 0, 0, 0

@@ -1,13 +1,14 @@
-"""aerofid.robust: the medians from one sort are numpy's (of all the values, or along an axis)."""
+"""aerofid.robust: the medians and percentiles from one sort are numpy's (of all the values, or along an axis)."""
 
 import warnings
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from aerofid.robust import MAD_TO_SIGMA, median, robust_std
+from aerofid.robust import MAD_TO_SIGMA, median, percentile, robust_std
 
 _FLOATS = st.sampled_from([np.float32, np.float64])
 _SHAPES = st.tuples(st.integers(1, 40), st.integers(1, 7))
@@ -49,3 +50,22 @@ def test_ties_around_the_median_and_nan():
     assert robust_std(np.array([])) == 0.0
     assert np.isnan(median(np.array([1.0, np.nan, 3.0]))) and np.isnan(robust_std(np.array([1.0, np.nan])))
     assert np.isnan(median(np.array([], np.float32)))
+
+
+@given(arrays(_FLOATS, st.integers(1, 60),
+              elements=st.floats(-1e6, 1e6, width=32) | st.sampled_from([0.0, -0.0, np.inf, -np.inf, np.nan]))
+       | arrays(np.int64, st.integers(1, 60), elements=st.integers(-5, 5) | st.integers(-10 ** 9, 10 ** 9)),
+       st.integers(0, 100) | st.floats(0, 100) | st.sampled_from([25, 90, 99, 100, 0.5, 99.5]))
+def test_percentile_is_numpys_to_the_bit(values, q):
+    """Every value type, repeated values, infinities and nan, any q: the same number, sign of zero included (the
+    interpolation from the nearer neighbour; the last value's weight counted from index -1 above the end)."""
+    with warnings.catch_warnings():                 # inf - inf in numpy's interpolation
+        warnings.simplefilter("ignore", RuntimeWarning)
+        numpys = float(np.percentile(values, q))
+        ours = percentile(values, q)
+    assert (ours == numpys or (np.isnan(ours) and np.isnan(numpys))) and np.signbit(ours) == np.signbit(numpys)
+
+
+def test_percentile_of_no_values_is_an_error():
+    with pytest.raises(ValueError, match="no values"):
+        percentile(np.array([]), 50)

@@ -8,6 +8,7 @@ its selection, and the absolute deviations' median of :func:`robust_std` is read
 
 from __future__ import annotations
 
+import math
 from typing import Any, overload
 
 import numpy as np
@@ -77,6 +78,36 @@ def robust_std(values: np.ndarray) -> float:
     return float(MAD_TO_SIGMA * mad)
 
 
+def percentile(values: np.ndarray, q: float) -> float:
+    """``float(np.percentile(values, q))`` (numpy's default, linear interpolation) for a Python number ``q`` in [0,
+    100] and values that are not empty, from one sort: the same value to the bit (numpy's weights of the two
+    neighbours, its interpolation from the nearer one, the values' floating type; nan where a value is nan).
+    numpy's own call spends about 0.1 ms on a few hundred values in its generality (it runs in every least-squares
+    fit's start and in every refinement step of ``lines``).
+
+    Examples
+    --------
+    >>> percentile(np.array([4.0, 1.0, 3.0, 2.0]), 25), percentile(np.array([4.0, 1.0, 3.0, 2.0]), 90)
+    (1.75, 3.7)
+    """
+    s = np.sort(np.asarray(values), axis=None)
+    if not np.issubdtype(s.dtype, np.floating):
+        s = s.astype(np.float64)
+    n = s.size
+    if n == 0:
+        raise ValueError("percentile of no values")
+    if np.isnan(s[-1]):
+        return float("nan")
+    virtual = (n - 1) * (q / 100)
+    below = math.floor(virtual)
+    if virtual >= n - 1:        # numpy takes the last value on both sides, its weight counted from index -1
+        below = -1
+    gamma = float(virtual - below)
+    a, b = s[below], s[below + 1] if below >= 0 else s[-1]
+    diff = b - a
+    return float(b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma)
+
+
 def _middle(s: np.ndarray) -> np.floating[Any]:
     """The median of sorted floating values, in their type (numpy sorts nan last; the median of values with a nan
     is nan)."""
@@ -101,4 +132,4 @@ def _kth_of_two(a: np.ndarray, b: np.ndarray, k: int) -> float:
     return float(max(a[lo - 1] if lo > 0 else -np.inf, b[j - 1] if j > 0 else -np.inf))
 
 
-__all__ = ["MAD_TO_SIGMA", "median", "robust_std"]
+__all__ = ["MAD_TO_SIGMA", "median", "percentile", "robust_std"]

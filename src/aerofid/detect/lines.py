@@ -38,7 +38,7 @@ from aerofid.detect.noise import difference_noise_sigma
 from aerofid.detect.params import MethodParams, check, is_int, number_in
 from aerofid.detect.result import Detection, Refused, unusable_window
 from aerofid.detect.threshold import local_dynamic_threshold
-from aerofid.robust import median, robust_std
+from aerofid.robust import median, percentile, robust_std
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -323,7 +323,7 @@ def bar_half_width(acc: np.ndarray, i: int, j: int, rho_step: float, reach: int 
     peak = prof[j]
     r = max(3, int(round(reach / rho_step)))
     near = prof[max(0, j - r):j + r + 1]
-    base = float(np.percentile(near, 25))
+    base = percentile(near, 25)
     level = 0.5 * (peak + base)
     lo = j
     while lo > 0 and prof[lo - 1] >= level:
@@ -453,14 +453,24 @@ def _stretch_planes(key: np.ndarray, g: np.ndarray, v: np.ndarray, u: np.ndarray
     good = (det > ILL_CONDITIONED * svv * suu) & (det > MIN_SPREAD * svv * safe)
     inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
     c1, c2 = (suu * sgv - svu * sgu) * inv, (svv * sgu - svu * sgv) * inv
-    solo = tuple(int(k) for k in np.flatnonzero(fit & ~good))
+    solo = tuple(np.flatnonzero(fit & ~good).tolist())
     return _StretchPlanes(fit & good, c0, c1, c2, v0, u0, solo)
+
+
+def _columns(*columns: np.ndarray) -> np.ndarray:
+    """The design matrix ``np.column_stack([np.ones_like(c), *columns])`` of float64 columns (the same array, built
+    without column_stack's generality: the refinement asks for three per step)."""
+    X = np.empty((columns[0].size, 1 + len(columns)))
+    X[:, 0] = 1.0
+    for k, c in enumerate(columns, 1):
+        X[:, k] = c
+    return X
 
 
 def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: np.ndarray) -> np.ndarray:
     """Least-squares plane ``g = c0 + c1 v + c2 u`` through the samples, evaluated at (v_at, u_at); the median
     when the samples do not determine a plane."""
-    X = np.column_stack([np.ones_like(v), v, u])
+    X = _columns(v, u)
     if g.size >= 4:
         coef, *_ = np.linalg.lstsq(X, g, rcond=None)
         if np.all(np.isfinite(coef)):
@@ -497,7 +507,7 @@ def _slice_centroids(us: np.ndarray, vs: np.ndarray, wgt: np.ndarray, q: np.ndar
     pos = W > 0
     if pos.sum() < 4:
         return None
-    good = (W >= 0.3 * float(np.percentile(W[pos], 90))) & (cnt >= 2)
+    good = (W >= 0.3 * percentile(W[pos], 90)) & (cnt >= 2)
     if good.sum() < 4:
         return None
     med = float(median(W[good]))
@@ -517,14 +527,14 @@ def _slice_centroids(us: np.ndarray, vs: np.ndarray, wgt: np.ndarray, q: np.ndar
 def _fit_offsets(sl: _Slices) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray] | None:
     """Least-squares line V = a + b U through the centroids after one round of outlier rejection (residuals
     beyond 3.5 robust sigma, and 0.1 px, of a first fit). Returns (coef, Qx, rms, expected rms, U inliers)."""
-    X = np.column_stack([np.ones_like(sl.U), sl.U])
+    X = _columns(sl.U)
     c0, *_ = np.linalg.lstsq(X, sl.V, rcond=None)
     r0 = sl.V - X @ c0
     inl = np.abs(r0) <= max(3.5 * robust_std(r0), 0.1)
     if inl.sum() < 4:
         return None
     V, U, var_noise = sl.V[inl], sl.U[inl], sl.var_noise[inl]
-    X = np.column_stack([np.ones_like(U), U])
+    X = _columns(U)
     try:
         Qx = np.linalg.inv(X.T @ X)
     except np.linalg.LinAlgError:
@@ -532,7 +542,7 @@ def _fit_offsets(sl: _Slices) -> tuple[np.ndarray, np.ndarray, float, float, np.
     coef = Qx @ (X.T @ V)
     res = V - X @ coef
     s0 = float(np.sqrt(res @ res / max(1, U.size - 2)))
-    return coef, Qx, s0, float(np.sqrt(np.mean(var_noise))), U
+    return coef, Qx, s0, math.sqrt(float(var_noise.mean())), U
 
 
 def _moved_line(fr: _Frame, rho: float, a: float, b: float, uc: float) -> tuple[float, float]:

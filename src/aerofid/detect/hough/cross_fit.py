@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from aerofid.robust import robust_std
+from aerofid.robust import percentile, robust_std
 from aerofid.scipy_kernels import LMSolution, levenberg_marquardt, ndtr
 
 PATCH_MARGIN = 3.0
@@ -240,8 +240,8 @@ def _start(pt: _Patch, thetas_deg: tuple[float, float], arm: float, width: float
            blur: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Start values and the plausible region (lower, upper) of the 12 parameters."""
     x, y = pt.x, pt.y
-    b0 = float(np.percentile(pt.g, 25))
-    a0 = max(float(np.percentile(pt.g, 99)) - b0, 1e-3)
+    b0 = percentile(pt.g, 25)
+    a0 = max(percentile(pt.g, 99) - b0, 1e-3)
     length = 2.0 * arm
     t1, t2 = np.deg2rad(thetas_deg[0]), np.deg2rad(thetas_deg[1])
     p0 = np.array([x, y, t1, t2, length, length, max(width, 0.8), blur, a0, b0, 0.0, 0.0])

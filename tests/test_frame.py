@@ -942,6 +942,7 @@ def test_a_jpeg_frame_whose_whole_decode_fails_is_an_error(tmp_path, monkeypatch
     def fails(p):
         raise aerofid.AerofidInputError(f"cannot decode {p}: the file is corrupt or truncated; re-export the scan")
 
+    monkeypatch.setattr(jpeg, "IMREAD_INTO", False)     # the decode that fails: OpenCV's own
     monkeypatch.setattr(jpeg, "_decode_with_cv2", fails)
     with pytest.raises(aerofid.AerofidInputError, match="corrupt or truncated"):
         aerofid.orient_frame(path)

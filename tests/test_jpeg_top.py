@@ -95,9 +95,9 @@ def _held_decode(monkeypatch):
     release = threading.Event()
     real = jpeg._read_only
 
-    def held(path):
+    def held(path, header=None):
         release.wait(60)
-        return real(path)
+        return real(path, header)
 
     monkeypatch.setattr(jpeg, "_read_only", held)
     jpeg.forget_decodes()

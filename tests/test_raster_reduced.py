@@ -459,7 +459,8 @@ def test_odd_factors_are_refused_and_the_reduced_decode_is_kept(jpeg_pair, monke
     _, huge = jpeg_pair
     calls = []
     imread = cv2.imread
-    monkeypatch.setattr(jpeg.cv2, "imread", lambda *args: calls.append(args[1]) or imread(*args))
+    # the reduced decodes (name, flags); a whole decode into an array (name, array, flags) may run beside them
+    monkeypatch.setattr(jpeg.cv2, "imread", lambda *args: (len(args) == 2 and calls.append(args[1])) or imread(*args))
     for factor in (1, 3, 5):
         with pytest.raises(AerofidInputError, match=f"reducing by {factor}"):
             huge.read_reduced((0, 0, 100, 100), factor)
@@ -485,11 +486,11 @@ def held_decode(monkeypatch):
     go, entered, calls = threading.Event(), threading.Event(), []
     decode = jpeg._read_only
 
-    def held(path):
+    def held(path, header=None):
         calls.append(path)
         entered.set()
         assert go.wait(30), "the decode was never let go"
-        return decode(path)
+        return decode(path, header)
 
     monkeypatch.setattr(jpeg, "_read_only", held)
     yield types.SimpleNamespace(release=go.set, calls=calls, entered=entered)
@@ -547,11 +548,11 @@ def test_two_opens_share_one_decode_and_a_failure_is_not_kept(tmp_path, monkeypa
     jpeg.forget_decodes()
     calls = []
     decode = jpeg._read_only
-    monkeypatch.setattr(jpeg, "_read_only", lambda p: calls.append(p) or decode(p))
+    monkeypatch.setattr(jpeg, "_read_only", lambda p, h=None: calls.append(p) or decode(p, h))
     with open_raster(path) as first, open_raster(path) as second:
         np.testing.assert_array_equal(second.read_window((5, 6, 70, 80)), first.read_window((5, 6, 70, 80)))
     assert calls == [path.resolve()]
-    monkeypatch.setattr(jpeg, "_read_only", lambda p: calls.append(p) or (_ for _ in ()).throw(MemoryError()))
+    monkeypatch.setattr(jpeg, "_read_only", lambda p, h=None: calls.append(p) or (_ for _ in ()).throw(MemoryError()))
     jpeg.forget_decodes()
     for _ in range(2):                                      # the memory it lacked, as such, and tried again
         with open_raster(path) as raster, pytest.raises(MemoryError):
@@ -586,11 +587,11 @@ def test_a_failed_decode_is_forgotten_without_being_read(tmp_path, monkeypatch):
     with open_raster(other) as kept:
         kept.read_window((0, 0, 8, 8))
     decode = jpeg._read_only
-    monkeypatch.setattr(jpeg, "_read_only", lambda p: (_ for _ in ()).throw(MemoryError()) if p.name == "scan.jpg"
-                        else decode(p))
+    monkeypatch.setattr(jpeg, "_read_only", lambda p, h=None: (_ for _ in ()).throw(MemoryError())
+                        if p.name == "scan.jpg" else decode(p, h))
     with open_raster(path):
         pass                                                # closed without a read: the failure is not kept
-    monkeypatch.setattr(jpeg, "_read_only", lambda p: pytest.fail(f"{p.name} was decoded again"))
+    monkeypatch.setattr(jpeg, "_read_only", lambda p, h=None: pytest.fail(f"{p.name} was decoded again"))
     with open_raster(other) as again:                       # another file's decode is still kept
         assert again.read_window((0, 0, 40, 48)).shape == (48, 40)
     monkeypatch.setattr(jpeg, "_read_only", decode)
@@ -615,7 +616,8 @@ def test_a_jpeg_that_decodes_to_another_size_than_its_header_is_one_line(tmp_pat
     """The header gave the raster its size; a decode of another size is refused when a window is read."""
     path = write_cv2(tmp_path / "scan.jpg", smooth_image(1, (64, 80)))
     jpeg.forget_decodes()
-    monkeypatch.setattr(jpeg, "_decode_with_cv2", lambda p: np.zeros((56, 80, 1), np.uint8))
+    monkeypatch.setattr(jpeg, "IMREAD_INTO", False)     # OpenCV's own decode (the one into the header's array
+    monkeypatch.setattr(jpeg, "_decode_with_cv2", lambda p: np.zeros((56, 80, 1), np.uint8))   # is of its size)
     with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
         raster.read_window((0, 0, 8, 8))
     assert_one_line_error(excinfo, "declares 80 x 64", "decodes to 80 x 56", "re-export")
@@ -894,3 +896,32 @@ def test_the_block_weights_are_those_the_sparse_matrix_held(start, length, facto
     on = want > 0
     np.testing.assert_array_equal(w.first, np.argmax(on, axis=1))
     np.testing.assert_array_equal(w.last, want.shape[1] - 1 - np.argmax(on[:, ::-1], axis=1))
+
+
+@pytest.mark.parametrize("bands", [1, 3])
+def test_a_jpeg_decoded_into_an_array_from_its_header_is_opencvs_own_decode(tmp_path, bands):
+    """The whole decode into an array made from the header (OpenCV 5's ``imread`` into a destination: no second
+    copy of a large image at the decode's peak) gives the samples of OpenCV's own decode, RGB, EXIF orientation
+    ignored (a JPEG that says it is turned is read as stored, as ``IMREAD_UNCHANGED`` reads it)."""
+    img = smooth_image(bands, (120, 160))
+    img[10:30, 20:60] = 255                                   # not symmetric: a turn would show
+    path = write_cv2(tmp_path / "scan.jpg", img, cv2.IMWRITE_JPEG_QUALITY, 90)
+    data = path.read_bytes()
+    # an APP1 Exif segment with orientation 6 (turned 90 degrees) right after SOI
+    entry = b"\x01\x12\x00\x03\x00\x00\x00\x01\x00\x06\x00\x00"      # tag 0x0112, SHORT, 1 value: 6
+    tiff = b"MM\x00\x2a\x00\x00\x00\x08" + b"\x00\x01" + entry + b"\x00" * 4
+    app1 = b"Exif\x00\x00" + tiff
+    path.write_bytes(data[:2] + b"\xff\xe1" + (len(app1) + 2).to_bytes(2, "big") + app1 + data[2:])
+    header = jpeg.read_header(path, "jpeg")
+    own = jpeg._decode_with_cv2(path)
+    assert own.shape == (120, 160, bands)
+    into = jpeg._decode_in_place(path, header)
+    if not jpeg.IMREAD_INTO:
+        assert into is None
+        pytest.skip("this OpenCV cannot decode into a given array")
+    assert into is not None and into.shape == own.shape and into.dtype == np.uint8
+    np.testing.assert_array_equal(into, own)
+    jpeg.forget_decodes()
+    with open_raster(path) as raster:
+        np.testing.assert_array_equal(raster.read_window((0, 0, 160, 120)), own if bands == 3 else own[:, :, 0])
+    jpeg.forget_decodes()

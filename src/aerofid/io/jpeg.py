@@ -20,6 +20,7 @@ are weighed by area from the reduced pixels.
 
 from __future__ import annotations
 
+import mmap
 import os
 import threading
 from collections import OrderedDict
@@ -41,6 +42,7 @@ __all__ = [
     "DECODED_CACHE",
     "DECODE_BUDGET_BYTES",
     "HugeJpegReader",
+    "IMREAD_INTO",
     "ImageHeader",
     "decode_whole",
     "decode_budget",
@@ -205,6 +207,46 @@ def _decode_with_cv2(path: Path) -> np.ndarray:
     return image
 
 
+#: Whether this OpenCV decodes a file into an array given to it (``cv2.imread(filename, dst, flags)``, with
+#: ``IMREAD_COLOR_RGB``; OpenCV 5): without it OpenCV's decode of a large JPEG holds the image twice at its peak
+#: (a 17000 x 17000 RGB JPEG: 1.7 GB for its 0.87 GB of samples, 0.87 GB into an array given).
+IMREAD_INTO = hasattr(cv2, "IMREAD_COLOR_RGB") and "imread(filename[, dst" in (cv2.imread.__doc__ or "")
+
+
+def _decode_in_place(path: Path, header: ImageHeader) -> np.ndarray | None:
+    """An 8-bit JPEG of 1 or 3 samples (:func:`decodes_in_background`) decoded by libjpeg into an array made for
+    it from its header, as ``(rows, columns, samples)`` in RGB order: the samples :func:`_decode_with_cv2` gives (the
+    same libjpeg decode, its EXIF orientation ignored as ``IMREAD_UNCHANGED`` does, RGB from libjpeg instead of BGR
+    reversed), without OpenCV's second copy. None where OpenCV cannot (:data:`IMREAD_INTO`, a name that is not valid
+    UTF-8, or it decoded to another shape than the header's)."""
+    name = str(path)
+    if not IMREAD_INTO or not decodes_in_background(header, "jpeg") or not _utf8(name):
+        return None
+    if not _ends_its_scans(path):   # libjpeg's file reader makes up the missing end where OpenCV's from bytes fails
+        raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
+    grey = header.samples == 1
+    dst = np.empty((header.height, header.width) if grey else (header.height, header.width, 3), np.uint8)
+    flags = (cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR_RGB) | cv2.IMREAD_IGNORE_ORIENTATION
+    try:
+        image = cv2.imread(name, dst, flags)
+    except cv2.error as exc:
+        raise AerofidInputError(f"cannot decode {path}: {_one_line(exc)}; re-export the scan") from exc
+    if image is None or image.size == 0:
+        raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
+    if image.shape != dst.shape:
+        return None
+    return image[:, :, None] if grey else image
+
+
+def _ends_its_scans(path: Path) -> bool:
+    """Whether the file has an end-of-image marker after the start of its first scan: a truncated JPEG has not (an
+    EXIF thumbnail's own end marker comes before the scans; bytes after the end marker are allowed). OpenCV's decode
+    from the file's bytes refuses such a file; ``cv2.imread`` warns and decodes it with its missing rows grey."""
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        scans = data.find(b"\xff\xda")
+        return scans >= 0 and data.rfind(b"\xff\xd9") > scans
+
+
 def decodes_in_background(header: ImageHeader, kind: str) -> bool:
     """Whether :class:`~aerofid.io.raster.Raster` decodes the file in the background and takes its first look from
     libjpeg's reduced decode meanwhile: an 8-bit DCT JPEG (grey, or 3 or 4 components, which OpenCV decodes to RGB:
@@ -220,6 +262,7 @@ class Decoding:
     path: Path
     future: Future[np.ndarray]
     pid: int
+    header: ImageHeader | None = None
     traceback: TracebackType | None = None
 
 
@@ -228,15 +271,19 @@ _DECODES: OrderedDict[tuple[str, int, int], Decoding] = OrderedDict()
 _DECODES_LOCK = threading.Lock()
 
 
-def _read_only(path: Path) -> np.ndarray:
-    image = _decode_with_cv2(path)
+def _read_only(path: Path, header: ImageHeader | None = None) -> np.ndarray:
+    """The whole decode, read-only: into an array made from the ``header`` where OpenCV can
+    (:func:`_decode_in_place`), else OpenCV's own."""
+    image = _decode_in_place(path, header) if header is not None else None
+    if image is None:
+        image = _decode_with_cv2(path)
     image.setflags(write=False)
     return image
 
 
 def _decode_into(key: tuple[str, int, int], pending: Decoding) -> None:
     try:
-        image = _read_only(pending.path)
+        image = _read_only(pending.path, pending.header)
     except BaseException as exc:  # noqa: BLE001 (handed to the thread that waits for it)
         with _DECODES_LOCK:                     # a failure is not kept: the next open of the file decodes again
             if _DECODES.get(key) is pending:
@@ -247,18 +294,19 @@ def _decode_into(key: tuple[str, int, int], pending: Decoding) -> None:
         pending.future.set_result(image)
 
 
-def decoding(path: str, mtime_ns: int, size: int) -> Decoding:
+def decoding(path: str, mtime_ns: int, size: int, header: ImageHeader | None = None) -> Decoding:
     """The whole decode of a JPEG or PNG as ``(rows, columns, samples)`` in RGB(A) order, read-only, started in a
     thread of its own (cv2 releases the GIL while it decodes; the thread ends with the decode) and kept by path,
     modification time and size (the last :data:`DECODED_CACHE`), so that locating several marks in one file, or
-    opening it from two threads at once, decodes it once. :func:`decoded` waits for it."""
+    opening it from two threads at once, decodes it once. :func:`decoded` waits for it. With the file's ``header``
+    an 8-bit JPEG is decoded into an array made for it (:func:`_decode_in_place`)."""
     key = (path, mtime_ns, size)
     with _DECODES_LOCK:
         pending = _DECODES.get(key)
         if pending is not None:
             _DECODES.move_to_end(key)
             return pending
-        pending = _DECODES[key] = Decoding(Path(path), Future(), os.getpid())
+        pending = _DECODES[key] = Decoding(Path(path), Future(), os.getpid(), header)
         while len(_DECODES) > DECODED_CACHE:
             _DECODES.popitem(last=False)
     threading.Thread(target=_decode_into, args=(key, pending), name="aerofid-decode").start()
@@ -286,7 +334,7 @@ def _result(pending: Decoding) -> np.ndarray:
     failure is raised (:class:`AerofidInputError` for a file that cannot be decoded) with the decode's own
     traceback."""
     if pending.pid != os.getpid() and not pending.future.done():
-        return _read_only(pending.path)
+        return _read_only(pending.path, pending.header)
     exc = pending.future.exception()
     if exc is not None:
         raise exc.with_traceback(pending.traceback)
@@ -321,11 +369,18 @@ def _imread(path: Path, flags: int) -> np.ndarray | None:
     """``cv2.imread``: libjpeg reads the file, no copy of its bytes is held beside the decode; from the file's bytes
     (``cv2.imdecode``) for a name that is not valid UTF-8, which OpenCV's ``imread`` cannot take (it crashes)."""
     name = str(path)
+    if not _utf8(name):
+        return cv2.imdecode(np.fromfile(path, dtype=np.uint8), flags)
+    return cv2.imread(name, flags)
+
+
+def _utf8(name: str) -> bool:
+    """Whether OpenCV's ``imread`` can take the file name (it crashes on one that is not valid UTF-8)."""
     try:
         name.encode("utf-8")
     except UnicodeEncodeError:
-        return cv2.imdecode(np.fromfile(path, dtype=np.uint8), flags)
-    return cv2.imread(name, flags)
+        return False
+    return True
 
 
 class HugeJpegReader:

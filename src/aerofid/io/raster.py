@@ -377,7 +377,7 @@ class Raster:
             st = self.path.stat()
             key = (str(self.path.resolve()), st.st_mtime_ns, st.st_size)
             if jpeg.decodes_in_background(header, self.format):
-                self._open_decoding(header, jpeg.decoding(*key))
+                self._open_decoding(header, jpeg.decoding(*key, header))
                 return
             image = jpeg.decode_whole(*key)
             self.height, self.width, samples = image.shape

@@ -925,3 +925,54 @@ def test_a_jpeg_decoded_into_an_array_from_its_header_is_opencvs_own_decode(tmp_
     with open_raster(path) as raster:
         np.testing.assert_array_equal(raster.read_window((0, 0, 160, 120)), own if bands == 3 else own[:, :, 0])
     jpeg.forget_decodes()
+
+
+def _exif_thumbnail_first(data: bytes) -> bytes:
+    """``data`` (a JPEG) with an APP1 segment holding a whole small JPEG (an EXIF thumbnail: its own start of scan
+    and end of image) right after its start of image."""
+    thumb = cv2.imencode(".jpg", np.full((16, 16), 120, np.uint8))[1].tobytes()
+    app1 = b"Exif\x00\x00" + thumb
+    return data[:2] + b"\xff\xe1" + (len(app1) + 2).to_bytes(2, "big") + app1 + data[2:]
+
+
+@pytest.mark.parametrize("cut", [0.5, 0.95, "end marker"])
+def test_a_truncated_jpeg_with_a_thumbnail_is_still_refused(tmp_path, cut):
+    """The thumbnail's markers do not make a truncated scan whole: the marker walk skips segments by their length."""
+    data = _exif_thumbnail_first(cv2.imencode(".jpg", smooth_image(3, (240, 320)))[1].tobytes())
+    path = tmp_path / "trunc.jpg"
+    path.write_bytes(data[:-2] if cut == "end marker" else data[: int(len(data) * cut)])
+    assert not jpeg._ends_its_scans(path)
+    jpeg.forget_decodes()
+    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+        raster.read_window((0, 0, 8, 8))
+    assert_one_line_error(excinfo, "corrupt or truncated")
+    jpeg.forget_decodes()
+
+
+def test_a_jpeg_whose_header_libjpeg_refuses_is_refused_not_an_empty_image(tmp_path):
+    """``cv2.imread`` into an array leaves the array as it was when libjpeg refuses the header (here a Huffman
+    table whose counts make no code): OpenCV's own decode then decides, and refuses the file."""
+    data = bytearray(cv2.imencode(".jpg", smooth_image(3, (240, 320)))[1].tobytes())
+    k = data.find(b"\xff\xc4")
+    data[k + 5:k + 21] = bytes([255] * 16)
+    path = tmp_path / "bad_table.jpg"
+    path.write_bytes(bytes(data))
+    assert jpeg._ends_its_scans(path)
+    assert jpeg._decode_in_place(path, jpeg.read_header(path, "jpeg")) is None
+    jpeg.forget_decodes()
+    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+        raster.read_window((0, 0, 8, 8))
+    assert_one_line_error(excinfo, "cannot decode")
+    jpeg.forget_decodes()
+
+
+def test_a_whole_jpeg_with_a_thumbnail_and_bytes_after_its_end_is_decoded_into_its_array(tmp_path):
+    img = smooth_image(3, (240, 320))
+    path = tmp_path / "thumb.jpg"
+    path.write_bytes(_exif_thumbnail_first(cv2.imencode(".jpg", img)[1].tobytes()) + b"trailing bytes")
+    assert jpeg._ends_its_scans(path)
+    into = jpeg._decode_in_place(path, jpeg.read_header(path, "jpeg"))
+    if not jpeg.IMREAD_INTO:
+        pytest.skip("this OpenCV cannot decode into a given array")
+    assert into is not None
+    np.testing.assert_array_equal(into, jpeg._decode_with_cv2(path))

@@ -20,8 +20,8 @@ are weighed by area from the reduced pixels.
 
 from __future__ import annotations
 
-import mmap
 import os
+import re
 import threading
 from collections import OrderedDict
 from collections.abc import Iterator
@@ -217,34 +217,68 @@ def _decode_in_place(path: Path, header: ImageHeader) -> np.ndarray | None:
     """An 8-bit JPEG of 1 or 3 samples (:func:`decodes_in_background`) decoded by libjpeg into an array made for
     it from its header, as ``(rows, columns, samples)`` in RGB order: the samples :func:`_decode_with_cv2` gives (the
     same libjpeg decode, its EXIF orientation ignored as ``IMREAD_UNCHANGED`` does, RGB from libjpeg instead of BGR
-    reversed), without OpenCV's second copy. None where OpenCV cannot (:data:`IMREAD_INTO`, a name that is not valid
-    UTF-8, or it decoded to another shape than the header's)."""
+    reversed), without OpenCV's second copy. Only a shortcut: None, and OpenCV's own decode decides, wherever this
+    one could differ from it or cannot tell - OpenCV without the destination (:data:`IMREAD_INTO`), a name that is
+    not valid UTF-8, a file that does not end its scans (:func:`_ends_its_scans`: ``cv2.imread`` makes up a truncated
+    file's missing end, which the decode from bytes refuses), a decode that failed or wrote nothing (``imread`` into
+    an array leaves it as it was when libjpeg refuses the header, or the file is gone: a pattern in its last row
+    tells), or one of another size."""
     name = str(path)
-    if not IMREAD_INTO or not decodes_in_background(header, "jpeg") or not _utf8(name):
+    if not IMREAD_INTO or not decodes_in_background(header, "jpeg") or not _utf8(name) or not _ends_its_scans(path):
         return None
-    if not _ends_its_scans(path):   # libjpeg's file reader makes up the missing end where OpenCV's from bytes fails
-        raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
     grey = header.samples == 1
     dst = np.empty((header.height, header.width) if grey else (header.height, header.width, 3), np.uint8)
+    last = (np.arange(dst[-1].size, dtype=np.int64) * 7 + 3) % 251
+    dst[-1] = last.reshape(dst[-1].shape)       # libjpeg writes the rows in order: the last one last
     flags = (cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR_RGB) | cv2.IMREAD_IGNORE_ORIENTATION
     try:
         image = cv2.imread(name, dst, flags)
-    except cv2.error as exc:
-        raise AerofidInputError(f"cannot decode {path}: {_one_line(exc)}; re-export the scan") from exc
-    if image is None or image.size == 0:
-        raise AerofidInputError(f"cannot decode {path}: the file is corrupt or truncated; re-export the scan")
-    if image.shape != dst.shape:
+    except cv2.error:
+        return None
+    if image is None or image is not dst or np.array_equal(dst[-1], last.reshape(dst[-1].shape)):
         return None
     return image[:, :, None] if grey else image
 
 
+_SCAN_DATA_END = re.compile(rb"\xff[^\x00\xd0-\xd7\xff]")
+"""The marker that ends a scan's entropy-coded data: an FF byte not followed by a stuffed 0, a restart marker or a
+fill byte."""
+
+
 def _ends_its_scans(path: Path) -> bool:
-    """Whether the file has an end-of-image marker after the start of its first scan: a truncated JPEG has not (an
-    EXIF thumbnail's own end marker comes before the scans; bytes after the end marker are allowed). OpenCV's decode
-    from the file's bytes refuses such a file; ``cv2.imread`` warns and decodes it with its missing rows grey."""
-    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
-        scans = data.find(b"\xff\xda")
-        return scans >= 0 and data.rfind(b"\xff\xd9") > scans
+    """Whether the JPEG's marker segments, walked as libjpeg reads them (each segment's length skipped, so that an
+    EXIF thumbnail's or a comment's bytes do not count; a scan's entropy-coded data up to the marker that ends it),
+    reach an end-of-image marker after a scan. False for a truncated file, for anything the walk does not expect, and
+    when the file cannot be read (OpenCV's own decode then gives the answer)."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return False
+    n, pos, scanned = len(data), 2, False
+    if data[:2] != b"\xff\xd8":
+        return False
+    while pos + 1 < n:
+        if data[pos] != 0xFF:
+            return False
+        while pos + 1 < n and data[pos + 1] == 0xFF:    # fill bytes
+            pos += 1
+        marker = data[pos + 1] if pos + 1 < n else -1
+        if marker == 0xD9:
+            return scanned
+        if marker < 0 or marker in _STANDALONE:
+            pos += 2
+            continue
+        length = int.from_bytes(data[pos + 2:pos + 4], "big")
+        if length < 2 or pos + 2 + length > n:
+            return False
+        pos += 2 + length
+        if marker == 0xDA:                             # a start of scan: its entropy-coded data follows
+            scanned = True
+            found = _SCAN_DATA_END.search(data, pos)
+            if found is None:
+                return False
+            pos = found.start()
+    return False
 
 
 def decodes_in_background(header: ImageHeader, kind: str) -> bool:

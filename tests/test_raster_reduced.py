@@ -976,3 +976,39 @@ def test_a_whole_jpeg_with_a_thumbnail_and_bytes_after_its_end_is_decoded_into_i
         pytest.skip("this OpenCV cannot decode into a given array")
     assert into is not None
     np.testing.assert_array_equal(into, jpeg._decode_with_cv2(path))
+
+
+@pytest.mark.parametrize("chunk", [1, 2, 3, 7, 1 << 22])
+def test_the_marker_walk_reads_in_chunks_as_a_whole(tmp_path, monkeypatch, chunk):
+    """The end of a scan's data is found wherever the chunks cut it (an FF and its fill bytes carried over):
+    baseline, progressive, with restart markers, with a thumbnail, cut anywhere."""
+    monkeypatch.setattr(jpeg, "_CHUNK", chunk)
+    img = smooth_image(3, (48, 64))
+    kinds = [cv2.imencode(".jpg", img)[1].tobytes(),
+             cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_PROGRESSIVE, 1])[1].tobytes(),
+             cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_RST_INTERVAL, 2])[1].tobytes()]
+    kinds.append(_exif_thumbnail_first(kinds[0]))
+    for k, data in enumerate(kinds):
+        path = tmp_path / f"{k}.jpg"
+        path.write_bytes(data + b"\xff\xff")                   # bytes after the end marker
+        assert jpeg.jpeg_structure(path) == "complete"
+        for cut in (len(data) - 2, len(data) - 1, len(data) // 2, 700):
+            path.write_bytes(data[:cut])
+            assert jpeg.jpeg_structure(path) == "truncated", (k, cut)
+    path.write_bytes(b"\xff\xd8\xff\xd9")
+    assert jpeg.jpeg_structure(path) == "unexpected"            # an end before any scan
+
+
+def test_a_truncated_jpeg_too_large_to_decode_whole_is_refused_not_read_grey(tmp_path, monkeypatch):
+    """libjpeg's reduced decode makes up a truncated file's missing rows (grey): a JPEG read only reduced is refused
+    when its marker walk runs out of data."""
+    data = cv2.imencode(".jpg", np.full((640, 800), 90, np.uint8))[1].tobytes()
+    path = tmp_path / "trunc.jpg"
+    path.write_bytes(data[: len(data) // 2])
+    monkeypatch.setattr(jpeg, "DECODE_BUDGET_BYTES", 640 * 800 - 1)
+    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+        raster.read_reduced((0, 0, 800, 640), 8)
+    assert_one_line_error(excinfo, "truncated", "re-export")
+    path.write_bytes(data)
+    with open_raster(path) as raster:
+        assert raster.read_reduced((0, 0, 800, 640), 8).shape == (80, 100)

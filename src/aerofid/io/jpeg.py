@@ -54,6 +54,7 @@ __all__ = [
     "finish",
     "forget_decodes",
     "header_segments",
+    "jpeg_structure",
     "read_header",
 ]
 
@@ -243,42 +244,90 @@ def _decode_in_place(path: Path, header: ImageHeader) -> np.ndarray | None:
 _SCAN_DATA_END = re.compile(rb"\xff[^\x00\xd0-\xd7\xff]")
 """The marker that ends a scan's entropy-coded data: an FF byte not followed by a stuffed 0, a restart marker or a
 fill byte."""
+_CHUNK = 1 << 22
+"""Bytes read at a time when the marker walk looks for the end of a scan's data."""
+
+
+def jpeg_structure(path: Path) -> str:
+    """How a JPEG's marker segments end, walked as libjpeg reads them (each segment's length skipped, so that an EXIF
+    thumbnail's or a comment's bytes do not count; a scan's entropy-coded data up to the marker that ends it, read in
+    chunks): ``"complete"`` (an end-of-image marker after a scan), ``"truncated"`` (the file ends inside a segment or a
+    scan's data, before its end of image: libjpeg then makes up the rest, grey) or ``"unexpected"`` (anything the walk
+    does not expect: no start of image, bytes between segments, a corrupt length, an end before any scan).
+
+    Raises
+    ------
+    OSError
+        The file cannot be read.
+    """
+    with open(path, "rb") as f:
+        size = os.fstat(f.fileno()).st_size
+        if f.read(2) != b"\xff\xd8":
+            return "unexpected"
+        scanned = False
+        while True:
+            marker = _next_segment(f, size)
+            if isinstance(marker, str):
+                return marker
+            if marker == 0xD9:
+                return "complete" if scanned else "unexpected"
+            if marker == 0xDA:                               # a start of scan: its entropy-coded data follows
+                scanned = True
+                end = _scan_data_end(f)
+                if end is None:
+                    return "truncated"
+                f.seek(end)
+
+
+def _next_segment(f: BinaryIO, size: int) -> int | str:
+    """The next marker at ``f``'s position (fill bytes skipped), its segment's body skipped; or how the walk ends
+    there (:func:`jpeg_structure`'s ``"truncated"`` or ``"unexpected"``)."""
+    byte = f.read(1)
+    if not byte:
+        return "truncated"
+    if byte != b"\xff":
+        return "unexpected"
+    marker = f.read(1)
+    while marker == b"\xff":
+        marker = f.read(1)
+    if not marker:
+        return "truncated"
+    if marker[0] == 0xD9 or marker[0] in _STANDALONE:
+        return marker[0]
+    length_bytes = f.read(2)
+    if len(length_bytes) < 2:
+        return "truncated"
+    length = int.from_bytes(length_bytes, "big")
+    if length < 2:
+        return "unexpected"
+    if f.tell() + length - 2 > size:
+        return "truncated"
+    f.seek(length - 2, os.SEEK_CUR)
+    return marker[0]
+
+
+def _scan_data_end(f: BinaryIO) -> int | None:
+    """The offset of the marker that ends the entropy-coded data starting at ``f``'s position, None if the file ends
+    first (an FF at the end of a chunk is carried into the next, with its fill bytes)."""
+    start, carry = f.tell(), b""
+    while True:
+        chunk = f.read(_CHUNK)
+        if not chunk:
+            return None
+        data = carry + chunk
+        found = _SCAN_DATA_END.search(data)
+        if found is not None:
+            return start - len(carry) + found.start()
+        carry = b"\xff" if data.endswith(b"\xff") else b""
+        start += len(chunk)
 
 
 def _ends_its_scans(path: Path) -> bool:
-    """Whether the JPEG's marker segments, walked as libjpeg reads them (each segment's length skipped, so that an
-    EXIF thumbnail's or a comment's bytes do not count; a scan's entropy-coded data up to the marker that ends it),
-    reach an end-of-image marker after a scan. False for a truncated file, for anything the walk does not expect, and
-    when the file cannot be read (OpenCV's own decode then gives the answer)."""
+    """Whether the JPEG's marker walk is ``"complete"`` (:func:`jpeg_structure`); False when it cannot be read."""
     try:
-        data = path.read_bytes()
+        return jpeg_structure(path) == "complete"
     except OSError:
         return False
-    n, pos, scanned = len(data), 2, False
-    if data[:2] != b"\xff\xd8":
-        return False
-    while pos + 1 < n:
-        if data[pos] != 0xFF:
-            return False
-        while pos + 1 < n and data[pos + 1] == 0xFF:    # fill bytes
-            pos += 1
-        marker = data[pos + 1] if pos + 1 < n else -1
-        if marker == 0xD9:
-            return scanned
-        if marker < 0 or marker in _STANDALONE:
-            pos += 2
-            continue
-        length = int.from_bytes(data[pos + 2:pos + 4], "big")
-        if length < 2 or pos + 2 + length > n:
-            return False
-        pos += 2 + length
-        if marker == 0xDA:                             # a start of scan: its entropy-coded data follows
-            scanned = True
-            found = _SCAN_DATA_END.search(data, pos)
-            if found is None:
-                return False
-            pos = found.start()
-    return False
 
 
 def decodes_in_background(header: ImageHeader, kind: str) -> bool:
@@ -421,13 +470,16 @@ class HugeJpegReader:
     """A JPEG too large to decode whole: reduced reads through libjpeg's 1/2, 1/4, 1/8 decode, no windows.
 
     The last reduced decode is kept (one per reader) so that several boxes reduced by the same factor decode
-    the file once.
+    the file once. With ``checks_truncation`` a reduced decode first checks that the file is not truncated
+    (:func:`jpeg_structure`): libjpeg makes up a truncated file's missing rows, grey. Not for the first look at a JPEG
+    also decoded whole, whose whole decode refuses such a file.
     """
 
-    def __init__(self, path: Path, header: ImageHeader, bands: int):
+    def __init__(self, path: Path, header: ImageHeader, bands: int, checks_truncation: bool = True):
         self.path = path
         self.header = header
         self.bands = bands
+        self.checks_truncation = checks_truncation
         self._kept: tuple[int, np.ndarray] | None = None
 
     def _too_large(self) -> str:
@@ -463,6 +515,9 @@ class HugeJpegReader:
         self._kept = None
         flags = _REDUCED_FLAGS[(self.bands, scale)] | cv2.IMREAD_IGNORE_ORIENTATION
         try:
+            if self.checks_truncation and jpeg_structure(self.path) == "truncated":
+                raise AerofidInputError(f"cannot decode {self.path}: the file is truncated (its data ends before its "
+                                        "end of image); re-export the scan")
             image = _imread(self.path, flags)
         except (OSError, cv2.error) as exc:
             raise AerofidInputError(f"cannot decode {self.path}: {_one_line(exc)}; re-export the scan") from exc

@@ -394,17 +394,17 @@ class Raster:
             raise AerofidInputError(f"{too_large}; convert it to a tiled TIFF (e.g. gdal_translate -co TILED=YES)")
         self._reader = self._from_header(header)
 
-    def _from_header(self, header: jpeg.ImageHeader) -> jpeg.HugeJpegReader:
+    def _from_header(self, header: jpeg.ImageHeader, checks_truncation: bool = True) -> jpeg.HugeJpegReader:
         """Size, bands and type of an 8-bit JPEG from its header, and its reader through libjpeg's reduced decode."""
         self.width, self.height = header.width, header.height
         self.bands = _bands_for_samples(header.samples, self.path)
         self.dtype = np.dtype(np.uint8)
-        return jpeg.HugeJpegReader(self.path, header, self.bands)
+        return jpeg.HugeJpegReader(self.path, header, self.bands, checks_truncation)
 
     def _open_decoding(self, header: jpeg.ImageHeader, pending: jpeg.Decoding) -> None:
         """A JPEG being decoded whole in the background (:func:`aerofid.io.jpeg.decoding`): its size from the header,
         windows once the decode is done, and :meth:`read_overview` from libjpeg's reduced decode meanwhile."""
-        self._overview = self._from_header(header)
+        self._overview = self._from_header(header, checks_truncation=False)   # the whole decode refuses a truncated one
         self._pending = pending
         self._reader = BackgroundJpegReader(pending, header, self.path)
 

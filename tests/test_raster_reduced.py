@@ -935,6 +935,15 @@ def _exif_thumbnail_first(data: bytes) -> bytes:
     return data[:2] + b"\xff\xe1" + (len(app1) + 2).to_bytes(2, "big") + app1 + data[2:]
 
 
+def _window_refused(path, *fragments):
+    """A window of the JPEG at ``path``, decoded anew, is a one-line error naming ``fragments``."""
+    jpeg.forget_decodes()
+    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
+        raster.read_window((0, 0, 8, 8))
+    assert_one_line_error(excinfo, *fragments)
+    jpeg.forget_decodes()
+
+
 @pytest.mark.parametrize("cut", [0.5, 0.95, "end marker"])
 def test_a_truncated_jpeg_with_a_thumbnail_is_still_refused(tmp_path, cut):
     """The thumbnail's markers do not make a truncated scan whole: the marker walk skips segments by their length."""
@@ -942,11 +951,7 @@ def test_a_truncated_jpeg_with_a_thumbnail_is_still_refused(tmp_path, cut):
     path = tmp_path / "trunc.jpg"
     path.write_bytes(data[:-2] if cut == "end marker" else data[: int(len(data) * cut)])
     assert not jpeg._ends_its_scans(path)
-    jpeg.forget_decodes()
-    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
-        raster.read_window((0, 0, 8, 8))
-    assert_one_line_error(excinfo, "corrupt or truncated")
-    jpeg.forget_decodes()
+    _window_refused(path, "corrupt or truncated")
 
 
 def test_a_jpeg_whose_header_libjpeg_refuses_is_refused_not_an_empty_image(tmp_path):
@@ -959,11 +964,7 @@ def test_a_jpeg_whose_header_libjpeg_refuses_is_refused_not_an_empty_image(tmp_p
     path.write_bytes(bytes(data))
     assert jpeg._ends_its_scans(path)
     assert jpeg._decode_in_place(path, jpeg.read_header(path, "jpeg")) is None
-    jpeg.forget_decodes()
-    with open_raster(path) as raster, pytest.raises(AerofidInputError) as excinfo:
-        raster.read_window((0, 0, 8, 8))
-    assert_one_line_error(excinfo, "cannot decode")
-    jpeg.forget_decodes()
+    _window_refused(path, "cannot decode")
 
 
 def test_a_whole_jpeg_with_a_thumbnail_and_bytes_after_its_end_is_decoded_into_its_array(tmp_path):

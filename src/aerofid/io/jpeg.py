@@ -229,14 +229,14 @@ def _decode_in_place(path: Path, header: ImageHeader) -> np.ndarray | None:
         return None
     grey = header.samples == 1
     dst = np.empty((header.height, header.width) if grey else (header.height, header.width, 3), np.uint8)
-    last = (np.arange(dst[-1].size, dtype=np.int64) * 7 + 3) % 251
-    dst[-1] = last.reshape(dst[-1].shape)       # libjpeg writes the rows in order: the last one last
+    pattern = ((np.arange(dst[-1].size) * 7 + 3) % 251).astype(np.uint8).reshape(dst[-1].shape)
+    dst[-1] = pattern                           # libjpeg writes the rows in order: the last one last
     flags = (cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR_RGB) | cv2.IMREAD_IGNORE_ORIENTATION
     try:
         image = cv2.imread(name, dst, flags)
     except cv2.error:
         return None
-    if image is None or image is not dst or np.array_equal(dst[-1], last.reshape(dst[-1].shape)):
+    if image is None or image is not dst or np.array_equal(dst[-1], pattern):
         return None
     return image[:, :, None] if grey else image
 
@@ -481,6 +481,7 @@ class HugeJpegReader:
         self.bands = bands
         self.checks_truncation = checks_truncation
         self._kept: tuple[int, np.ndarray] | None = None
+        self._walked = False                    # the truncation check is made once, at the first reduced decode
 
     def _too_large(self) -> str:
         h = self.header
@@ -515,9 +516,10 @@ class HugeJpegReader:
         self._kept = None
         flags = _REDUCED_FLAGS[(self.bands, scale)] | cv2.IMREAD_IGNORE_ORIENTATION
         try:
-            if self.checks_truncation and jpeg_structure(self.path) == "truncated":
+            if self.checks_truncation and not self._walked and jpeg_structure(self.path) == "truncated":
                 raise AerofidInputError(f"cannot decode {self.path}: the file is truncated (its data ends before its "
                                         "end of image); re-export the scan")
+            self._walked = True
             image = _imread(self.path, flags)
         except (OSError, cv2.error) as exc:
             raise AerofidInputError(f"cannot decode {self.path}: {_one_line(exc)}; re-export the scan") from exc

@@ -102,7 +102,7 @@ def percentile(values: np.ndarray, q: float) -> float:
         raise ValueError("percentile of no values")
     virtual = (n - 1) * (q / 100)
     below = -1 if virtual >= n - 1 else math.floor(virtual)   # numpy: the last value, its weight from index -1
-    arr.partition(np.unique(np.array([0, -1, below, below + 1 if below >= 0 else -1], np.intp)))
+    arr.partition(sorted({0, -1, below, below + 1 if below >= 0 else -1}))   # as np.unique gave them (no numpy.ma)
     if np.isnan(arr[-1]):
         return float("nan")
     gamma = float(virtual - below)

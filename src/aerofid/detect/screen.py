@@ -28,6 +28,7 @@ stronger kept). A candidate is a hint for the detectors, never an answer.
 from __future__ import annotations
 
 import bisect
+import functools
 import heapq
 import math
 from dataclasses import dataclass
@@ -84,18 +85,27 @@ class Candidate:
                 "inner": round(self.inner, 2), "strength": round(self.strength, 3)}
 
 
+@functools.lru_cache(maxsize=16)
 def half_disc_offsets(radius: int) -> np.ndarray:
     """The offsets (dx, dy) of a disc of ``radius`` px with one of each pair {d, -d} (d != 0), as an (n, 2)
-    int array; with the centre excluded, each unordered pair of opposite pixels appears once."""
+    int array; with the centre excluded, each unordered pair of opposite pixels appears once (read-only, made once
+    per radius)."""
     dy, dx = np.mgrid[0:radius + 1, -radius:radius + 1]
     keep = (dx * dx + dy * dy <= radius * radius) & ((dy > 0) | (dx > 0))
-    return np.stack([dx[keep], dy[keep]], axis=1)
+    return _read_only(np.stack([dx[keep], dy[keep]], axis=1))
 
 
-def disc_kernel(radius: int) -> np.ndarray:
-    """A float32 disc of ones of ``radius`` px (the pixels whose centres lie within it)."""
+@functools.lru_cache(maxsize=16)
+def disc_kernel(radius: int, dtype: type = np.float32) -> np.ndarray:
+    """A disc of ones of ``radius`` px (the pixels whose centres lie within it), float32 (or ``dtype``: uint8 for a
+    structuring element); read-only, made once per radius and type."""
     dy, dx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
-    return (dx * dx + dy * dy <= radius * radius).astype(np.float32)
+    return _read_only((dx * dx + dy * dy <= radius * radius).astype(dtype))
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
 
 
 DFT_CELLS = 130
@@ -137,9 +147,11 @@ def symmetric_energy(g: np.ndarray, radii: tuple[int, ...] = RADII, threads: int
                                   pad[rmax - dy + r0:rmax - dy + r1, rmax - dx:rmax - dx + w], rings[k, r0:r1])
 
     map_in_threads(band, range(0, h, ENERGY_ROWS), threads)
-    out = 2.0 * np.cumsum(rings, axis=0)
-    out += g[None] * g[None]
-    return out
+    for k in range(1, len(radii)):              # the discs' sums from their rings (np.cumsum along this short
+        rings[k] += rings[k - 1]                # first axis: the same sums, 20 times slower)
+    rings *= 2.0
+    rings += g[None] * g[None]
+    return rings
 
 
 def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.ndarray:
@@ -210,7 +222,7 @@ def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RAD
     maps = strength_maps(img, radii, noise_floor=noise_floor, threads=threads)
     found = []
     for r, m in zip(radii, maps, strict=True):
-        peak = m == cv2.dilate(m, disc_kernel(r).astype(np.uint8))
+        peak = m == cv2.dilate(m, disc_kernel(r, np.uint8))
         ys, xs = np.nonzero(peak & (m >= min_strength))
         strength = m[ys, xs]
         order = np.argsort(-strength, kind="stable")[:limit]
@@ -434,7 +446,8 @@ class _Cells:
         self.every: list[int] | None = list(range(len(self.xs)))
         if len(xs) <= FEW_CANDIDATES:
             return
-        classes = np.unique(radii)
+        classes = np.sort(radii)
+        classes = classes[np.concatenate(([True], classes[1:] != classes[:-1]))]   # np.unique's (no numpy.ma)
         while len(classes) and classes[0] > 0 and np.isfinite(classes[-1]):
             group = classes[classes <= GROUP_SPAN * classes[0]]
             classes = classes[len(group):]

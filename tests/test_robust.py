@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from aerofid.robust import MAD_TO_SIGMA, median, percentile, robust_std
+from aerofid.robust import MAD_TO_SIGMA, median, percentile, percentiles, robust_std
 
 _FLOATS = st.sampled_from([np.float32, np.float64])
 _SHAPES = st.tuples(st.integers(1, 40), st.integers(1, 7))
@@ -65,6 +65,34 @@ def test_percentile_is_numpys_to_the_bit(values, q):
         numpys = float(np.percentile(values, q))
         ours = percentile(values, q)
     assert (ours == numpys or (np.isnan(ours) and np.isnan(numpys))) and np.signbit(ours) == np.signbit(numpys)
+
+
+@given(arrays(_FLOATS, st.integers(1, 60),
+              elements=st.floats(-1e6, 1e6, width=32) | st.sampled_from([0.0, -0.0, np.inf, -np.inf, np.nan]))
+       | arrays(st.sampled_from([np.int64, np.uint8]), st.integers(1, 60), elements=st.integers(0, 9)),
+       st.lists(st.integers(0, 100) | st.floats(0, 100) | st.sampled_from([1.0, 50.0, 99.0, 100]), min_size=1,
+                max_size=4))
+def test_percentiles_are_numpys_to_the_bit(values, qs):
+    """Several percentiles at once: numpy's one selection at all their indices and its float64 interpolation, the
+    same numbers as ``np.percentile(values, qs)``, signs of zero included."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        numpys = [float(v) for v in np.percentile(values, tuple(qs))]
+        ours = percentiles(values, tuple(qs))
+    assert len(ours) == len(numpys)
+    for o, n in zip(ours, numpys, strict=True):
+        assert (o == n or (np.isnan(o) and np.isnan(n))) and np.signbit(o) == np.signbit(n)
+
+
+def test_percentiles_of_a_grey_window_and_their_errors():
+    """The colour policy's percentiles of a float32 window (1, 50, 99: numpy's float64 interpolation) and the errors
+    of :func:`percentile`."""
+    grey = np.random.default_rng(3).random((61, 67)).astype(np.float32)
+    assert percentiles(grey, (1.0, 50.0, 99.0)) == tuple(np.percentile(grey, (1.0, 50.0, 99.0)).tolist())
+    with pytest.raises(ValueError, match="no values"):
+        percentiles(np.array([]), (50,))
+    with pytest.raises(ValueError, match="not in"):
+        percentiles(np.array([1.0]), (50, 101))
 
 
 def test_percentile_places_zeros_of_either_sign_as_numpy_does():

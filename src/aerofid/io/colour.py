@@ -10,7 +10,7 @@ import numpy as np
 
 from aerofid.conventions import POLARITIES, Polarity
 from aerofid.errors import AerofidInputError
-from aerofid.robust import MAD_TO_SIGMA
+from aerofid.robust import MAD_TO_SIGMA, median, percentiles
 
 __all__ = [
     "COLOUR_POLICIES",
@@ -70,9 +70,9 @@ def mark_contrast(grey: np.ndarray, polarity: Polarity = "bright", *, noise_floo
     Gaussian sigma (x 1.4826) and floored at ``noise_floor`` so that a flat background does not divide by 0.
     """
     _check_choice(polarity, POLARITIES, "polarity")
-    low, median, high = np.percentile(grey, (1.0, 50.0, 99.0))
-    signal = high - median if polarity == "bright" else median - low
-    noise = MAD_TO_SIGMA * float(np.median(np.abs(grey - median)))
+    low, middle, high = (np.float64(v) for v in percentiles(grey, (1.0, 50.0, 99.0)))   # as np.percentile's
+    signal = high - middle if polarity == "bright" else middle - low
+    noise = MAD_TO_SIGMA * float(median(np.abs(grey - middle)))
     return float(signal) / max(noise, noise_floor)
 
 

@@ -68,6 +68,7 @@ from aerofid.io.reduce import ReducedView, read_reduced_levels
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import ARRANGEMENTS
+from aerofid.robust import median
 
 FRAME_PIXELS = 1_000_000
 """Most pixels of the reduced whole frame that is screened (a power-of-two reduction: a 5908 x 5408 scan at 8,
@@ -675,7 +676,7 @@ def _xy(m: Located | None) -> tuple[float, float]:
 
 
 def _median_extent(out: list[tuple[Located | None, str]], done: list[int]) -> float:
-    return float(np.median([out[j][0].extent for j in done]))  # type: ignore[union-attr]
+    return float(median(np.array([out[j][0].extent for j in done])))  # type: ignore[union-attr]
 
 
 def _waits(k: int, done: list[int], pending: list[int], kinds: Sequence[int], layout: LayoutMatch) -> bool:
@@ -855,7 +856,7 @@ def _median_radius(layout: LayoutMatch, features: tuple[Candidate, ...], among: 
     """The median first-window radius (:func:`_first_window`) of the features matched to the fiducials ``among``
     (default: all of them)."""
     matched = layout.matched if among is None else [layout.matched[j] for j in among]
-    return float(np.median([_first_window(features[m]).radius for m in matched if m is not None]))
+    return float(median(np.array([_first_window(features[m]).radius for m in matched if m is not None])))
 
 
 def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,

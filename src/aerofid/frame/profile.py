@@ -33,6 +33,7 @@ from aerofid.frame.templates import MarkTemplate, cut_template
 from aerofid.frame.verdict import adjusted_pixel_mm
 from aerofid.io.files import read_text_input
 from aerofid.orientation.correspondence import ARRANGEMENTS
+from aerofid.robust import median
 
 PROFILE_FORMAT = "aerofid-roll-profile"
 """The ``format`` entry that names a profile file."""
@@ -228,7 +229,7 @@ def learn_profile(res: FrameOrientation, measured: Mapping[str, Sequence[float]]
     return RollProfile(camera=res.camera, pixel_size_mm=size, rotation_deg=res.rotation_deg,
                        mirrored=res.mirrored, polarity=polarity,
                        method=Counter(methods).most_common(1)[0][0],
-                       mark_radius_mm=float(np.median([m.extent for m in found])) * size, image=res.image,
+                       mark_radius_mm=float(median(np.array([m.extent for m in found]))) * size, image=res.image,
                        positions_px=tuple(positions),
                        mark_radii_mm=tuple((f.name, f.located.extent * size) for f in res.fiducials
                                            if f.status == FOUND_MARK and f.located is not None),
@@ -285,7 +286,7 @@ def disagreements(profile: RollProfile, res: FrameOrientation) -> list[str]:
                    f"{profile.pixel_size_mm:.5f} mm")
     found = [f for f in res.fiducials if f.status == FOUND_MARK and f.located is not None]
     if found:
-        radius = float(np.median([f.located.extent for f in found])) * size  # type: ignore[union-attr]
+        radius = float(median(np.array([f.located.extent for f in found]))) * size  # type: ignore[union-attr]
         if abs(radius / profile.mark_radius_mm - 1) > SIZE_AGREEMENT:
             out.append(f"the marks' radius {radius:.3f} mm differs from the roll profile's "
                        f"{profile.mark_radius_mm:.3f} mm")

@@ -212,7 +212,7 @@ def _assignment(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     else the Hungarian method (scipy's, :func:`aerofid.scipy_kernels.linear_sum_assignment`: loaded only then, and
     without scipy.optimize's start-up)."""
     cols = D.argmin(axis=1)
-    if len(np.unique(cols)) == len(cols):
+    if len(set(cols.tolist())) == len(cols):
         return np.arange(len(cols)), cols
     return linear_sum_assignment(D)
 

@@ -31,6 +31,7 @@ import bisect
 import functools
 import heapq
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -185,8 +186,14 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
                   k: float = SYMMETRY_WEIGHT, noise_floor: float = 1e-4, threads: int | None = None) -> np.ndarray:
     """The screening strength (module docstring) of every pixel of ``img`` for each of ``radii`` (axis 0);
     zero where the disc is not wholly inside ``img``. Worked on by ``threads`` threads (the symmetric energy's
-    bands, the radii); default: :data:`~aerofid.parallel.THREADS` for an image of :data:`THREADED_PIXELS` or more,
-    else one."""
+    bands, the radii, the largest first: its disc sums cost the most); default: :data:`~aerofid.parallel.THREADS` for
+    an image of :data:`THREADED_PIXELS` or more, else one."""
+    return _strength_maps(img, radii, k, noise_floor, threads)
+
+
+def _strength_maps(img: np.ndarray, radii: tuple[int, ...], k: float, noise_floor: float, threads: int | None,
+                   then: Callable[[int, np.ndarray], None] | None = None) -> np.ndarray:
+    """:func:`strength_maps`, and ``then(i, map)`` run on each radius's map by the thread that made it."""
     img = img.astype(np.float32)
     threads = _threads(img.size, threads)
     rmax = max(radii)
@@ -208,8 +215,10 @@ def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
         m = np.clip((1 + k) * s - k, 0, None) * iso * np.sqrt(energy) / noise
         m[:r], m[-r:], m[:, :r], m[:, -r:] = 0, 0, 0, 0
         out[i] = m
+        if then is not None:
+            then(i, out[i])
 
-    map_in_threads(strength, range(len(radii)), threads)
+    map_in_threads(strength, sorted(range(len(radii)), key=lambda i: -radii[i]), threads)
     return out
 
 
@@ -218,17 +227,20 @@ def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RAD
                      limit: int = 256, threads: int | None = None) -> Found:
     """The ``limit`` strongest local maxima of the strength of one pyramid level per radius, in input pixels
     (``scale`` input pixels per level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``);
-    ``threads``: as :func:`strength_maps`."""
-    maps = strength_maps(img, radii, noise_floor=noise_floor, threads=threads)
-    found = []
-    for r, m in zip(radii, maps, strict=True):
+    ``threads``: as :func:`strength_maps` (each finds the maxima of the maps it made)."""
+    found: list[Found] = [Found.of([])] * len(radii)
+
+    def maxima(i: int, m: np.ndarray) -> None:
+        r = radii[i]
         peak = m == cv2.dilate(m, disc_kernel(r, np.uint8))
         ys, xs = np.nonzero(peak & (m >= min_strength))
         strength = m[ys, xs]
         order = np.argsort(-strength, kind="stable")[:limit]
         radius = np.full(len(order), r * scale)
-        found.append(Found((xs[order] + 0.5) * scale - 0.5, (ys[order] + 0.5) * scale - 0.5, radius,
-                           strength[order].astype(float), radius))
+        found[i] = Found((xs[order] + 0.5) * scale - 0.5, (ys[order] + 0.5) * scale - 0.5, radius,
+                         strength[order].astype(float), radius)
+
+    _strength_maps(img, radii, SYMMETRY_WEIGHT, noise_floor, threads, maxima)
     return Found.joined(found)
 
 

@@ -54,9 +54,10 @@ MEDIAN_MAX_DIFFERENCE = 1.0518 * np.sqrt(2.0)
 median t of the larger of two half-normals solves (2 Phi(t) - 1)^2 = 1/2, t = 1.0518."""
 MERGE_SHARE = 0.25
 """Two candidates closer than this share of the larger radius are one structure (module docstring)."""
-ENERGY_ROWS = 128
+ENERGY_ROWS = 256
 """Rows of a level that :func:`symmetric_energy` sums over every offset before the next (a band that stays in the
-cache: 1.6 times faster on a 688 px level than whole levels, with the same sums)."""
+cache: 1.6 times faster on a 688 px level than whole levels, with the same sums; 256 rather than 128 since session
+36: a whole frame's screen 0.92-0.95 of its time, half the calls where the other thread screens the coarser levels)."""
 THREADED_PIXELS = 2**18
 """Least pixels of an image worked on by several threads (:data:`aerofid.parallel.THREADS`; a whole frame's, 688 x
 688 px at 11000^2; starting them costs about a millisecond): its pyramid levels screened at once

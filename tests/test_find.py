@@ -84,10 +84,11 @@ def test_disc_sums_are_the_sums_over_each_pixel_s_disc(h, w, channels, radius, s
 
 
 def test_the_symmetric_energy_s_bands_summed_by_threads_are_the_same_sums():
-    g = np.random.default_rng(5).normal(0, 1, (300, 211)).astype(np.float32)
+    band = screen_module.ENERGY_ROWS
+    g = np.random.default_rng(5).normal(0, 1, (2 * band + 44, 211)).astype(np.float32)   # three bands
     alone = screen_module.symmetric_energy(g)
     assert np.array_equal(screen_module.symmetric_energy(g, threads=3), alone)
-    for y in (127, 128, 200):                                # either side of the first band's end (ENERGY_ROWS)
+    for y in (band - 1, band, band + 72, 2 * band):          # either side of the bands' ends
         disc = sum(g[y + dy, 100 + dx] * g[y - dy, 100 - dx] for dy in range(-7, 8) for dx in range(-7, 8)
                    if dx * dx + dy * dy <= 49)
         assert alone[-1, y, 100] == pytest.approx(disc, rel=1e-4)

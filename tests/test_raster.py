@@ -4,6 +4,7 @@ colour policy)."""
 from __future__ import annotations
 
 import math
+import os
 
 import cv2
 import numpy as np
@@ -89,6 +90,43 @@ def test_lossless_tiff_windows_equal_slices_of_the_image(tmp_path, dtype, bands,
             window = raster.read_window((x0, y0, x1, y1))
             assert window.dtype == np.dtype(dtype) and window.dtype.isnative
             np.testing.assert_array_equal(window, image[y0:y1, x0:x1])
+
+
+@pytest.mark.parametrize("kwargs", [{"tile": (32, 32), "compression": "zlib"},
+                                    {"rowsperstrip": 8, "compression": "zlib"}], ids=["tiled", "striped"])
+def test_segments_read_at_their_offsets_or_under_the_lock_are_the_same(tmp_path, kwargs, monkeypatch):
+    """A TIFF's tiles or strips are read with ``os.pread`` at their offsets (the threads of a reduced read need no
+    lock), or, where the platform or the file handle has no descriptor, by a seek and a read under a lock: the same
+    windows and reduced windows either way."""
+    image = random_image(np.uint16, 1)
+    path = write_tiff(tmp_path / "scan.tif", image, **kwargs)
+    with open_raster(path) as raster:
+        assert raster._reader._positional is not None
+        by_offset = [raster.read_window(w) for w in WINDOWS], raster.read_reduced((0, 0, WIDTH, HEIGHT), 4)
+    monkeypatch.setattr(raster_module, "_positional_reads", lambda filehandle: None)
+    with open_raster(path) as raster:
+        assert raster._reader._positional is None
+        locked = [raster.read_window(w) for w in WINDOWS], raster.read_reduced((0, 0, WIDTH, HEIGHT), 4)
+    for a, b in zip(by_offset[0], locked[0], strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(by_offset[1], locked[1])
+    np.testing.assert_array_equal(by_offset[0][0], image[WINDOWS[0][1]:WINDOWS[0][3], WINDOWS[0][0]:WINDOWS[0][2]])
+
+
+def test_a_positional_read_gathers_short_reads_and_stops_at_the_end(tmp_path, monkeypatch):
+    """``_pread`` gives ``count`` bytes from the offset as a file's ``read`` does: gathered where the system returns
+    fewer at a time, fewer only where the file ends."""
+    path = tmp_path / "bytes.bin"
+    path.write_bytes(bytes(range(256)) * 4)
+    real = os.pread
+    monkeypatch.setattr(os, "pread", lambda fd, n, offset: real(fd, min(n, 100), offset))    # 100 bytes at a time
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        assert raster_module._pread(fd, 300, 10) == (bytes(range(256)) * 4)[10:310]
+        assert raster_module._pread(fd, 300, 900) == (bytes(range(256)) * 4)[900:]          # the file ends
+        assert raster_module._pread(fd, 10, 2000) == b""
+    finally:
+        os.close(fd)
 
 
 @pytest.mark.parametrize("tile", [None, (32, 32)])

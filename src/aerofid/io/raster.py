@@ -281,12 +281,37 @@ class _ArrayReader:
         self._array = None
 
 
+def _positional_reads(filehandle: tifffile.FileHandle) -> int | None:
+    """The file descriptor under a TIFF's file handle, for reads at an offset (``os.pread``) that several threads make
+    at once, where the handle is the whole file (its offsets are the file's: not a TIFF embedded in a larger file);
+    None where the platform or the handle has none (then reads seek under a lock)."""
+    if not hasattr(os, "pread"):
+        return None
+    try:
+        fd = filehandle.fileno()
+        return fd if os.fstat(fd).st_size == filehandle.size else None
+    except (OSError, ValueError):
+        return None
+
+
+def _pread(fd: int, count: int, offset: int) -> bytes:
+    """``count`` bytes of ``fd`` from ``offset``, fewer only where the file ends (as a file's ``read`` gives them)."""
+    data = os.pread(fd, count, offset)
+    if len(data) == count or not data:
+        return data
+    parts = [data]
+    while count > (got := sum(map(len, parts))) and (more := os.pread(fd, count - got, offset + got)):
+        parts.append(more)
+    return b"".join(parts)
+
+
 class _TiffSegmentReader:
     """Windows of a TIFF page, reading and decoding only the tiles or strips that intersect a window."""
 
     def __init__(self, tif: tifffile.TiffFile, page: tifffile.TiffPage):
         self._filehandle = tif.filehandle
         self._seeking = threading.Lock()        # tifffile's own lock is a no-op unless asked for
+        self._positional = _positional_reads(tif.filehandle)
         self._page = page
         if page.is_tiled:
             self.segment_shape = (page.tilelength, page.tilewidth)
@@ -308,6 +333,8 @@ class _TiffSegmentReader:
         offset, count = self._page.dataoffsets[index], self._page.databytecounts[index]
         if offset == 0 or count == 0:
             return None
+        if self._positional is not None:        # os.pread: no shared position, no lock between the threads
+            return _pread(self._positional, count, offset)
         with self._seeking:                     # strips are read by several threads (aerofid.io.reduce)
             self._filehandle.seek(offset)
             return self._filehandle.read(count)

@@ -116,8 +116,8 @@ def percentiles(values: np.ndarray, qs: tuple[float, ...]) -> tuple[float, ...]:
     (1.75, 3.7)
     """
     selected = _selected(values, qs)
-    if selected is None:
-        return tuple(float(v) for v in np.percentile(values, qs))
+    if selected is None or selected[0].dtype.itemsize > 8:   # other types, and long doubles, which numpy
+        return tuple(float(v) for v in np.percentile(values, qs))    # interpolates in their own precision
     arr, picks = selected
     if np.isnan(arr[-1]):
         return tuple(float("nan") for _ in qs)

@@ -91,16 +91,13 @@ def percentile(values: np.ndarray, q: float) -> float:
     >>> percentile(np.array([4.0, 1.0, 3.0, 2.0]), 25), percentile(np.array([4.0, 1.0, 3.0, 2.0]), 90)
     (1.75, 3.7)
     """
-    selected = _selected(values, (q,))
-    if selected is None:
+    got = _neighbours(values, (q,))
+    if got is None:
         return float(np.percentile(values, q))
-    arr, ((virtual, below),) = selected
-    if np.isnan(arr[-1]):
+    if got[1] is None:
         return float("nan")
-    gamma = float(virtual - below)
-    a, b = arr[below], arr[below + 1] if below >= 0 else arr[-1]
-    diff = b - a
-    return float(b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma)
+    (gamma, a, b), = got[1]
+    return float(_lerp(a, b, b - a, gamma))
 
 
 def percentiles(values: np.ndarray, qs: tuple[float, ...]) -> tuple[float, ...]:
@@ -115,25 +112,27 @@ def percentiles(values: np.ndarray, qs: tuple[float, ...]) -> tuple[float, ...]:
     >>> percentiles(np.array([4.0, 1.0, 3.0, 2.0]), (25, 90))
     (1.75, 3.7)
     """
-    selected = _selected(values, qs)
-    if selected is None or selected[0].dtype.itemsize > 8:   # other types, and long doubles, which numpy
-        return tuple(float(v) for v in np.percentile(values, qs))    # interpolates in their own precision
-    arr, picks = selected
-    if np.isnan(arr[-1]):
+    got = _neighbours(values, qs)
+    if got is None or got[0].itemsize > 8:      # other types; long doubles, which numpy interpolates in their own
+        return tuple(float(v) for v in np.percentile(values, qs))       # precision
+    if got[1] is None:
         return tuple(float("nan") for _ in qs)
-    out = []
-    for virtual, below in picks:
-        gamma = virtual - below
-        a, b = arr[below], arr[below + 1] if below >= 0 else arr[-1]
-        diff = float(b - a)
-        out.append(float(b) - diff * (1 - gamma) if gamma >= 0.5 else float(a) + diff * gamma)
-    return tuple(out)
+    return tuple(_lerp(float(a), float(b), float(b - a), gamma) for gamma, a, b in got[1])
 
 
-def _selected(values: np.ndarray, qs: tuple[float, ...]) -> tuple[np.ndarray, list[tuple[float, int]]] | None:
-    """For :func:`percentile` and :func:`percentiles`: floating ``values`` flattened and partitioned as numpy's
-    percentiles ``qs`` partition them, and per percentile its virtual index and the index below it (-1: the last
-    value, whose weight numpy takes from index -1); None for values of another type (numpy's own call answers)."""
+def _lerp(a: Any, b: Any, diff: Any, gamma: float) -> Any:
+    """numpy's interpolation between neighbours ``a`` and ``b`` (``diff``: b - a) with weight ``gamma`` on ``b``: from
+    the nearer one, in the operands' types."""
+    return b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma
+
+
+def _neighbours(values: np.ndarray, qs: tuple[float, ...]
+                ) -> tuple[np.dtype, list[tuple[float, Any, Any]] | None] | None:
+    """For :func:`percentile` and :func:`percentiles`: floating ``values`` partitioned as numpy's percentiles ``qs``
+    partition them, and per percentile the weight of its upper neighbour and its two neighbours, in the values' type
+    (below the end: the last value twice, its weight counted from index -1, as numpy does); no list where a value is
+    nan (every percentile is nan); None for values of another type (numpy's own call answers). The values' type
+    comes first."""
     for q in qs:
         if not 0 <= q <= 100:
             raise ValueError(f"percentile {q!r} is not in [0, 100]")
@@ -150,7 +149,10 @@ def _selected(values: np.ndarray, qs: tuple[float, ...]) -> tuple[np.ndarray, li
         picks.append((virtual, -1 if virtual >= n - 1 else math.floor(virtual)))
     # numpy's indices: the first and last values and each percentile's neighbours, as np.unique sorts them
     arr.partition(sorted({0, -1, *(i for _, below in picks for i in (below, below + 1 if below >= 0 else -1))}))
-    return arr, picks
+    if np.isnan(arr[-1]):
+        return arr.dtype, None
+    return arr.dtype, [(float(virtual - below), arr[below], arr[below + 1] if below >= 0 else arr[-1])
+                       for virtual, below in picks]
 
 
 def _middle(s: np.ndarray) -> np.floating[Any]:

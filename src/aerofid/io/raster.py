@@ -296,12 +296,10 @@ def _positional_reads(filehandle: tifffile.FileHandle) -> int | None:
 
 def _pread(fd: int, count: int, offset: int) -> bytes:
     """``count`` bytes of ``fd`` from ``offset``, fewer only where the file ends (as a file's ``read`` gives them)."""
-    data = os.pread(fd, count, offset)
-    if len(data) == count or not data:
-        return data
-    parts = [data]
-    while count > (got := sum(map(len, parts))) and (more := os.pread(fd, count - got, offset + got)):
+    parts, got = [], 0
+    while got < count and (more := os.pread(fd, count - got, offset + got)):
         parts.append(more)
+        got += len(more)
     return b"".join(parts)
 
 

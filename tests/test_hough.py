@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from aerofid import synth
 from aerofid.detect import hough_lines
 from aerofid.detect.auto import detect as auto_detect
-from aerofid.detect.hough import HoughParams, HoughResult, detect
+from aerofid.detect.hough import HoughParams, HoughResult, cross_fit, detect
 from aerofid.detect.hough import analysis as hc
 from aerofid.detect.hough import detector as hd
 from aerofid.detect.hough.cross_fit import CrossFit
@@ -441,6 +441,54 @@ def test_a_crossing_with_no_stroke_is_fitted_unless_the_screen_is_asked_for(monk
         else:
             assert isinstance(got, hd.Verified) and len(fits) == 1
             assert np.hypot(got.x - 30.5, got.y - 29.5) < 0.01
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.just(0.0) | st.floats(-1.0, 1.0).filter(lambda a: abs(a) >= 1e-3), st.floats(-0.5, 0.5),
+       st.floats(-0.01, 0.01), st.floats(-0.01, 0.01), st.just(0.0) | st.floats(1e-3, 0.05),
+       st.integers(0, 2 ** 32 - 1))
+def test_shape_share_is_the_shape_s_coefficient_and_partial_correlation(amplitude, b0, bx, by, noise, seed):
+    """:func:`shape_share` of values made of a '+' shape, a plane and noise: the coefficient and the share of the
+    variance about the plane that an ordinary least squares on shape and plane, and on the plane alone, give (the
+    amplitude and 1 without noise)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:40, 0:40].astype(np.float64)
+    dx, dy = (xx - 19.5).ravel(), (yy - 20.5).ravel()
+    shape = cross_fit.cross_model(np.array([19.5 + rng.uniform(-1, 1), 20.5, 0.0, np.pi / 2, 24.0, 20.0, 2.0, 0.8,
+                                            1.0, 0.0, 0.0, 0.0]), xx.ravel(), yy.ravel(), 19.5, 20.5)
+    g = amplitude * shape + b0 + bx * dx + by * dy + noise * rng.standard_normal(shape.size)
+    got = cross_fit.shape_share(g, shape, dx, dy)
+    design = np.column_stack([shape, np.ones_like(shape), dx, dy])
+    coef = np.linalg.lstsq(design, g, rcond=None)[0]
+    rss = float(np.sum((g - design @ coef) ** 2))
+    plane_rss = float(np.sum((g - design[:, 1:] @ np.linalg.lstsq(design[:, 1:], g, rcond=None)[0]) ** 2))
+    if amplitude == 0.0 and noise == 0.0:                   # g is a plane: nothing to explain
+        assert abs(got[0]) < 1e-9 and 0.0 <= got[1] <= 1.0 + 1e-9
+        return
+    assert got[0] == pytest.approx(coef[0], rel=1e-7, abs=1e-9)
+    assert got[1] == pytest.approx(1.0 - rss / plane_rss, rel=1e-6, abs=1e-9)
+    if noise == 0.0 and amplitude != 0.0:
+        assert got[0] == pytest.approx(amplitude, rel=1e-7) and got[1] == pytest.approx(1.0, rel=1e-7)
+
+
+@pytest.mark.parametrize("share, words", [((-0.2, 0.6), "darker along its bars"), ((0.1, 0.005), "explains 0.5%"),
+                                          ((0.6, 0.9), None)])
+def test_a_candidate_without_a_bright_cross_at_its_start_is_refused_before_any_fit(monkeypatch, share, words):
+    """verify_candidate fits no '+' where the start's '+' is darker than its ground or explains less than
+    MIN_START_SHARE of the grey values (:func:`start_share`); else it fits and finds the '+'."""
+    img = _plus_window(0.0)
+    a = hc.analyse_window(img)
+    assert cross_fit.start_share(img, a.x, a.y, a.theta1, a.theta2, hd.arm_half_length(a))[1] > 0.5
+    assert cross_fit.start_share(1.0 - img, a.x, a.y, a.theta1, a.theta2, hd.arm_half_length(a))[0] < 0.0
+    fits = []
+    fit_cross = hd.fit_cross
+    monkeypatch.setattr(hd, "fit_cross", lambda *args, **kw: fits.append(args) or fit_cross(*args, **kw))
+    monkeypatch.setattr(hd, "start_share", lambda *args, **kw: share)
+    got = hd.verify_candidate(img, make_candidate(1, (a, img, (0, 0)), 60), 60)
+    if words is None:
+        assert isinstance(got, hd.Verified) and len(fits) == 1
+    else:
+        assert isinstance(got, str) and words in got and got.startswith("no '+' at the Hough centre") and not fits
 
 
 def test_a_dust_speck_on_the_crossing_does_not_hide_the_cross():

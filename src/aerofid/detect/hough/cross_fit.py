@@ -236,6 +236,37 @@ def _patch(window: np.ndarray, x: float, y: float, thetas_deg: tuple[float, floa
     return _Patch(px, py, g, x, y, half)
 
 
+def start_share(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float, arm: float,
+                width: float = 2.0, blur: float = 0.8, margin: float = PATCH_MARGIN,
+                max_patch: int = MAX_PATCH) -> tuple[float, float] | None:
+    """Before the fit: how much of a '+' the patch :func:`fit_cross` would fit holds at its start. The model's shape
+    there (the bars :func:`fit_cross` starts from, unit amplitude) and a plane in the pixel coordinates are fitted
+    to the patch's grey values by linear least squares: returns the shape's amplitude and the share of the grey
+    values' variance about their own plane that it explains (the squared partial correlation of shape and grey values,
+    the plane held out), or None when the patch is too small (the fit fails there too). A bright '+' near the start
+    has a positive amplitude and a share well above 0 (:data:`aerofid.detect.hough.detector.MIN_START_SHARE`)."""
+    thetas = (theta1_deg, theta2_deg)
+    pt = _patch(window, x, y, thetas, arm, width, margin, max_patch)
+    if pt is None:
+        return None
+    p0, _, _ = _start(pt, thetas, arm, width, blur)
+    shape = cross_model(np.r_[p0[:8], 1.0, 0.0, 0.0, 0.0], pt.px, pt.py, pt.x, pt.y)
+    return shape_share(pt.g, shape, pt.px - pt.x, pt.py - pt.y)
+
+
+def shape_share(g: np.ndarray, shape: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> tuple[float, float]:
+    """The linear least squares of the values ``g`` on ``shape`` and a plane ``b0 + bx dx + by dy``: the coefficient of
+    ``shape`` and the share of the variance of ``g`` about its own plane that ``shape`` explains (their squared
+    partial correlation, the plane held out); (0, 0) where either is a plane."""
+    plane = np.column_stack([np.ones_like(shape), dx, dy])
+    both = np.column_stack([g, shape])
+    v = both - plane @ np.linalg.lstsq(plane, both, rcond=None)[0]     # the values and the shape, the plane held out
+    gs, ss, gg = float(v[:, 0] @ v[:, 1]), float(v[:, 1] @ v[:, 1]), float(v[:, 0] @ v[:, 0])
+    if ss <= 0.0 or gg <= 0.0:
+        return 0.0, 0.0
+    return gs / ss, gs * gs / (ss * gg)
+
+
 def _start(pt: _Patch, thetas_deg: tuple[float, float], arm: float, width: float,
            blur: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Start values and the plausible region (lower, upper) of the 12 parameters."""

@@ -69,15 +69,17 @@ def accumulate(xs: np.ndarray, ys: np.ndarray, thetas: np.ndarray, rho_min: floa
     """
     xs, ys = np.asarray(xs, np.float64), np.asarray(ys, np.float64)
     n_theta = len(thetas)
-    acc = np.zeros(n_theta * n_rho, np.int64)
+    acc: np.ndarray | None = None
     block = max(1, MAX_BLOCK // max(1, xs.size))
     for start in range(0, n_theta, block):
         t = np.asarray(thetas[start:start + block], np.float64)
         rho = np.outer(np.cos(t), xs) + np.outer(np.sin(t), ys)          # (block, n_points)
         j = np.floor((rho - rho_min) / rho_step).astype(np.int64)
         np.clip(j, 0, n_rho - 1, out=j)
-        flat = ((np.arange(t.size) + start)[:, None] * n_rho + j).ravel()
-        acc += np.bincount(flat, minlength=n_theta * n_rho)
+        j += (np.arange(t.size) + start)[:, None] * n_rho                # each row's cells: its theta's
+        votes = np.bincount(j.ravel(), minlength=n_theta * n_rho)
+        acc = votes if acc is None else acc + votes
+    assert acc is not None
     return acc.reshape(n_theta, n_rho).astype(np.float64)
 
 

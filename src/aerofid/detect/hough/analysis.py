@@ -69,9 +69,7 @@ class WindowAnalysis:
 
 def threshold_accumulator(acc: np.ndarray, fraction: float) -> np.ndarray:
     """Zero every cell not above ``fraction`` of the peak (seed 001, Detection/Decoding; C ``coordinate``)."""
-    out = acc.copy()
-    out[out <= fraction * acc.max()] = 0.0
-    return out
+    return np.where(acc > fraction * acc.max(), acc, 0.0)
 
 
 def theta_projection(acc_t: np.ndarray, rho_step: float, min_extent: float) -> np.ndarray:
@@ -159,6 +157,14 @@ def window_accumulator(binary: np.ndarray, thetas_deg: np.ndarray, rho_step: flo
     return accumulate(xs, ys, np.deg2rad(thetas_deg), -rho_max, rho_step, n_rho), -rho_max
 
 
+@functools.lru_cache(maxsize=8)
+def _theta_grid(theta_step: float) -> np.ndarray:
+    """:func:`aerofid.detect.hough_lines.theta_grid`, made once per step (for every window of a search); read-only."""
+    grid = theta_grid(theta_step)
+    grid.setflags(write=False)
+    return grid
+
+
 def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT,
                    known: Threshold | None | Unknown = UNKNOWN) -> WindowAnalysis | str:
     """One window's Hough analysis (thesis ``fid`` without the recursion), or a string saying why not.
@@ -174,7 +180,7 @@ def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT,
         return f"more than {params.max_bright_fraction:.0%} of the window is bright"
     if count < params.min_pixels:
         return "too few bright pixels"
-    thetas = theta_grid(params.theta_step)
+    thetas = _theta_grid(params.theta_step)
     acc, rho_min = window_accumulator(binary, thetas, params.rho_step)
     acc_t = threshold_accumulator(acc, params.hough_threshold)
     projection = theta_projection(acc_t, params.rho_step, params.min_rho_extent)
@@ -213,26 +219,46 @@ def panel_model(thetas_deg: np.ndarray, theta0: float) -> np.ndarray:
 
 def correlation(a: np.ndarray, b: np.ndarray) -> float | None:
     """Normalised correlation coefficient of two profiles; None if either has no variance."""
-    a = a - a.mean()
     b = b - b.mean()
-    den = np.sqrt((a * a).sum() * (b * b).sum())
+    return _correlation(a, b, (b * b).sum())
+
+
+def _correlation(a: np.ndarray, b_centred: np.ndarray, b_squares: float) -> float | None:
+    """:func:`correlation` of ``a`` with a profile given centred, with its sum of squares."""
+    a = a - a.mean()
+    den = np.sqrt((a * a).sum() * b_squares)
     if den <= 0:
         return None
-    return float((a * b).sum() / den)
+    return float((a * b_centred).sum() / den)
+
+
+@functools.lru_cache(maxsize=512)
+def _model(name: str, thetas: bytes, theta0: float, separation: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """The model profile ``name`` of :func:`similarity` on the theta grid ``thetas`` (its float64 bytes), centred, and
+    the centred profile's sum of squares: made once per grid, peak and separation (a box's search correlates thousands
+    of projections with the same few dozen); read-only."""
+    grid = np.frombuffer(thetas, np.float64)
+    model = external_model(grid, theta0, separation) if name == "external" else panel_model(grid, theta0)
+    centred = model - model.mean()
+    for a in (model, centred):
+        a.setflags(write=False)
+    return model, centred, (centred * centred).sum()
 
 
 def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, mark: str = "auto",
                separation: float = 90.0) -> tuple[float | None, str, np.ndarray]:
     """The similarity metric: correlation of the projection with the model of ``mark`` ("external",
     "panel", or "auto" = the better of both, as the C ``correlate`` returns). Returns (metric, model name,
-    model profile); the metric is None for a projection with no variance."""
-    models = {"external": external_model(thetas_deg, theta0, separation), "panel": panel_model(thetas_deg, theta0)}
+    model profile, read-only); the metric is None for a projection with no variance."""
     names = ("external", "panel") if mark == "auto" else (mark,)
-    best: tuple[float | None, str, np.ndarray] = (None, names[0], models[names[0]])
+    grid = np.asarray(thetas_deg, np.float64).tobytes()
+    best: tuple[float | None, str, np.ndarray] | None = None
     for name in names:
-        r = correlation(projection, models[name])
-        if r is not None and (best[0] is None or r > best[0]):
-            best = (r, name, models[name])
+        model, centred, squares = _model(name, grid, float(theta0), float(separation))
+        r = _correlation(projection, centred, squares)
+        if best is None or (r is not None and (best[0] is None or r > best[0])):
+            best = (r, name, model)
+    assert best is not None
     return best
 
 

@@ -491,6 +491,34 @@ def test_a_candidate_without_a_bright_cross_at_its_start_is_refused_before_any_f
         assert isinstance(got, str) and words in got and got.startswith("no '+' at the Hough centre") and not fits
 
 
+def test_a_verification_met_again_in_the_same_pixels_is_reused_where_it_lies(monkeypatch):
+    """The same '+' and its ground at two places of two images: verify_candidate fits it once and answers the second
+    time with the same fit, placed there (the numbers a new fit gives); other pixels are fitted."""
+    plus = _plus_window(0.0)
+    a = hc.analyse_window(plus)
+    cand = make_candidate(1, (a, plus, (0, 0)), 60)
+
+    def pasted(shape, x0, y0, pixels=plus):
+        img = np.full(shape, 0.2, np.float32)
+        img[y0:y0 + 60, x0:x0 + 60] = pixels
+        return img, dataclasses.replace(cand, x=cand.x + x0, y=cand.y + y0, origin=(x0, y0))
+
+    fits = []
+    fit_cross = hd.fit_cross
+    monkeypatch.setattr(hd, "fit_cross", lambda *args, **kw: fits.append(args) or fit_cross(*args, **kw))
+    monkeypatch.setattr(hd, "_FITS", hd._Kept())
+    first = hd.verify_candidate(*pasted((160, 170), 50, 45), 60)
+    again = hd.verify_candidate(*pasted((200, 230), 97, 71), 60)
+    assert isinstance(first, hd.Verified) and isinstance(again, hd.Verified) and len(fits) == 1
+    monkeypatch.setattr(hd, "_FITS", hd._Kept())
+    fresh = hd.verify_candidate(*pasted((200, 230), 97, 71), 60)
+    assert len(fits) == 2 and (again.x, again.y) == (fresh.x, fresh.y) == (first.x + 47, first.y + 26)
+    assert again.refinement == fresh.refinement
+    noisy = plus + np.random.default_rng(1).normal(0.0, 0.01, plus.shape).astype(np.float32)
+    hd.verify_candidate(*pasted((160, 170), 50, 45, noisy), 60)
+    assert len(fits) == 3
+
+
 def test_a_dust_speck_on_the_crossing_does_not_hide_the_cross():
     """A speck of 1.6 px radius in the ground's grey level on the crossing of a 30 px '+' of 2 px strokes: ``hough``
     and ``auto`` still find it to a few hundredths of a pixel (the crossing-gap screen is not used on a box)."""

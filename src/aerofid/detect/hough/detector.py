@@ -3,6 +3,9 @@ refined to sub-pixel by the cross fit (:mod:`.cross_fit`) and verified as a '+' 
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -191,7 +194,29 @@ def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
     '+': before the fit, with ``params.max_crossing_gap``, a stroke at the Hough centre (:func:`crossing_gap`), and a
     '+' at its start that explains at least :data:`MIN_START_SHARE` of the grey values, brighter than its ground; after
     it, :func:`shape_refusal`, :func:`quality_refusal`, within ``MAX_REFINE_SHIFT`` of the Hough centre. Returns
-    :class:`Verified` or the reason."""
+    :class:`Verified` or the reason.
+
+    The fit, or the refusal before it, is kept (:data:`FITS_KEPT`) by what it reads (:func:`_fit_key`): a search that
+    meets the same candidate in the same pixels again - the windows of one box overlap, and a box's search measures
+    many of them - reuses it, placed at the candidate's window (the same numbers)."""
+    key = _fit_key(image, cand, refine_size, params)
+    kept = _FITS.get(key[0]) if key is not None else None
+    if kept is None:
+        kept = _fitted(image, cand, refine_size, params)
+        if key is not None:
+            _FITS.put(key[0], kept if isinstance(kept, str) else (kept[0], (kept[1][0] - key[1][0],
+                                                                              kept[1][1] - key[1][1])))
+    elif not isinstance(kept, str):
+        kept = (kept[0], (key[1][0] + kept[1][0], key[1][1] + kept[1][1]))    # type: ignore[index]
+    if isinstance(kept, str):
+        return kept
+    return _verdict(kept[0], kept[1], (cand.x, cand.y), "the Hough centre", params)
+
+
+def _fitted(image: np.ndarray, cand: Candidate, refine_size: int,
+            params: HoughParams) -> str | tuple[CrossFit | None, tuple[int, int]]:
+    """:func:`verify_candidate`'s refusal before the fit, or its fit (None: failed) and the origin of the window
+    fitted."""
     analysis, window, origin = refine_window(image, cand, refine_size, params)
     limit = params.max_crossing_gap
     if limit is not None and crossing_gap(analysis, limit) > limit:
@@ -205,7 +230,57 @@ def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
     # the fit starts within MAX_REFINE_SHIFT of the candidate (refine_window); a first pass that moves more
     # than EARLY_EXIT_SHIFT from there will be refused: no refits (cross_fit._robust_solve)
     ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm, max_shift=EARLY_EXIT_SHIFT)
-    return _verdict(ref, origin, (cand.x, cand.y), "the Hough centre", params)
+    return ref, (int(origin[0]), int(origin[1]))
+
+
+FITS_KEPT = 512
+"""The verifications :func:`verify_candidate` keeps, the latest (a fit is a few hundred bytes)."""
+
+
+class _Kept:
+    """The latest :data:`FITS_KEPT` verifications by key, shared by threads."""
+
+    def __init__(self) -> None:
+        self._kept: OrderedDict[tuple[bytes, HoughParams], object] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key: tuple[bytes, HoughParams]) -> object:
+        with self._lock:
+            got = self._kept.get(key)
+            if got is not None:
+                self._kept.move_to_end(key)
+            return got
+
+    def put(self, key: tuple[bytes, HoughParams], value: object) -> None:
+        with self._lock:
+            self._kept[key] = value
+            while len(self._kept) > FITS_KEPT:
+                self._kept.popitem(last=False)
+
+
+_FITS = _Kept()
+
+
+def _fit_key(image: np.ndarray, cand: Candidate, refine_size: int,
+             params: HoughParams) -> tuple[tuple[bytes, HoughParams], tuple[int, int]] | None:
+    """Everything :func:`_fitted` reads, as a digest with the parameters, and the origin of the candidate's first
+    refine window (:func:`refine_window`), to which the digest's positions are relative; None where there is no such
+    window. Read: the pixels of both refine windows, the candidate's own window, where it lies and its analysis's
+    centre, lines and thresholded pixels (its fallback), the candidate's centre, the sizes."""
+    first = extract_window(image, cand.x, cand.y, refine_size)
+    if first is None:
+        return None
+    larger = extract_window(image, cand.x, cand.y, int(round(REFINE_WINDOW_FACTOR * refine_size)))
+    (x0, y0), a = first[1], cand.analysis
+    where = (refine_size, image.dtype.str, cand.x - x0, cand.y - y0, first[0].shape,
+             None if larger is None else (larger[0].shape, larger[1][0] - x0, larger[1][1] - y0),
+             cand.window.shape, cand.window.dtype.str, cand.origin[0] - x0, cand.origin[1] - y0,
+             a.x, a.y, a.theta1, a.theta2, a.binary.shape)
+    digest = hashlib.blake2b(repr(where).encode(), digest_size=20)
+    for pixels in (first[0], None if larger is None else larger[0], cand.window, a.binary):
+        if pixels is not None:
+            digest.update(np.ascontiguousarray(pixels).tobytes())
+    return (digest.digest(), params), (x0, y0)
 
 
 def _verdict(ref: CrossFit | None, origin: tuple[float, float], start: tuple[float, float], named: str,

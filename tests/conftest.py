@@ -34,3 +34,12 @@ def realdata_path(relative: str) -> Path:
 def realdata():
     """``realdata("unbc_bc_wild_rc20/15BCC02013_114.jpg") -> Path`` (see :func:`realdata_path`)."""
     return realdata_path
+
+
+@pytest.fixture(autouse=True)
+def fresh_fits(monkeypatch):
+    """Each test starts without the fits ``hough``'s verification keeps (``detector._FITS``): a test that counts or
+    replaces the fits sees its own, whatever ran before it."""
+    from aerofid.detect.hough import detector
+
+    monkeypatch.setattr(detector, "_FITS", detector._Kept())

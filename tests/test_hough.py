@@ -506,7 +506,6 @@ def test_a_verification_met_again_in_the_same_pixels_is_reused_where_it_lies(mon
     fits = []
     fit_cross = hd.fit_cross
     monkeypatch.setattr(hd, "fit_cross", lambda *args, **kw: fits.append(args) or fit_cross(*args, **kw))
-    monkeypatch.setattr(hd, "_FITS", hd._Kept())
     first = hd.verify_candidate(*pasted((160, 170), 50, 45), 60)
     again = hd.verify_candidate(*pasted((200, 230), 97, 71), 60)
     assert isinstance(first, hd.Verified) and isinstance(again, hd.Verified) and len(fits) == 1

@@ -236,35 +236,77 @@ def _patch(window: np.ndarray, x: float, y: float, thetas_deg: tuple[float, floa
     return _Patch(px, py, g, x, y, half)
 
 
-def start_share(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float, arm: float,
+@dataclass(frozen=True)
+class CrossStart:
+    """Where :func:`fit_cross` starts: the patch fitted, the start parameters and their plausible region."""
+
+    patch: _Patch
+    p0: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+def cross_start(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float, arm: float,
                 width: float = 2.0, blur: float = 0.8, margin: float = PATCH_MARGIN,
-                max_patch: int = MAX_PATCH) -> tuple[float, float] | None:
-    """Before the fit: how much of a '+' the patch :func:`fit_cross` would fit holds at its start. The model's shape
-    there (the bars :func:`fit_cross` starts from, unit amplitude) and a plane in the pixel coordinates are fitted
-    to the patch's grey values by linear least squares: returns the shape's amplitude and the share of the grey
-    values' variance about their own plane that it explains (the squared partial correlation of shape and grey values,
-    the plane held out), or None when the patch is too small (the fit fails there too). A bright '+' near the start
-    has a positive amplitude and a share well above 0 (:data:`aerofid.detect.hough.detector.MIN_START_SHARE`)."""
+                max_patch: int = MAX_PATCH) -> CrossStart | None:
+    """The patch and start of :func:`fit_cross` (its parameters); None when the patch is too small."""
     thetas = (theta1_deg, theta2_deg)
     pt = _patch(window, x, y, thetas, arm, width, margin, max_patch)
     if pt is None:
         return None
-    p0, _, _ = _start(pt, thetas, arm, width, blur)
-    shape = cross_model(np.r_[p0[:8], 1.0, 0.0, 0.0, 0.0], pt.px, pt.py, pt.x, pt.y)
-    return shape_share(pt.g, shape, pt.px - pt.x, pt.py - pt.y)
+    return CrossStart(pt, *_start(pt, thetas, arm, width, blur))
+
+
+START_TURNS = (0.0, -10.0, 10.0, -20.0, 20.0, -30.0, 30.0)
+"""Turns (degrees) of both bars of the start's '+' that :func:`start_share` tries, in turn: the fit may turn each bar
+up to :data:`ANGLE_RANGE` from the Hough angles (a speck on the crossing or a faint '+' can put them 15-25 degrees
+off), so that a '+' which the fit would find is seen at its own angles within 5 degrees."""
+
+
+def start_share(start: CrossStart, enough: float = 1.0) -> tuple[float, float]:
+    """Before the fit: how much of a bright '+' the patch holds at the start's centre. The model's shape there (the
+    start's bars, arms, stroke and blur, unit amplitude: :func:`_shape`), turned by each of :data:`START_TURNS`, and a
+    plane in the pixel coordinates are fitted to the patch's grey values by linear least squares
+    (:func:`shape_share`). Returns the amplitude and share of the turn whose '+' explains most (a positive amplitude
+    before any negative one), the turns tried until one with a positive amplitude explains ``enough``; nan where the
+    grey values are not finite."""
+    def rank(got: tuple[float, float]) -> tuple[bool, float]:
+        return got[0] > 0.0, got[1] if got[0] > 0.0 else -got[1]
+
+    pt, tried = start.patch, []
+    dx, dy = pt.px - pt.x, pt.py - pt.y
+    for turn in START_TURNS:
+        p = start.p0.copy()
+        p[2:4] += np.deg2rad(turn)
+        got = shape_share(pt.g, _shape(p, pt), dx, dy)
+        if not np.isfinite(got[1]):
+            return got
+        tried.append(got)
+        if got[0] > 0.0 and got[1] >= enough:
+            break
+    return max(tried, key=rank)
 
 
 def shape_share(g: np.ndarray, shape: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> tuple[float, float]:
     """The linear least squares of the values ``g`` on ``shape`` and a plane ``b0 + bx dx + by dy``: the coefficient of
     ``shape`` and the share of the variance of ``g`` about its own plane that ``shape`` explains (their squared
-    partial correlation, the plane held out); (0, 0) where either is a plane."""
+    partial correlation, the plane held out); (0, 0) where either has nothing left about the plane, and nan where the
+    values are not finite (then no refusal rests on them)."""
     plane = np.column_stack([np.ones_like(shape), dx, dy])
     both = np.column_stack([g, shape])
-    v = both - plane @ np.linalg.lstsq(plane, both, rcond=None)[0]     # the values and the shape, the plane held out
-    gs, ss, gg = float(v[:, 0] @ v[:, 1]), float(v[:, 1] @ v[:, 1]), float(v[:, 0] @ v[:, 0])
+    with np.errstate(all="ignore"):
+        v = both - plane @ np.linalg.lstsq(plane, both, rcond=None)[0]   # the values and the shape, the plane held out
+        gs, ss, gg = float(v[:, 0] @ v[:, 1]), float(v[:, 1] @ v[:, 1]), float(v[:, 0] @ v[:, 0])
+    if not (np.isfinite(gs) and np.isfinite(ss) and np.isfinite(gg)):
+        return float("nan"), float("nan")
     if ss <= 0.0 or gg <= 0.0:
         return 0.0, 0.0
     return gs / ss, gs * gs / (ss * gg)
+
+
+def _shape(p: np.ndarray, pt: _Patch) -> np.ndarray:
+    """The model's bars with parameters ``p`` at unit amplitude on a flat ground of 0, on the patch's pixels."""
+    return cross_model(np.r_[p[:8], 1.0, 0.0, 0.0, 0.0], pt.px, pt.py, pt.x, pt.y)
 
 
 def _start(pt: _Patch, thetas_deg: tuple[float, float], arm: float, width: float,
@@ -373,7 +415,7 @@ def _noise_and_misfit(pt: _Patch, sol: np.ndarray, sigma0: float) -> tuple[float
     """Noise: residual spread of the pixels the model calls background (far from both bars); misfit: robust
     spread of the residuals on the bars over the larger of the noise and ``MODEL_TOLERANCE`` x amplitude."""
     v = pt.evaluated(sol)[0] - pt.g
-    shape = cross_model(np.r_[sol[:8], 1.0, 0.0, 0.0, 0.0], pt.px, pt.py, pt.x, pt.y)
+    shape = _shape(sol, pt)
     # a thin, blurred stroke never reaches full coverage: "on the bars" is relative to the model's peak
     peak = float(shape.max())
     far, on = shape < 0.05 * peak, shape > 0.5 * peak
@@ -440,11 +482,13 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
     CrossFit or None
         None when the patch is too small, the fit does not converge, or its normal matrix is singular.
     """
-    thetas = (theta1_deg, theta2_deg)
-    pt = _patch(window, x, y, thetas, arm, width, margin, max_patch)
-    if pt is None:
-        return None
-    p0, lo, hi = _start(pt, thetas, arm, width, blur)
+    start = cross_start(window, x, y, theta1_deg, theta2_deg, arm, width, blur, margin, max_patch)
+    return None if start is None else fit_start(start, max_shift, retry)
+
+
+def fit_start(start: CrossStart, max_shift: float = np.inf, retry: bool = True) -> CrossFit | None:
+    """:func:`fit_cross` from its patch and start (:func:`cross_start`)."""
+    pt, p0, lo, hi = start.patch, start.p0, start.lo, start.hi
     solved = _robust_solve(pt, p0, lo, hi, max_shift, retry)
     if solved is None:
         return None

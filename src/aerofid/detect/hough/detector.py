@@ -13,7 +13,7 @@ import numpy as np
 
 from aerofid.conventions import FOUND
 from aerofid.detect.hough.analysis import METHOD, WindowAnalysis, analyse_window
-from aerofid.detect.hough.cross_fit import CrossFit, fit_cross, start_share
+from aerofid.detect.hough.cross_fit import CrossFit, cross_start, fit_cross, fit_start, start_share
 from aerofid.detect.hough.params import DEFAULT, HoughParams
 from aerofid.detect.hough.search import Candidate, extract_window, search_box
 from aerofid.detect.result import Detection, unusable_window
@@ -94,14 +94,17 @@ MAX_WIDTH_RATIO = 0.35
 """Verification: the fitted stroke width must be at most this fraction of the shorter bar's length (a '+'
 of strokes, not a blob or a square)."""
 
-MIN_START_SHARE = 0.013
+MIN_START_SHARE = 0.04
 """Verification, before the fit: the share of the patch's grey values (about their plane) that the '+' the fit
-starts from explains (:func:`aerofid.detect.hough.cross_fit.start_share`) must reach this, and its amplitude must be
-positive, else the candidate is refused without the fit. Measured (``benchmarks/bench_fits.py --n 8``, seeds 7 and
-23: 593 accepted '+' of every condition and rejection scene, and ``aerofid.locate`` on 168 bench_peers boxes): the
-least share of an accepted '+' 0.053 (a ring and '+' half hidden), this a quarter of it; no accepted '+' had a
-negative amplitude. It refuses 2010 of the 5203 refused candidates there, a third of their fits' time (the fits that
-find nothing run to 100 evaluations), and 551 of the 2032 refused on the boxes (clutter beside panels)."""
+starts from explains, turned as the fit may turn it (:func:`aerofid.detect.hough.cross_fit.start_share`), must reach
+this, and its amplitude must be positive, else the candidate is refused without the fit. Measured
+(``benchmarks/bench_fits.py --n 8``, seeds 7 and 23, scratch wrappers: 593 accepted '+' of every condition and
+rejection scene, 5203 refused candidates): the least share of an accepted '+' 0.19 (a ring and '+' half hidden), this
+a fifth of it; no accepted '+' had a negative amplitude; it refuses 2275 of the refused candidates, 37 % of their fits'
+time (such fits run to 100 evaluations). '+' fitted from Hough angles 0-30 degrees off (60 crosses per angle, a
+review's scratch run): the least share of an accepted one 0.26. With the start's angles alone (no turns) and a
+threshold of 0.013, a review found a '+' refused (its Hough angles 13-23 degrees off)."""
+
 
 @dataclass(frozen=True)
 class Verified:
@@ -222,15 +225,26 @@ def _fitted(image: np.ndarray, cand: Candidate, refine_size: int,
     if limit is not None and crossing_gap(analysis, limit) > limit:
         return (f"no stroke at the Hough centre (no bright pixel within {limit:g} px of it): the two lines do not "
                 "cross as a '+' there")
-    arm = arm_half_length(analysis)
-    start = start_share(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm)
-    if start is not None and (start[0] <= 0.0 or start[1] < MIN_START_SHARE):
-        return ("no '+' at the Hough centre: " + (f"a '+' there explains {start[1]:.1%} of the grey values (< "
-                f"{MIN_START_SHARE:.1%})" if start[0] > 0.0 else "it is darker along its bars than beside them"))
+    start = cross_start(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
+    if start is None:
+        return None, (int(origin[0]), int(origin[1]))
+    refusal = start_refusal(*start_share(start, MIN_START_SHARE))
+    if refusal is not None:
+        return refusal
     # the fit starts within MAX_REFINE_SHIFT of the candidate (refine_window); a first pass that moves more
     # than EARLY_EXIT_SHIFT from there will be refused: no refits (cross_fit._robust_solve)
-    ref = fit_cross(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm, max_shift=EARLY_EXIT_SHIFT)
-    return ref, (int(origin[0]), int(origin[1]))
+    return fit_start(start, max_shift=EARLY_EXIT_SHIFT), (int(origin[0]), int(origin[1]))
+
+
+def start_refusal(amplitude: float, share: float) -> str | None:
+    """Why the '+' at a fit's start (:func:`aerofid.detect.hough.cross_fit.start_share`: its amplitude and share of
+    the grey values) refuses the candidate before the fit, or None (also where they are not numbers)."""
+    if amplitude <= 0.0:
+        return "no '+' at the Hough centre: turned either way, it is no brighter along its bars than beside them"
+    if share < MIN_START_SHARE:
+        return (f"no '+' at the Hough centre: turned either way, a '+' there explains {share:.2%} of the grey values "
+                f"(< {MIN_START_SHARE:.2%})")
+    return None
 
 
 FITS_KEPT = 512

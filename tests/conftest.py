@@ -38,8 +38,9 @@ def realdata():
 
 @pytest.fixture(autouse=True)
 def fresh_fits(monkeypatch):
-    """Each test starts without the fits ``hough``'s verification keeps (``detector._FITS``): a test that counts or
-    replaces the fits sees its own, whatever ran before it."""
-    from aerofid.detect.hough import detector
+    """Each test starts without the fits and window analyses ``hough`` keeps (``detector._FITS``,
+    ``analysis._ANALYSES``): a test that counts or replaces them sees its own, whatever ran before it."""
+    from aerofid.detect.hough import analysis, detector
 
     monkeypatch.setattr(detector, "_FITS", detector._Kept())
+    monkeypatch.setattr(analysis, "_ANALYSES", analysis._Kept())

@@ -23,6 +23,9 @@ the sub-pixel fit and verification (beyond the seed) in :mod:`aerofid.detect.hou
 from __future__ import annotations
 
 import functools
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -165,11 +168,61 @@ def _theta_grid(theta_step: float) -> np.ndarray:
     return grid
 
 
+KEPT_SIDE = 24
+"""Analyses of windows up to this side (px: a panel's 16 px windows and their 8 px second stage) are kept
+(:data:`ANALYSES_KEPT`), about 60 kB each: the overlapping windows of one box's searches meet the same pixels
+again (in ``aerofid.locate`` on a panel in clutter, 900 of 3200 analyses of a box repeated within the last 256)."""
+ANALYSES_KEPT = 256
+"""The analyses :func:`analyse_window` keeps, the latest."""
+
+
+class _Kept:
+    """The latest :data:`ANALYSES_KEPT` analyses by window, parameters and known threshold, shared by threads."""
+
+    def __init__(self) -> None:
+        self._kept: OrderedDict[tuple[object, ...], WindowAnalysis | str] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key: tuple[object, ...]) -> WindowAnalysis | str | None:
+        with self._lock:
+            got = self._kept.get(key)
+            if got is not None:
+                self._kept.move_to_end(key)
+            return got
+
+    def put(self, key: tuple[object, ...], value: WindowAnalysis | str) -> None:
+        with self._lock:
+            self._kept[key] = value
+            while len(self._kept) > ANALYSES_KEPT:
+                self._kept.popitem(last=False)
+
+
+_ANALYSES = _Kept()
+
+
 def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT,
                    known: Threshold | None | Unknown = UNKNOWN) -> WindowAnalysis | str:
     """One window's Hough analysis (thesis ``fid`` without the recursion), or a string saying why not.
     ``known``: the window's :func:`~aerofid.detect.threshold.optimum_threshold` where it is known (None: it
-    has none; the search computes those of its spiral's windows together)."""
+    has none; the search computes those of its spiral's windows together). A small window's analysis
+    (:data:`KEPT_SIDE`) is kept by its pixels, the parameters and ``known``, and given again (read-only arrays)."""
+    if max(window.shape) > KEPT_SIDE:
+        return _analysed(window, params, known)
+    pixels = np.ascontiguousarray(window)
+    key = (hashlib.blake2b(pixels.tobytes(), digest_size=20).digest(), pixels.shape, pixels.dtype.str, params,
+           None if known is None else "unknown" if isinstance(known, Unknown) else known)
+    got = _ANALYSES.get(key)
+    if got is None:
+        got = _analysed(window, params, known)
+        if not isinstance(got, str):
+            for a in (got.projection, got.binary, got.accumulator, got.accumulator_thresholded):
+                a.setflags(write=False)
+        _ANALYSES.put(key, got)
+    return got
+
+
+def _analysed(window: np.ndarray, params: HoughParams, known: Threshold | None | Unknown) -> WindowAnalysis | str:
+    """:func:`analyse_window`, computed."""
     thr = optimum_threshold(window) if isinstance(known, Unknown) else known
     if thr is None:
         return "homogeneous window"

@@ -41,6 +41,7 @@ def fresh_fits(monkeypatch):
     """Each test starts without the fits and window analyses ``hough`` keeps (``detector._FITS``,
     ``analysis._ANALYSES``): a test that counts or replaces them sees its own, whatever ran before it."""
     from aerofid.detect.hough import analysis, detector
+    from aerofid.kept import Kept
 
-    monkeypatch.setattr(detector, "_FITS", detector._Kept())
-    monkeypatch.setattr(analysis, "_ANALYSES", analysis._Kept())
+    monkeypatch.setattr(detector, "_FITS", Kept(detector.FITS_KEPT))
+    monkeypatch.setattr(analysis, "_ANALYSES", Kept(analysis.ANALYSES_KEPT))

@@ -21,6 +21,7 @@ from aerofid.detect.hough.cross_fit import CrossFit
 from aerofid.detect.hough.search import make_candidate, search_box, spiral_coordinates, window_sizes
 from aerofid.detect.threshold import interclass_variance, optimum_threshold
 from aerofid.errors import AerofidInputError
+from aerofid.kept import Kept
 
 # --- pieces of the algorithm -----------------------------------------------------------------------------
 
@@ -534,7 +535,7 @@ def test_a_verification_met_again_in_the_same_pixels_is_reused_where_it_lies(mon
     first = hd.verify_candidate(*pasted((160, 170), 50, 45), 60)
     again = hd.verify_candidate(*pasted((200, 230), 97, 71), 60)
     assert isinstance(first, hd.Verified) and isinstance(again, hd.Verified) and len(fits) == 1
-    monkeypatch.setattr(hd, "_FITS", hd._Kept())
+    monkeypatch.setattr(hd, "_FITS", Kept(hd.FITS_KEPT))
     fresh = hd.verify_candidate(*pasted((200, 230), 97, 71), 60)
     assert len(fits) == 2 and (again.x, again.y) == (fresh.x, fresh.y) == (first.x + 47, first.y + 26)
     assert again.refinement == fresh.refinement

@@ -24,8 +24,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +31,7 @@ import numpy as np
 from aerofid.detect.hough.params import DEFAULT, HoughParams
 from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
 from aerofid.detect.threshold import Threshold, optimum_threshold
+from aerofid.kept import Kept
 
 METHOD = "hough"
 
@@ -176,28 +175,7 @@ ANALYSES_KEPT = 256
 """The analyses :func:`analyse_window` keeps, the latest."""
 
 
-class _Kept:
-    """The latest :data:`ANALYSES_KEPT` analyses by window, parameters and known threshold, shared by threads."""
-
-    def __init__(self) -> None:
-        self._kept: OrderedDict[tuple[object, ...], WindowAnalysis | str] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def get(self, key: tuple[object, ...]) -> WindowAnalysis | str | None:
-        with self._lock:
-            got = self._kept.get(key)
-            if got is not None:
-                self._kept.move_to_end(key)
-            return got
-
-    def put(self, key: tuple[object, ...], value: WindowAnalysis | str) -> None:
-        with self._lock:
-            self._kept[key] = value
-            while len(self._kept) > ANALYSES_KEPT:
-                self._kept.popitem(last=False)
-
-
-_ANALYSES = _Kept()
+_ANALYSES: Kept[WindowAnalysis | str] = Kept(ANALYSES_KEPT)
 
 
 def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT,

@@ -4,8 +4,6 @@ refined to sub-pixel by the cross fit (:mod:`.cross_fit`) and verified as a '+' 
 from __future__ import annotations
 
 import hashlib
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -17,6 +15,7 @@ from aerofid.detect.hough.cross_fit import CrossFit, cross_start, fit_cross, fit
 from aerofid.detect.hough.params import DEFAULT, HoughParams
 from aerofid.detect.hough.search import Candidate, extract_window, search_box
 from aerofid.detect.result import Detection, unusable_window
+from aerofid.kept import Kept
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -204,22 +203,31 @@ def verify_candidate(image: np.ndarray, cand: Candidate, refine_size: int,
     many of them - reuses it, placed at the candidate's window (the same numbers)."""
     key = _fit_key(image, cand, refine_size, params)
     kept = _FITS.get(key[0]) if key is not None else None
-    if kept is None:
-        kept = _fitted(image, cand, refine_size, params)
+    if key is not None and kept is not None:
+        fitted = _moved(kept, key[1], 1)
+    else:
+        fitted = _fitted(image, cand, refine_size, params)
         if key is not None:
-            _FITS.put(key[0], kept if isinstance(kept, str) else (kept[0], (kept[1][0] - key[1][0],
-                                                                              kept[1][1] - key[1][1])))
-    elif not isinstance(kept, str):
-        kept = (kept[0], (key[1][0] + kept[1][0], key[1][1] + kept[1][1]))    # type: ignore[index]
-    if isinstance(kept, str):
-        return kept
-    return _verdict(kept[0], kept[1], (cand.x, cand.y), "the Hough centre", params)
+            _FITS.put(key[0], _moved(fitted, key[1], -1))
+    if isinstance(fitted, str):
+        return fitted
+    return _verdict(fitted[0], fitted[1], (cand.x, cand.y), "the Hough centre", params)
 
 
-def _fitted(image: np.ndarray, cand: Candidate, refine_size: int,
-            params: HoughParams) -> str | tuple[CrossFit | None, tuple[int, int]]:
-    """:func:`verify_candidate`'s refusal before the fit, or its fit (None: failed) and the origin of the window
-    fitted."""
+Fitted = str | tuple[CrossFit | None, tuple[int, int]]
+"""A verification's refusal before the fit, or its fit (None: failed) and the origin of the window fitted."""
+
+
+def _moved(fitted: Fitted, origin: tuple[int, int], sign: int) -> Fitted:
+    """``fitted`` with its window's origin moved by ``sign`` times ``origin`` (kept relative to the first refine
+    window's origin, given at the candidate's)."""
+    if isinstance(fitted, str):
+        return fitted
+    return fitted[0], (fitted[1][0] + sign * origin[0], fitted[1][1] + sign * origin[1])
+
+
+def _fitted(image: np.ndarray, cand: Candidate, refine_size: int, params: HoughParams) -> Fitted:
+    """:func:`verify_candidate`'s :data:`Fitted`."""
     analysis, window, origin = refine_window(image, cand, refine_size, params)
     limit = params.max_crossing_gap
     if limit is not None and crossing_gap(analysis, limit) > limit:
@@ -251,28 +259,7 @@ FITS_KEPT = 512
 """The verifications :func:`verify_candidate` keeps, the latest (a fit is a few hundred bytes)."""
 
 
-class _Kept:
-    """The latest :data:`FITS_KEPT` verifications by key, shared by threads."""
-
-    def __init__(self) -> None:
-        self._kept: OrderedDict[tuple[bytes, HoughParams], object] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def get(self, key: tuple[bytes, HoughParams]) -> object:
-        with self._lock:
-            got = self._kept.get(key)
-            if got is not None:
-                self._kept.move_to_end(key)
-            return got
-
-    def put(self, key: tuple[bytes, HoughParams], value: object) -> None:
-        with self._lock:
-            self._kept[key] = value
-            while len(self._kept) > FITS_KEPT:
-                self._kept.popitem(last=False)
-
-
-_FITS = _Kept()
+_FITS: Kept[Fitted] = Kept(FITS_KEPT)
 
 
 def _fit_key(image: np.ndarray, cand: Candidate, refine_size: int,

@@ -1,0 +1,46 @@
+"""The latest results of a pure computation by key, in bounded number, shared by threads: what ``hough``'s searches
+keep of their verifications and window analyses (:mod:`aerofid.detect.hough`), where the overlapping windows of one
+box meet the same pixels again."""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from collections.abc import Hashable
+from typing import Generic, TypeVar
+
+V = TypeVar("V")
+
+
+class Kept(Generic[V]):
+    """The latest ``limit`` values by key (the least recently given again dropped first).
+
+    Examples
+    --------
+    >>> kept = Kept[str](2)
+    >>> kept.put("a", "1"); kept.put("b", "2"); kept.get("a"); kept.put("c", "3")
+    '1'
+    >>> kept.get("b") is None, kept.get("a"), kept.get("c")
+    (True, '1', '3')
+    """
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self._kept: OrderedDict[Hashable, V] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key: Hashable) -> V | None:
+        """The value kept for ``key`` (now the most recent), or None."""
+        with self._lock:
+            got = self._kept.get(key)
+            if got is not None:
+                self._kept.move_to_end(key)
+            return got
+
+    def put(self, key: Hashable, value: V) -> None:
+        """Keep ``value`` for ``key``, dropping the least recent beyond ``limit``."""
+        with self._lock:
+            self._kept[key] = value
+            self._kept.move_to_end(key)
+            while len(self._kept) > self.limit:
+                self._kept.popitem(last=False)

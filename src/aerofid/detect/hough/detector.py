@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aerofid.conventions import FOUND
+from aerofid.detect.hough import cross_fit
 from aerofid.detect.hough.analysis import METHOD, WindowAnalysis, analyse_window
 from aerofid.detect.hough.cross_fit import CrossFit, cross_start, fit_cross, fit_start, start_share
 from aerofid.detect.hough.params import DEFAULT, HoughParams
@@ -276,7 +277,9 @@ def _fit_key(image: np.ndarray, cand: Candidate, refine_size: int,
     where = (refine_size, image.dtype.str, cand.x - x0, cand.y - y0, first[0].shape,
              None if larger is None else (larger[0].shape, larger[1][0] - x0, larger[1][1] - y0),
              cand.window.shape, cand.window.dtype.str, cand.origin[0] - x0, cand.origin[1] - y0,
-             a.x, a.y, a.theta1, a.theta2, a.binary.shape)
+             a.x, a.y, a.theta1, a.theta2, a.binary.shape,
+             # the settings it reads, so that a run that changes them (bench_fits.py's limit) is not served old fits
+             MIN_START_SHARE, MAX_REFINE_SHIFT, REFINE_WINDOW_FACTOR, EARLY_EXIT_SHIFT, cross_fit.MAX_EVALUATIONS)
     digest = hashlib.blake2b(repr(where).encode(), digest_size=20)
     for pixels in (first[0], None if larger is None else larger[0], cand.window, a.binary):
         if pixels is not None:

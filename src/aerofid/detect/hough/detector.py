@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import aerofid.detect.hough.cross_fit as cross_fit
 from aerofid.conventions import FOUND
-from aerofid.detect.hough import cross_fit
 from aerofid.detect.hough.analysis import METHOD, WindowAnalysis, analyse_window
 from aerofid.detect.hough.cross_fit import CrossFit, cross_start, fit_cross, fit_start, start_share
 from aerofid.detect.hough.params import DEFAULT, HoughParams

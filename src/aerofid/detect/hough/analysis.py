@@ -248,14 +248,9 @@ def panel_model(thetas_deg: np.ndarray, theta0: float) -> np.ndarray:
     return 1.0 + np.cos(4.0 * np.deg2rad(thetas_deg - theta0))
 
 
-def correlation(a: np.ndarray, b: np.ndarray) -> float | None:
-    """Normalised correlation coefficient of two profiles; None if either has no variance."""
-    b = b - b.mean()
-    return _correlation(a, b, (b * b).sum())
-
-
 def _correlation(a: np.ndarray, b_centred: np.ndarray, b_squares: float) -> float | None:
-    """:func:`correlation` of ``a`` with a profile given centred, with its sum of squares."""
+    """Normalised correlation coefficient of the profile ``a`` and a profile given centred, with its sum of squares;
+    None if either has no variance."""
     a = a - a.mean()
     den = np.sqrt((a * a).sum() * b_squares)
     if den <= 0:

@@ -102,8 +102,11 @@ this, and its amplitude must be positive, else the candidate is refused without 
 rejection scene, 5203 refused candidates): the least share of an accepted '+' 0.19 (a ring and '+' half hidden), this
 a fifth of it; no accepted '+' had a negative amplitude; it refuses 2275 of the refused candidates, 37 % of their fits'
 time (such fits run to 100 evaluations). '+' fitted from Hough angles 0-30 degrees off (60 crosses per angle, a
-review's scratch run): the least share of an accepted one 0.26. With the start's angles alone (no turns) and a
-threshold of 0.013, a review found a '+' refused (its Hough angles 13-23 degrees off)."""
+review's scratch script): the least share of an accepted one 0.26. With the start's angles alone (no turns) and a
+threshold of 0.013, a review found a '+' refused (its Hough angles 13-23 degrees off). The turns move both bars
+together: a second review, fitting from each bar's angle off by 0-35 degrees independently (700 starts, 248 accepted),
+found one accepted '+' refused here (share 0.025: a big ring round a '+' 24 degrees from square), on a scene that the
+detectors answer alike with and without this screen."""
 
 
 @dataclass(frozen=True)
@@ -234,15 +237,16 @@ def _fitted(image: np.ndarray, cand: Candidate, refine_size: int, params: HoughP
     if limit is not None and crossing_gap(analysis, limit) > limit:
         return (f"no stroke at the Hough centre (no bright pixel within {limit:g} px of it): the two lines do not "
                 "cross as a '+' there")
+    fitted_at = (int(origin[0]), int(origin[1]))
     start = cross_start(window, analysis.x, analysis.y, analysis.theta1, analysis.theta2, arm_half_length(analysis))
     if start is None:
-        return None, (int(origin[0]), int(origin[1]))
+        return None, fitted_at
     refusal = start_refusal(*start_share(start, MIN_START_SHARE))
     if refusal is not None:
         return refusal
     # the fit starts within MAX_REFINE_SHIFT of the candidate (refine_window); a first pass that moves more
     # than EARLY_EXIT_SHIFT from there will be refused: no refits (cross_fit._robust_solve)
-    return fit_start(start, max_shift=EARLY_EXIT_SHIFT), (int(origin[0]), int(origin[1]))
+    return fit_start(start, max_shift=EARLY_EXIT_SHIFT), fitted_at
 
 
 def start_refusal(amplitude: float, share: float) -> str | None:

@@ -113,7 +113,7 @@ def test_a_window_near_the_top_is_read_before_the_whole_decode_is_done(tmp_path,
     try:
         with open_raster(path) as raster:
             np.testing.assert_array_equal(raster.read_window((100, 30, 400, 500)), whole[30:500, 100:400])
-            assert raster._reader.served_top and not raster._pending.future.done()
+            assert raster._reader.served_top and not raster._reader.pending.future.done()
             release.set()
             np.testing.assert_array_equal(raster.read_window((10, 2000, 50, 2400)), whole[2000:2400, 10:50])
     finally:
@@ -137,3 +137,95 @@ def test_a_file_that_cannot_be_decoded_whole_is_an_error_though_its_top_rows_dec
     finally:
         release.set()
         jpeg.forget_decodes()
+
+
+def _no_whole_decode(monkeypatch):
+    """Fail any whole decode (the test's raster must not start one)."""
+    def refused(path, header=None):
+        raise AssertionError("a whole decode was started")
+
+    monkeypatch.setattr(jpeg, "_read_only", refused)
+    jpeg.forget_decodes()
+
+
+def test_a_raster_opened_for_its_top_rows_decodes_them_alone(tmp_path, monkeypatch):
+    """Opened for its top rows (``rows``), a JPEG's windows there are its whole decode's samples, read without
+    starting the whole decode, nor does closing it start one (the file ends its scans); a window below the rows
+    starts the whole decode and is right too."""
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    whole = _whole(path)
+    _no_whole_decode(monkeypatch)
+    try:
+        with open_raster(path, rows=600) as raster:
+            np.testing.assert_array_equal(raster.read_window((100, 30, 400, 500)), whole[30:500, 100:400])
+            np.testing.assert_array_equal(raster.read_window((0, 520, 64, 600)), whole[520:600, :64])
+            assert raster._reader.served_top and raster._reader.pending is None and not raster.decoding
+            assert raster._reader._top.shape[0] == 600
+        assert not jpeg._DECODES
+        monkeypatch.undo()
+        with open_raster(path, rows=600) as raster:
+            np.testing.assert_array_equal(raster.read_window((10, 2000, 50, 2400)), whole[2000:2400, 10:50])
+            assert raster._reader.pending is not None
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_a_raster_opened_for_rows_beyond_the_top_share_decodes_whole_at_once(tmp_path):
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    try:
+        with open_raster(path, rows=int(jpeg_top.TOP_SHARE * 2400) + 1) as raster:
+            assert raster._reader.pending is not None
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_a_kept_whole_decode_serves_a_raster_opened_for_its_top_rows(tmp_path):
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    try:
+        with open_raster(path) as first:
+            first.check_decoded()
+            kept = first._reader.pending
+        with open_raster(path, rows=600) as raster:
+            assert raster._reader.pending is kept
+            np.testing.assert_array_equal(raster.read_window((0, 0, 8, 8)), _whole(path)[:8, :8])
+            assert not raster._reader.served_top
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_a_truncated_file_opened_for_its_top_rows_is_an_error_on_closing(tmp_path):
+    """Its top rows are read without the whole decode; closing it walks its markers, finds it cut short and decodes
+    it whole to tell why (one line), as a raster that decoded it whole from the start does."""
+    data = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3)).read_bytes()
+    path = tmp_path / "cut.jpg"
+    path.write_bytes(data[: int(len(data) * 0.7)])
+    jpeg.forget_decodes()
+    try:
+        with pytest.raises(AerofidInputError) as excinfo, open_raster(path, rows=600) as raster:
+            raster.read_window((0, 0, 64, 64))
+            assert raster._reader.served_top and raster._reader.pending is None
+        assert "corrupt or truncated" in str(excinfo.value) and "\n" not in str(excinfo.value)
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_locate_of_a_box_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_path, monkeypatch):
+    """``aerofid.locate`` of one box near a JPEG's top reads its top rows alone (no whole decode, opening nor closing)
+    and answers as on the whole decode's samples."""
+    import aerofid
+    from aerofid import synth
+
+    scene = synth.mark_scene("bullseye", size=30, window=120, centre=(60.3, 59.6), rng=np.random.default_rng(3))
+    image = np.full((2400, 1400, 3), 40, np.uint8)
+    image[100:220, 500:620] = (np.clip(scene.image, 0, 1) * 255).astype(np.uint8)[:, :, None]
+    path = _write(tmp_path / "frame.jpg", image, cv2.IMWRITE_JPEG_QUALITY, 95)
+    box = (520, 120, 600, 200)
+    expected = aerofid.locate(_whole(path), box, mark="external")
+    _no_whole_decode(monkeypatch)
+    try:
+        got = aerofid.locate(path, box, mark="external")
+        assert not jpeg._DECODES
+    finally:
+        jpeg.forget_decodes()
+    assert expected.found and abs(expected.x - 560.3) < 0.2 and abs(expected.y - 159.6) < 0.2
+    assert (got.status, got.x, got.y, got.sigma) == (expected.status, expected.x, expected.y, expected.sigma)

@@ -322,6 +322,18 @@ def window_ladder(radius: float, inner: float) -> list[float]:
     return out
 
 
+def rows_read(region: Sequence[Any]) -> int | None:
+    """The row above which a search of ``region`` reads (for :func:`~aerofid.io.raster.open_raster`'s ``rows``): its
+    bottom, then a measuring window of the largest size (:data:`MAX_HALF`) about a point in it (the screen's
+    :data:`CONTEXT` is less); a window about a mark found outside the region may reach further. None where the
+    bottom is not a number (:func:`~aerofid.io.raster.clip_box` then tells)."""
+    try:
+        bottom = float(region[3])
+    except (TypeError, ValueError, IndexError):
+        return None
+    return math.ceil(bottom) + MAX_HALF + 1 if math.isfinite(bottom) else None
+
+
 def better(a: Detection, b: Detection) -> bool:
     """Is ``a`` a more reliable answer than ``b``? Found beats not found, then the higher score."""
     if a.found != b.found:

@@ -30,6 +30,7 @@ from aerofid.find import (
     Measurer,
     configure,
     in_box,
+    rows_read,
     screen_region,
     search,
 )
@@ -175,7 +176,7 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
     """
     detector, polarities = configure(method, mark, polarity, colour, params)
     requested = _box_tuple(box)
-    with open_image(image) as source:
+    with open_image(image, rows_read(requested)) as source:
         region, was_clipped = clip_box(requested, source.width, source.height)
         found = search_box(Measurer(source, detector, polarities, colour), region)
     return one_mark(found, mark, requested, was_clipped)

@@ -31,6 +31,7 @@ from aerofid.cli.boxes import NamedBox, collect_boxes
 from aerofid.cli.output import EXIT_FOUND, EXIT_NOT_FOUND, flush_stdout
 from aerofid.conventions import FOUND, MARKS, NOT_FOUND, POLARITY_CHOICES
 from aerofid.errors import AerofidInputError
+from aerofid.find import rows_read
 from aerofid.io.atomic import Staging
 from aerofid.io.colour import COLOUR_POLICIES
 from aerofid.io.raster import Raster, clip_box, open_raster
@@ -129,10 +130,13 @@ def _check_box(b: NamedBox, raster: Raster) -> None:
 
 
 def locate_all(image: str, boxes: Sequence[NamedBox], **options: Any) -> Located:
-    """Every box's :class:`~aerofid.locate.Location`, the scan opened once. Every box is checked against the
-    scan before any mark is searched for, and the options and parameters by the first search, before it
+    """Every box's :class:`~aerofid.locate.Location`, the scan opened once, for the rows the boxes' searches read
+    (:func:`~aerofid.find.rows_read`: a JPEG whose boxes lie near its top is not decoded whole). Every box is checked
+    against the scan before any mark is searched for, and the options and parameters by the first search, before it
     reads a pixel."""
-    with open_raster(image) as raster:
+    bottoms = [rows_read(b.box) for b in boxes]
+    rows = None if None in bottoms else max(r for r in bottoms if r is not None)
+    with open_raster(image, rows) as raster:
         for b in boxes:
             _check_box(b, raster)
         return [(b, locate_mark(raster, b.box, **options)) for b in boxes]

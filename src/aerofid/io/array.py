@@ -214,7 +214,7 @@ RasterLike = Raster | ArrayRaster
 
 
 def open_image(
-    image: str | bytes | os.PathLike[str] | np.ndarray | Raster | ArrayRaster,
+    image: str | bytes | os.PathLike[str] | np.ndarray | Raster | ArrayRaster, rows: int | None = None,
 ) -> AbstractContextManager[RasterLike]:
     """Open an image given as a path, an array or an open raster, for use in a ``with`` statement.
 
@@ -224,6 +224,8 @@ def open_image(
         A path (bytes too) is opened with :func:`~aerofid.io.raster.open_raster` and closed on leaving the ``with``; an
         array becomes an :class:`ArrayRaster`; an open :class:`~aerofid.io.raster.Raster` or
         :class:`ArrayRaster` is used as it is and left open (it belongs to the caller).
+    rows : int, optional
+        A file's rows the caller reads lie above this one (:func:`~aerofid.io.raster.open_raster`).
 
     Returns
     -------
@@ -246,7 +248,7 @@ def open_image(
     if isinstance(image, Raster | ArrayRaster):
         return contextlib.nullcontext(image)
     if isinstance(image, str | bytes | os.PathLike):
-        return open_raster(os.fsdecode(image))
+        return open_raster(os.fsdecode(image), rows)
     if not (isinstance(image, list | tuple) or hasattr(image, "__array__")):
         raise AerofidInputError(
             f"image is a {type(image).__name__}; give a file path, a numpy array or an open Raster"

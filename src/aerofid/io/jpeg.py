@@ -53,6 +53,7 @@ __all__ = [
     "decoding",
     "finish",
     "forget_decodes",
+    "kept_decoding",
     "header_segments",
     "jpeg_structure",
     "read_header",
@@ -394,6 +395,12 @@ def decoding(path: str, mtime_ns: int, size: int, header: ImageHeader | None = N
             _DECODES.popitem(last=False)
     threading.Thread(target=_decode_into, args=(key, pending), name="aerofid-decode").start()
     return pending
+
+
+def kept_decoding(path: str, mtime_ns: int, size: int) -> Decoding | None:
+    """The whole decode of :func:`decoding` already started (running or done) for this file, if one is kept."""
+    with _DECODES_LOCK:
+        return _DECODES.get((path, mtime_ns, size))
 
 
 def forget_decodes() -> None:

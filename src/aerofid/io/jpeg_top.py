@@ -4,7 +4,9 @@ stop after any of them (issue 10: a JPEG is not decoded whole for one box where 
 A :class:`~aerofid.io.raster.Raster` of an 8-bit JPEG starts its whole decode in the background when it is opened
 (:func:`aerofid.io.jpeg.decoding`). Until that decode is done, a window whose rows end within :data:`TOP_SHARE` of the
 image is read from a decode of the rows above it (and :data:`TOP_MARGIN` more) in the reading thread, on the other
-core: one box near the top of a frame waits for the decode of the rows down to it, not of the whole image. The rows
+core: one box near the top of a frame waits for the decode of the rows down to it, not of the whole image. A raster
+opened for its top rows alone (``open_raster(path, rows=...)``: :func:`aerofid.locate` of one box near the top)
+decodes those rows and never the whole image unless a read reaches below them. The rows
 are decoded by Pillow's libjpeg-turbo, the library and inverse DCT of OpenCV's whole decode, to the same samples
 (tests compare them on 4:2:0, 4:4:4, progressive and grey JPEGs and on the real RC20 frame); where Pillow cannot
 decode them, or cannot tell that it decoded every one of them (a corrupt or truncated file), the whole decode answers
@@ -13,12 +15,13 @@ decode them, or cannot tell that it decoded every one of them (a corrupt or trun
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from aerofid.io.jpeg import Decoding, ImageHeader, decode_budget, decoded
+from aerofid.io.jpeg import Decoding, ImageHeader, decode_budget, decoded, jpeg_structure
 
 TOP_SHARE = 0.4
 """A window whose rows end within this share of the image's height is read from a decode of the top rows alone
@@ -93,13 +96,20 @@ def _feed(decoder: object, path: Path, offset: int) -> None:
 
 
 class BackgroundJpegReader:
-    """Windows of a JPEG being decoded whole in the background (:func:`aerofid.io.jpeg.decoding`): from that decode
+    """Windows of a JPEG decoded whole in a thread of its own (:func:`aerofid.io.jpeg.decoding`): from that decode
     once it is done; before, a window in the top :data:`TOP_SHARE` of the image from :func:`decode_top` of the rows
     down to it and :data:`TOP_MARGIN` more (kept, and decoded further for a window below them), where the whole
-    decode and those rows fit the decode budget together and the image is not small (:data:`MIN_DECODED_BYTES`)."""
+    decode and those rows fit the decode budget together and the image is not small (:data:`MIN_DECODED_BYTES`).
 
-    def __init__(self, pending: Decoding, header: ImageHeader, path: Path):
-        self._pending, self._header, self._path = pending, header, path
+    Opened for its top ``rows`` (the caller reads no row below them: one box near the top of a scan), the whole
+    decode is not started at all while they lie in the top share: those rows are decoded alone, once, and the whole
+    decode starts only when a read reaches below them or they cannot be decoded. ``start`` starts the whole decode
+    (or gives the one already kept); ``pending`` is None until it is started."""
+
+    def __init__(self, start: Callable[[], Decoding], header: ImageHeader, path: Path, rows: int | None = None):
+        self._start, self._header, self._path = start, header, path
+        self._rows = rows if rows is not None and self._in_top(rows, min(rows, header.height)) else None
+        self.pending: Decoding | None = None if self._rows is not None else start()
         self._whole: np.ndarray | None = None
         self._top: np.ndarray | None = None
         self.served_top = False
@@ -108,7 +118,7 @@ class BackgroundJpegReader:
     def read(self, box: tuple[int, int, int, int]) -> np.ndarray:
         """Samples of the window ``box`` (a view of a decoded array)."""
         x0, y0, x1, y1 = box
-        if self._whole is None and not self._pending.future.done():
+        if self._whole is None and (self.pending is None or not self.pending.future.done()):
             top = self._top_rows(y1)
             if top is not None:
                 self.served_top = True
@@ -116,22 +126,49 @@ class BackgroundJpegReader:
         return self.whole()[y0:y1, x0:x1]
 
     def whole(self) -> np.ndarray:
-        """The whole decode, waited for (its error raised: :func:`aerofid.io.jpeg.decoded`)."""
+        """The whole decode (started if it was not), waited for (its error raised: :func:`aerofid.io.jpeg.decoded`)."""
         if self._whole is None:
-            self._whole = decoded(self._pending, self._header, self._path)
+            self._whole = decoded(self._decoding(), self._header, self._path)
             self._top = None
         return self._whole
 
+    def check(self) -> None:
+        """Raise the whole decode's error where windows were read from the top rows (:meth:`whole`): a file that cannot
+        be decoded whole is an error, as when a window waited for its decode. Where the whole decode was never started,
+        a file whose marker walk is complete (:func:`aerofid.io.jpeg.jpeg_structure`: every scan's data ends, an end
+        of image follows) is not decoded whole to tell: only a file cut short or malformed is."""
+        if not self.served_top:
+            return
+        if self.pending is None and jpeg_structure(self._path) == "complete":
+            return
+        self.whole()
+
+    def _decoding(self) -> Decoding:
+        """The whole decode, started now if it was not."""
+        if self.pending is None:
+            self.pending = self._start()
+        return self.pending
+
+    def _in_top(self, bottom: int, rows: int) -> bool:
+        """Whether a window ending at row ``bottom`` is read from a decode of the top ``rows`` (module docstring)."""
+        h = self._header
+        row_bytes = h.width * (4 if h.samples == 3 else h.samples) * h.itemsize     # as Pillow stores them
+        return (bottom <= TOP_SHARE * h.height and h.decoded_bytes >= MIN_DECODED_BYTES
+                and h.decoded_bytes + rows * row_bytes <= decode_budget())
+
     def _top_rows(self, bottom: int) -> np.ndarray | None:
-        """The decoded top rows reaching row ``bottom`` (exclusive), decoded now if need be; None where the window
+        """The decoded top rows reaching row ``bottom`` (exclusive), decoded now if need be (the rows the reader was
+        opened for, else ``bottom`` and :data:`TOP_MARGIN` more, the whole decode started then); None where the window
         is not in the top of the image or the rows are not decoded."""
         if self._top is not None and bottom <= self._top.shape[0]:
             return self._top
         h = self._header
-        rows = min(h.height, bottom + TOP_MARGIN)
-        row_bytes = h.width * (4 if h.samples == 3 else h.samples) * h.itemsize     # as Pillow stores them
-        if (bottom > TOP_SHARE * h.height or h.decoded_bytes < MIN_DECODED_BYTES
-                or h.decoded_bytes + rows * row_bytes > decode_budget()):
+        if self._rows is not None and bottom <= self._rows:
+            rows = min(h.height, self._rows)
+        else:
+            self._decoding()
+            rows = min(h.height, bottom + TOP_MARGIN)
+        if not self._in_top(bottom, rows):
             return None
         top = decode_top(self._path, rows, h)
         if top is not None:

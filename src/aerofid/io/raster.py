@@ -380,29 +380,30 @@ class Raster:
         tiled: whether the file stores tiles (only TIFF can).
     """
 
-    def __init__(self, path: str | os.PathLike[str]):
+    def __init__(self, path: str | os.PathLike[str], rows: int | None = None):
         self.path = Path(path)
         self.format = _file_format(self.path)
         self._tif: tifffile.TiffFile | None = None
         self._reader: _Reader | None = None
         self._overview: jpeg.HugeJpegReader | None = None
-        self._pending: jpeg.Decoding | None = None
         self._invert = False
         if self.format == "tiff":
             self._open_tiff()
         else:
-            self._open_cv2()
+            self._open_cv2(rows)
 
-    def _open_cv2(self) -> None:
+    def _open_cv2(self, rows: int | None) -> None:
         """Read a JPEG's or PNG's size from its header; decode it whole if that fits the budget
-        (:func:`aerofid.io.jpeg.decode_budget`), else (a JPEG only) keep it for reduced reads."""
+        (:func:`aerofid.io.jpeg.decode_budget`), else (a JPEG only) keep it for reduced reads. ``rows``: see
+        :func:`open_raster`."""
         header = jpeg.read_header(self.path, self.format)
         self.tiled = False
         if jpeg.decodes_whole(header):
             st = self.path.stat()
             key = (str(self.path.resolve()), st.st_mtime_ns, st.st_size)
             if jpeg.decodes_in_background(header, self.format):
-                self._open_decoding(header, jpeg.decoding(*key, header))
+                self._open_decoding(header, lambda: jpeg.decoding(*key, header),
+                                    rows if jpeg.kept_decoding(*key) is None else None)
                 return
             image = jpeg.decode_whole(*key)
             self.height, self.width, samples = image.shape
@@ -426,12 +427,12 @@ class Raster:
         self.dtype = np.dtype(np.uint8)
         return jpeg.HugeJpegReader(self.path, header, self.bands, checks_truncation)
 
-    def _open_decoding(self, header: jpeg.ImageHeader, pending: jpeg.Decoding) -> None:
-        """A JPEG being decoded whole in the background (:func:`aerofid.io.jpeg.decoding`): its size from the header,
+    def _open_decoding(self, header: jpeg.ImageHeader, start: Callable[[], jpeg.Decoding], rows: int | None) -> None:
+        """A JPEG decoded whole in the background (``start``: :func:`aerofid.io.jpeg.decoding`; not started while
+        only its top ``rows`` are read, :class:`~aerofid.io.jpeg_top.BackgroundJpegReader`): its size from the header,
         windows once the decode is done, and :meth:`read_overview` from libjpeg's reduced decode meanwhile."""
         self._overview = self._from_header(header, checks_truncation=False)   # the whole decode refuses a truncated one
-        self._pending = pending
-        self._reader = BackgroundJpegReader(pending, header, self.path)
+        self._reader = BackgroundJpegReader(start, header, self.path, rows)
 
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""
@@ -621,7 +622,7 @@ class Raster:
     @property
     def decoding(self) -> bool:
         """Whether a whole decode of this JPEG is running in its own thread (then a second core is busy with it)."""
-        pending = self._pending
+        pending = self._reader.pending if isinstance(self._reader, BackgroundJpegReader) else None
         return pending is not None and not pending.future.done()
 
     def check_decoded(self) -> None:
@@ -637,14 +638,15 @@ class Raster:
         writes libjpeg's warnings to stderr, after the raster is closed); later reads raise
         :class:`AerofidInputError`. Where windows were read from a JPEG's top rows before its whole decode was done
         (:mod:`aerofid.io.jpeg_top`), that decode's error is raised here (``check``; not while leaving a ``with``
-        block on another error): a truncated file is an error, as when the window waited for it."""
-        pending, self._pending = self._pending, None
+        block on another error): a truncated file is an error, as when the window waited for it
+        (:meth:`~aerofid.io.jpeg_top.BackgroundJpegReader.check`)."""
         reader = self._reader
         try:
-            if pending is not None:
-                jpeg.finish(pending)
-                if check and isinstance(reader, BackgroundJpegReader) and reader.served_top:
-                    reader.whole()
+            if isinstance(reader, BackgroundJpegReader):
+                if reader.pending is not None:
+                    jpeg.finish(reader.pending)
+                if check:
+                    reader.check()
         finally:
             self._release()
 
@@ -674,13 +676,18 @@ class Raster:
         )
 
 
-def open_raster(path: str | os.PathLike[str]) -> Raster:
+def open_raster(path: str | os.PathLike[str], rows: int | None = None) -> Raster:
     """Open a scan (TIFF/BigTIFF/GeoTIFF, JPEG or PNG) for windowed reading.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file; its format is recognised from its first bytes.
+    rows : int, optional
+        The caller reads no row at or below this one (e.g. the boxes near the top of a scan it will search). A JPEG
+        whose windows are read while it is decoded whole in the background then decodes those top rows alone, and
+        starts its whole decode only if a read reaches below them (:mod:`aerofid.io.jpeg_top`); reads beyond them
+        are still right, only slower. None: any row (a JPEG starts its whole decode at once).
 
     Returns
     -------
@@ -709,4 +716,4 @@ def open_raster(path: str | os.PathLike[str]) -> Raster:
     >>> bool((window == image[20:60, 10:50]).all())
     True
     """
-    return Raster(path)
+    return Raster(path, rows)

@@ -26,6 +26,7 @@ from aerofid.find import (
     Measurer,
     recentred_half,
     reduction_for,
+    rows_read,
     window_half,
     window_ladder,
     with_window_term,
@@ -555,3 +556,19 @@ def test_a_centre_the_method_gives_back_on_the_recentred_window_is_the_new_measu
         assert anew.found and math.hypot(anew.x - first.x, anew.y - first.y) < 1e-3
         assert not Measurer(source, make_detector("auto", "auto", {}), ("bright",)).confirms(first, half)
 
+
+
+@pytest.mark.parametrize(("region", "rows"), [
+    ((0, 0, 10, 100), 100 + MAX_HALF + 1),
+    ((0.5, 2.5, 10.5, 99.2), 100 + MAX_HALF + 1),
+    (np.array([3, 4, 50, 60]), 60 + MAX_HALF + 1),
+    ((0, 0, 10, float("nan")), None),
+    ((0, 0, 10, float("inf")), None),
+    ((0, 0, 10, "bottom"), None),
+    ((0, 0, 10), None),
+    (None, None),
+])
+def test_rows_read_lie_above_a_region_s_bottom_and_its_largest_window(region, rows):
+    """The rows a search of a region reads: its bottom, then a measuring window of the largest size about a point in
+    it; None for a bottom that is no number (the region's own check tells)."""
+    assert rows_read(region) == rows

@@ -229,3 +229,87 @@ def test_locate_of_a_box_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_pat
         jpeg.forget_decodes()
     assert expected.found and abs(expected.x - 560.3) < 0.2 and abs(expected.y - 159.6) < 0.2
     assert (got.status, got.x, got.y, got.sigma) == (expected.status, expected.x, expected.y, expected.sigma)
+
+
+def test_a_raster_opened_for_its_top_rows_starts_its_whole_decode_when_asked_to_check_it(tmp_path):
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    try:
+        with open_raster(path, rows=600) as raster:
+            raster.read_window((0, 0, 8, 8))
+            assert raster._reader.pending is None
+            raster.check_decoded()
+            assert raster._reader.pending is not None and raster._reader.pending.future.done()
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_closing_without_the_check_leaves_a_truncated_file_s_top_rows_read_and_nothing_running(tmp_path):
+    data = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3)).read_bytes()
+    path = tmp_path / "cut.jpg"
+    path.write_bytes(data[: int(len(data) * 0.7)])
+    jpeg.forget_decodes()
+    raster = open_raster(path, rows=600)
+    raster.read_window((0, 0, 64, 64))
+    raster.close(check=False)
+    assert raster._reader is None and not jpeg._DECODES
+    assert not [t for t in threading.enumerate() if t.name == "aerofid-decode"]
+
+
+def test_a_file_without_its_end_of_image_opened_for_its_top_rows_is_an_error_on_closing(tmp_path):
+    data = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3)).read_bytes()
+    assert data.endswith(b"\xff\xd9")
+    path = tmp_path / "no_eoi.jpg"
+    path.write_bytes(data[:-2])
+    assert jpeg.jpeg_structure(path) != "complete"
+    jpeg.forget_decodes()
+    try:
+        with pytest.raises(AerofidInputError), open_raster(path, rows=600) as raster:
+            raster.read_window((0, 0, 64, 64))
+            assert raster._reader.served_top and raster._reader.pending is None
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_a_file_removed_after_its_top_rows_were_read_closes_quietly(tmp_path, monkeypatch):
+    """Its rows were decoded whole (their last row checked); nothing is left to tell of a file that is gone."""
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    _no_whole_decode(monkeypatch)
+    try:
+        with open_raster(path, rows=600) as raster:
+            assert raster.read_window((0, 0, 8, 8)).shape == (8, 8, 3)
+            path.unlink()
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_a_small_jpeg_opened_for_its_top_rows_is_decoded_whole_at_once(tmp_path):
+    """Under MIN_DECODED_BYTES the top rows are not worth a decode of their own: the whole decode starts at once."""
+    path = _write(tmp_path / "small.jpg", _texture((400, 300), 3))
+    try:
+        with open_raster(path, rows=50) as raster:
+            assert raster._reader.pending is not None
+            np.testing.assert_array_equal(raster.read_window((0, 0, 30, 20)), _whole(path)[:20, :30])
+    finally:
+        jpeg.forget_decodes()
+
+
+def test_the_cli_s_boxes_open_the_scan_for_the_rows_their_searches_read(tmp_path, monkeypatch):
+    """``locate_all``: boxes near the top alone, the scan opened for their rows; one lower box, for every row (its
+    whole decode starts at once); no box, nothing searched."""
+    from aerofid.cli import locate_cmd
+    from aerofid.cli.boxes import NamedBox
+    from aerofid.find import rows_read
+
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    opened = []
+    real = locate_cmd.open_raster
+    monkeypatch.setattr(locate_cmd, "open_raster", lambda image, rows=None: opened.append(rows) or real(image, rows))
+    top = [NamedBox("a", (10.0, 10.0, 60.0, 60.0), "a", True), NamedBox("b", (100.0, 40.0, 160.0, 90.0), "b", True)]
+    low = NamedBox("c", (10.0, 2000.0, 60.0, 2050.0), "c", True)
+    try:
+        assert len(locate_cmd.locate_all(str(path), top, mark="external")) == 2
+        assert len(locate_cmd.locate_all(str(path), [*top, low], mark="external")) == 3
+        assert locate_cmd.locate_all(str(path), []) == []
+    finally:
+        jpeg.forget_decodes()
+    assert opened == [rows_read((100, 40, 160, 90)), rows_read((10, 2000, 60, 2050)), None]

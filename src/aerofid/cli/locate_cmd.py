@@ -135,7 +135,7 @@ def locate_all(image: str, boxes: Sequence[NamedBox], **options: Any) -> Located
     against the scan before any mark is searched for, and the options and parameters by the first search, before it
     reads a pixel."""
     bottoms = [rows_read(b.box) for b in boxes]
-    rows = None if None in bottoms else max(r for r in bottoms if r is not None)
+    rows = None if None in bottoms else max((r for r in bottoms if r is not None), default=None)
     with open_raster(image, rows) as raster:
         for b in boxes:
             _check_box(b, raster)

@@ -5,7 +5,8 @@ OpenCV cannot decode a window of a JPEG or PNG, so :class:`~aerofid.io.raster.Ra
 when its decoded samples fit the decode budget (:func:`decode_budget`). The size is read from the header first (the JPEG
 start-of-frame segment, the PNG ``IHDR`` chunk), so nothing is decoded to learn it. The decode runs in a thread of
 its own (:func:`decoding`). The raster waits for it on opening a PNG or an unusual JPEG; an 8-bit DCT JPEG opens at
-once, its first window waits for the decode (:func:`decoded`), and a whole frame's first look
+once, its first window waits for the decode (:func:`decoded`) unless it lies near the top (:mod:`aerofid.io.jpeg_top`:
+a raster opened for its top rows alone starts the decode only when a read needs it), and a whole frame's first look
 (``Raster.read_overview``) is taken from libjpeg's reduced decode meanwhile, on the other core; closing the raster
 waits for the decode to end (:func:`finish`), and a corrupt file is an error when a window is read or
 ``Raster.check_decoded`` asks. A larger JPEG is never decoded whole: :class:`HugeJpegReader` answers

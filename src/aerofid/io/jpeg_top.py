@@ -25,7 +25,8 @@ from aerofid.io.jpeg import Decoding, ImageHeader, decode_budget, decoded, jpeg_
 
 TOP_SHARE = 0.4
 """A window whose rows end within this share of the image's height is read from a decode of the top rows alone
-(the whole decode runs meanwhile on the other core; a decode of more of the image gains too little on it)."""
+(the whole decode, where it was started, runs meanwhile on the other core; a decode of more of the image gains too
+little on it)."""
 TOP_MARGIN = 1024
 """Rows decoded below such a window, for the next windows of the same search (a search reads up to 64 px of context
 around its region and measures marks on windows of at most 641 px, :mod:`aerofid.find`)."""
@@ -136,11 +137,17 @@ class BackgroundJpegReader:
         """Raise the whole decode's error where windows were read from the top rows (:meth:`whole`): a file that cannot
         be decoded whole is an error, as when a window waited for its decode. Where the whole decode was never started,
         a file whose marker walk is complete (:func:`aerofid.io.jpeg.jpeg_structure`: every scan's data ends, an end
-        of image follows) is not decoded whole to tell: only a file cut short or malformed is."""
+        of image follows) is not decoded whole to tell: only a file cut short or malformed is; nor one that can no
+        longer be read (removed since): the rows read were decoded whole (:func:`decode_top` checks its last row)."""
         if not self.served_top:
             return
-        if self.pending is None and jpeg_structure(self._path) == "complete":
-            return
+        if self.pending is None:
+            try:
+                walk = jpeg_structure(self._path)
+            except OSError:
+                return
+            if walk == "complete":
+                return
         self.whole()
 
     def _decoding(self) -> Decoding:

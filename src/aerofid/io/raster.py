@@ -16,7 +16,9 @@ How :meth:`Raster.read_window` reads a window, cheapest first:
 * a JPEG or PNG is decoded whole (OpenCV cannot read a window of it) and kept in memory, if its decoded size (read
   from the header first) fits the decode budget (:func:`aerofid.io.jpeg.decode_budget`): a PNG, a lossless or a
   12-bit JPEG when opened, an 8-bit DCT JPEG in the background from the moment it is opened (its windows wait for it,
-  :meth:`Raster.read_overview` takes libjpeg's reduced decode meanwhile); a larger JPEG is never decoded whole
+  :meth:`Raster.read_overview` takes libjpeg's reduced decode meanwhile; a window near its top is read from a decode
+  of its top rows, and a raster opened for its top rows alone decodes only those, :mod:`aerofid.io.jpeg_top`); a
+  larger JPEG is never decoded whole
   (only :meth:`Raster.read_reduced` reads it, through libjpeg's reduced decode), a larger PNG is refused.
 
 :meth:`Raster.read_reduced` reads a window reduced by block means in horizontal strips (whole tile rows of a
@@ -626,9 +628,9 @@ class Raster:
         return pending is not None and not pending.future.done()
 
     def check_decoded(self) -> None:
-        """Wait for a JPEG's background decode and raise its error (one line) if it failed; nothing for other
-        rasters. A search that read only :meth:`read_overview` calls it: a corrupt file is an error, not an image
-        without marks."""
+        """Wait for a JPEG's background decode (started now if the raster was opened for its top rows and has not
+        started it) and raise its error (one line) if it failed; nothing for other rasters. A search that read only
+        :meth:`read_overview` calls it: a corrupt file is an error, not an image without marks."""
         reader = self._open_reader()
         if isinstance(reader, BackgroundJpegReader):
             reader.whole()

@@ -412,3 +412,16 @@ def test_colour_jpeg_blocks_do_not_drown_the_circles_in_edges():
         m = s.marks[0]
         assert d.found, d.reason
         assert np.hypot(d.x - m.x, d.y - m.y) < 0.1
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.floats(0.0, 5.0), st.floats(1.0, 60.0))
+def test_the_histogram_of_sorted_distances_is_numpy_s(seed, low, span):
+    """``_histogram`` of sorted values equals ``np.histogram`` with the same edges, values on the edges (the last
+    one included) and outside them too."""
+    rng = np.random.default_rng(seed)
+    edges = np.arange(low, low + span + 0.5, 0.5)
+    d = np.concatenate([rng.uniform(low - 2, low + span + 2, int(rng.integers(0, 400))),
+                        rng.choice(edges, int(rng.integers(0, 20)))])
+    d.sort(kind="stable")
+    np.testing.assert_array_equal(circles._histogram(d, edges), np.histogram(d, bins=edges)[0])

@@ -253,7 +253,10 @@ def test_stretch_planes_equal_each_stretchs_own_least_squares(seed, ramp, theta)
     if ring.sum() < 4:
         return
     uc = float(rng.uniform(0, max(h, w)))
-    got = lines._local_background(fr, ring, uc, band)
+    every = np.ones(fr.v.size, bool)
+    got = lines._local_background(fr, ring, uc, band, every)
+    some = rng.random(fr.v.size) > 0.6          # evaluated at some pixels only: the same numbers there, exactly
+    np.testing.assert_array_equal(lines._local_background(fr, ring, uc, band, some), got[some])
     u = fr.u - uc
     seg = np.floor(u / lines.SLICE_LENGTH).astype(np.int64)
     want = lines._plane(fr.g[ring], fr.v[ring], u[ring], fr.v, u)
@@ -271,7 +274,7 @@ def test_a_stretch_of_one_row_gets_its_own_least_squares_plane():
     window = 0.3 + 0.01 * xx + 0.02 * yy + 0.001 * np.sin(xx * yy)
     fr = lines._frame(window, 0.0, 20.0)
     ring = np.abs(fr.v) > 2.0
-    got = lines._local_background(fr, ring, 0.0, 2.0)
+    got = lines._local_background(fr, ring, 0.0, 2.0, np.ones(fr.v.size, bool))
     last = fr.u == 8.0                       # the second stretch: row 8 alone
     want = lines._plane(fr.g[ring & last], fr.v[ring & last], fr.u[ring & last], fr.v[last], fr.u[last])
     assert lines._stretch_planes((fr.u[ring] >= 8).astype(np.int64), fr.g[ring], fr.v[ring], fr.u[ring], 2.0,

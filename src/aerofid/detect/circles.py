@@ -376,6 +376,14 @@ class _Shells:
         return np.sign(self.outward[hi] - self.outward[lo])
 
 
+def _histogram(ascending: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """``np.histogram(ascending, bins=edges)[0]`` of values already sorted (numpy sorts them again): the counts
+    between the edges, each bin's left edge in it, the last bin's right edge too."""
+    cum = np.concatenate([np.searchsorted(ascending, edges[:-1], "left"),
+                          np.searchsorted(ascending, edges[-1:], "right")])
+    return np.diff(cum)
+
+
 def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: float,
                    n_circles: int = N_CIRCLES, near: tuple[float, ...] | None = None,
                    radial_cos: float = RADIAL_COS, min_coverage: float = MIN_COVERAGE) -> list[tuple[float, float]]:
@@ -392,20 +400,21 @@ def estimate_radii(ep: EdgePoints, cx: float, cy: float, r_min: float, r_max: fl
     ok = (cos >= radial_cos) & (d >= r_min - 1) & (d <= r_max + 1)
     if not ok.any():
         return []
+    order = np.argsort(d[ok], kind="stable")
+    ds = d[ok][order]
     bw = 0.5
     edges_ = np.arange(max(0.0, r_min - 1.0), r_max + 1.0 + bw, bw)
-    hist, _ = np.histogram(d[ok], bins=edges_)
+    hist = _histogram(ds, edges_)
     hs = np.convolve(hist.astype(float), [0.25, 0.5, 0.25], mode="same")
     centres = 0.5 * (edges_[:-1] + edges_[1:])
     is_peak = (hs > 0) & (hs >= np.roll(hs, 1)) & (hs >= np.roll(hs, -1))
     peaks = np.nonzero(is_peak)[0]
 
     # polarity of each edge point: +1 when its gradient points away from the centre (dark inside)
-    order = np.argsort(d[ok], kind="stable")
     x, y, nx, ny = (v[ok][order] for v in (ep.x, ep.y, ep.nx, ep.ny))
     with np.errstate(divide="ignore", invalid="ignore"):
         outward = np.sign((x - cx) * nx + (y - cy) * ny)
-    shells = _Shells.about(d[ok][order], _sectors(x, y, cx, cy), outward)
+    shells = _Shells.about(ds, _sectors(x, y, cx, cy), outward)
 
     def refine(i: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Radius, coverage and polarity of the histogram peaks ``i``: the median distance of the points within 1 px

@@ -387,23 +387,28 @@ def _ground_ring(fr: _Frame, band: float, other: tuple[float, float, float] | No
     return keep, ring, side_fg
 
 
-def _local_background(fr: _Frame, ring: np.ndarray, uc: float, band: float) -> np.ndarray:
-    """Local background at every pixel: a plane g = c0 + c1 v + c2 u fitted to the strips just outside the band,
-    per ``SLICE_LENGTH`` px stretch of the line (a ramp of the film density across the band would otherwise
-    move the centroids); one plane for the whole ring where a stretch does not have both sides. The stretches'
-    planes are solved together (:func:`_stretch_planes`)."""
+def _local_background(fr: _Frame, ring: np.ndarray, uc: float, band: float, at: np.ndarray) -> np.ndarray:
+    """Local background at the pixels ``at`` (a mask): a plane g = c0 + c1 v + c2 u fitted to the strips just
+    outside the band, per ``SLICE_LENGTH`` px stretch of the line (a ramp of the film density across the band would
+    otherwise move the centroids); one plane for the whole ring where a stretch does not have both sides. The
+    stretches' planes are solved together (:func:`_stretch_planes`); the whole ring's plane only where needed."""
     u = fr.u - uc
-    seg = np.floor(u / SLICE_LENGTH).astype(np.int64)
-    bg = _plane(fr.g[ring], fr.v[ring], u[ring], fr.v, u)
-    key = seg - seg.min()
-    planes = _stretch_planes(key[ring], fr.g[ring], fr.v[ring], u[ring], band, int(key.max()) + 1)
+    key = np.floor(u / SLICE_LENGTH).astype(np.int64)
+    key -= key.min()
+    g, v, ur, kr = fr.g[ring], fr.v[ring], u[ring], key[ring]
+    v_at, u_at, k_at = fr.v[at], u[at], key[at]
+    planes = _stretch_planes(kr, g, v, ur, band, int(key.max()) + 1)
+    bg = np.empty(v_at.shape)
+    on = planes.fitted[k_at]
+    k = k_at[on]
+    bg[on] = planes.c0[k] + planes.c1[k] * (v_at[on] - planes.v0[k]) + planes.c2[k] * (u_at[on] - planes.u0[k])
+    rest = ~on
     for k in planes.solo:   # a stretch whose plane is ill-conditioned: least squares on its own
-        on = key == k
-        m = ring & on
-        bg[on] = _plane(fr.g[m], fr.v[m], u[m], fr.v[on], u[on])
-    on = planes.fitted[key]
-    k = key[on]
-    bg[on] = planes.c0[k] + planes.c1[k] * (fr.v[on] - planes.v0[k]) + planes.c2[k] * (u[on] - planes.u0[k])
+        m, on = kr == k, k_at == k
+        bg[on] = _plane(g[m], v[m], ur[m], v_at[on], u_at[on])
+        rest &= ~on
+    if rest.any():
+        bg[rest] = _plane(g, v, ur, v_at[rest], u_at[rest])
     return bg
 
 
@@ -581,15 +586,15 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
     if ring.sum() < 6:
         return None
     uc = float(centre @ fr.tangent)
-    bg = _local_background(fr, ring, uc, band)
     sel = (np.abs(fr.v) <= band) & keep
     if sel.sum() < 10:
         return None
+    bg = _local_background(fr, ring, uc, band, sel)
     us, vs = fr.u[sel] - uc, fr.v[sel]
     # Gaussian taper across the line (a matched filter): the slice centroid converges, over the iterations, to
     # the peak of the profile smoothed by the taper, and the noise of the pixels far from the bar is damped
     q = np.exp(-0.5 * (vs / max(taper * half_width, 0.5)) ** 2) if taper > 0 else np.ones_like(vs)
-    slices = _slice_centroids(us, vs, (fr.g[sel] - bg[sel]) * q, q, noise)
+    slices = _slice_centroids(us, vs, (fr.g[sel] - bg) * q, q, noise)
     fit = None if slices is None else _fit_offsets(slices)
     if slices is None or fit is None:
         return None

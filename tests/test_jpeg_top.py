@@ -313,3 +313,23 @@ def test_the_cli_s_boxes_open_the_scan_for_the_rows_their_searches_read(tmp_path
     finally:
         jpeg.forget_decodes()
     assert opened == [rows_read((100, 40, 160, 90)), rows_read((10, 2000, 60, 2050)), None]
+
+
+def test_find_marks_in_a_region_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_path, monkeypatch):
+    import aerofid
+    from aerofid import synth
+
+    scene = synth.mark_scene("bullseye", size=30, window=120, centre=(60.3, 59.6), rng=np.random.default_rng(3))
+    image = np.full((2400, 1400, 3), 40, np.uint8)
+    image[100:220, 500:620] = (np.clip(scene.image, 0, 1) * 255).astype(np.uint8)[:, :, None]
+    path = _write(tmp_path / "frame.jpg", image, cv2.IMWRITE_JPEG_QUALITY, 95)
+    region = (400, 60, 800, 260)
+    expected = aerofid.find_marks(_whole(path), region, mark="external")
+    _no_whole_decode(monkeypatch)
+    try:
+        got = aerofid.find_marks(path, region, mark="external")
+        assert not jpeg._DECODES
+    finally:
+        jpeg.forget_decodes()
+    assert len(expected.marks) == 1 and abs(expected.marks[0].x - 560.3) < 0.2
+    assert [(m.x, m.y) for m in got.marks] == [(m.x, m.y) for m in expected.marks]

@@ -419,7 +419,8 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
         As :func:`aerofid.locate` takes it.
     region : (x0, y0, x1, y1), optional
         Where the marks' centres may lie (full-image pixels, x1 and y1 exclusive); the whole image if None.
-        Pixels around it are read as context.
+        Pixels around it are read as context (a JPEG whose region lies near its top is not decoded whole:
+        :func:`rows_read`).
     mark, method, polarity, colour, **params
         As :func:`aerofid.locate`.
     min_radius, max_radius : float
@@ -444,7 +445,7 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
     """
     check_search(min_radius, max_radius, max_candidates)
     detector, polarities = configure(method, mark, polarity, colour, params)
-    with open_image(image) as source:
+    with open_image(image, None if region is None else rows_read(region)) as source:
         area = (0, 0, source.width, source.height) if region is None else clip_box(region, source.width,
                                                                                   source.height)[0]
         measurer = Measurer(source, detector, polarities, colour)

@@ -304,20 +304,23 @@ rows can be read before the whole decode is done (``aerofid.io.jpeg_top``)."""
 
 def bench_cli(repeats: int) -> list[str]:
     """Wall time of one ``aerofid locate`` of the RC20 JPEG (a fresh interpreter: start-up, imports, the JPEG's
-    decode and the search) on a box in its top rows and on one in its bottom rows, and of its imports alone, median
-    of ``2 * repeats + 1`` runs each."""
+    decode and the search) on a box in its top rows and on one in its bottom rows, of its imports alone and of the
+    libraries' imports alone (what aerofid adds is the difference), median of ``2 * repeats + 1`` runs each."""
     if not REAL.exists():
         return []
     call = [sys.executable, "-m", "aerofid", "locate", str(REAL), "--box", CLI_BOX, "--mark", "external"]
     bottom = [sys.executable, "-m", "aerofid", "locate", str(REAL), "--box", CLI_BOX_BOTTOM, "--mark", "external"]
     imports = [sys.executable, "-c", "import aerofid.cli.locate_cmd"]
+    floor = [sys.executable, "-c", "import numpy, cv2, click"]
     # as installed: pip compiles the package's bytecode when it installs it; a PYTHONDONTWRITEBYTECODE in the
     # benchmark's environment would make every call compile the modules changed since their last .pyc
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     out = []
     for label, cmd in (("`aerofid locate` of one box (whole call)", call),
                        (f"the same on the bottom box {CLI_BOX_BOTTOM} (corner BL)", bottom),
-                       ("`import aerofid.cli.locate_cmd` (start-up)", imports)):
+                       ("`import aerofid.cli.locate_cmd` (start-up)", imports),
+                       ("`import numpy, cv2, click` alone (the start-up's floor: Python, the libraries it needs)",
+                        floor)):
         subprocess.run(cmd, capture_output=True, check=True, env=env)   # writes the bytecode, not timed
         times = []
         for _ in range(2 * repeats + 1):

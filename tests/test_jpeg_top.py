@@ -333,3 +333,24 @@ def test_find_marks_in_a_region_near_the_top_of_a_jpeg_does_not_decode_it_whole(
         jpeg.forget_decodes()
     assert len(expected.marks) == 1 and abs(expected.marks[0].x - 560.3) < 0.2
     assert [(m.x, m.y) for m in got.marks] == [(m.x, m.y) for m in expected.marks]
+
+
+def test_the_next_raster_of_a_file_reads_the_top_rows_kept_from_the_last(tmp_path, monkeypatch):
+    """``aerofid.locate(path, box)`` box after box near a JPEG's top decodes its top rows once; a file changed since
+    (another modification time or size) is decoded again."""
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    whole = _whole(path)
+    decodes = []
+    real = jpeg_top.decode_top
+    monkeypatch.setattr(jpeg_top, "decode_top", lambda *a: decodes.append(a[1]) or real(*a))
+    try:
+        for box in ((100, 30, 400, 500), (0, 0, 50, 50), (700, 90, 900, 580)):
+            with open_raster(path, rows=600) as raster:
+                np.testing.assert_array_equal(raster.read_window(box), whole[box[1]:box[3], box[0]:box[2]])
+        assert decodes == [600]
+        changed = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3, seed=1))
+        with open_raster(changed, rows=600) as raster:
+            np.testing.assert_array_equal(raster.read_window((0, 0, 50, 50)), _whole(changed)[:50, :50])
+        assert decodes == [600, 600]
+    finally:
+        jpeg.forget_decodes()

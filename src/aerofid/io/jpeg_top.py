@@ -15,13 +15,14 @@ decode them, or cannot tell that it decoded every one of them (a corrupt or trun
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from aerofid.io.jpeg import Decoding, ImageHeader, decode_budget, decoded, jpeg_structure
+from aerofid.kept import Kept
 
 TOP_SHARE = 0.4
 """A window whose rows end within this share of the image's height is read from a decode of the top rows alone
@@ -34,6 +35,10 @@ MIN_DECODED_BYTES = 8_000_000
 """A smaller image (under a few milliseconds of decode) is read from its whole decode only."""
 CHUNK = 1 << 20
 """Bytes of the file given to the decoder at a time."""
+TOPS_KEPT = 2
+"""The latest top rows decoded (of as many files) kept by the file's identity, for the next raster of the same file
+(``aerofid.locate(path, box)`` called box after box)."""
+_TOPS: Kept[np.ndarray] = Kept(TOPS_KEPT)
 SENTINEL: dict[str, int | tuple[int, int, int]] = {"L": 7, "RGB": (7, 250, 7)}
 """The value the rows are filled with before the decode, by Pillow mode: a last row that still holds it everywhere
 was not decoded (or is this colour throughout: then the whole decode answers, only later)."""
@@ -105,10 +110,13 @@ class BackgroundJpegReader:
     Opened for its top ``rows`` (the caller reads no row below them: one box near the top of a scan), the whole
     decode is not started at all while they lie in the top share: those rows are decoded alone, once, and the whole
     decode starts only when a read reaches below them or they cannot be decoded. ``start`` starts the whole decode
-    (or gives the one already kept); ``pending`` is None until it is started."""
+    (or gives the one already kept); ``pending`` is None until it is started. ``key``, the file's identity (its
+    resolved path, modification time and size, as the whole decodes are kept by), keeps the top rows decoded
+    (:data:`TOPS_KEPT`) for the next reader of the file."""
 
-    def __init__(self, start: Callable[[], Decoding], header: ImageHeader, path: Path, rows: int | None = None):
-        self._start, self._header, self._path = start, header, path
+    def __init__(self, start: Callable[[], Decoding], header: ImageHeader, path: Path, rows: int | None = None,
+                 key: Hashable | None = None):
+        self._start, self._header, self._path, self._key = start, header, path, key
         self._rows = rows if rows is not None and self._in_top(rows, min(rows, header.height)) else None
         self.pending: Decoding | None = None if self._rows is not None else start()
         self._whole: np.ndarray | None = None
@@ -177,10 +185,16 @@ class BackgroundJpegReader:
             rows = min(h.height, bottom + TOP_MARGIN)
         if not self._in_top(bottom, rows):
             return None
+        kept = None if self._key is None else _TOPS.get(self._key)
+        if kept is not None and kept.shape[0] >= bottom:
+            self._top = kept
+            return kept
         top = decode_top(self._path, rows, h)
         if top is not None:
             top.setflags(write=False)
             self._top = top
+            if self._key is not None:
+                _TOPS.put(self._key, top)
         return top
 
     def release(self) -> None:

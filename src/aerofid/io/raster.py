@@ -405,7 +405,7 @@ class Raster:
             key = (str(self.path.resolve()), st.st_mtime_ns, st.st_size)
             if jpeg.decodes_in_background(header, self.format):
                 self._open_decoding(header, lambda: jpeg.decoding(*key, header),
-                                    rows if jpeg.kept_decoding(*key) is None else None)
+                                    rows if jpeg.kept_decoding(*key) is None else None, key)
                 return
             image = jpeg.decode_whole(*key)
             self.height, self.width, samples = image.shape
@@ -429,12 +429,13 @@ class Raster:
         self.dtype = np.dtype(np.uint8)
         return jpeg.HugeJpegReader(self.path, header, self.bands, checks_truncation)
 
-    def _open_decoding(self, header: jpeg.ImageHeader, start: Callable[[], jpeg.Decoding], rows: int | None) -> None:
+    def _open_decoding(self, header: jpeg.ImageHeader, start: Callable[[], jpeg.Decoding], rows: int | None,
+                       key: tuple[str, int, int]) -> None:
         """A JPEG decoded whole in the background (``start``: :func:`aerofid.io.jpeg.decoding`; not started while
         only its top ``rows`` are read, :class:`~aerofid.io.jpeg_top.BackgroundJpegReader`): its size from the header,
         windows once the decode is done, and :meth:`read_overview` from libjpeg's reduced decode meanwhile."""
         self._overview = self._from_header(header, checks_truncation=False)   # the whole decode refuses a truncated one
-        self._reader = BackgroundJpegReader(start, header, self.path, rows)
+        self._reader = BackgroundJpegReader(start, header, self.path, rows, key)
 
     def _open_tiff(self) -> None:
         """Open the first page of a TIFF and choose how windows of it are read."""

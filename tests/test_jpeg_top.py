@@ -354,3 +354,23 @@ def test_the_next_raster_of_a_file_reads_the_top_rows_kept_from_the_last(tmp_pat
         assert decodes == [600, 600]
     finally:
         jpeg.forget_decodes()
+
+
+def test_top_rows_read_while_the_whole_decode_runs_are_not_kept(tmp_path, monkeypatch):
+    """A raster opened for every row (a whole frame's windows before its decode is done) keeps no top rows beyond it."""
+    path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
+    release = _held_decode(monkeypatch)
+    try:
+        with open_raster(path) as raster:
+            raster.read_window((0, 0, 50, 50))
+            assert raster._reader.served_top
+            release.set()
+        assert jpeg_top._TOPS.get(_file_key(path)) is None
+    finally:
+        release.set()
+        jpeg.forget_decodes()
+
+
+def _file_key(path):
+    st = path.stat()
+    return (str(path.resolve()), st.st_mtime_ns, st.st_size)

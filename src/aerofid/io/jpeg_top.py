@@ -111,8 +111,9 @@ class BackgroundJpegReader:
     decode is not started at all while they lie in the top share: those rows are decoded alone, once, and the whole
     decode starts only when a read reaches below them or they cannot be decoded. ``start`` starts the whole decode
     (or gives the one already kept); ``pending`` is None until it is started. ``key``, the file's identity (its
-    resolved path, modification time and size, as the whole decodes are kept by), keeps the top rows decoded
-    (:data:`TOPS_KEPT`) for the next reader of the file."""
+    resolved path, modification time and size, as the whole decodes are kept by), keeps the top rows a reader opened
+    for them decoded (:data:`TOPS_KEPT`) for the next such reader of the file (not those of a reader opened for every
+    row: a whole frame's windows read before its decode is done, which its whole decode soon serves)."""
 
     def __init__(self, start: Callable[[], Decoding], header: ImageHeader, path: Path, rows: int | None = None,
                  key: Hashable | None = None):
@@ -185,7 +186,8 @@ class BackgroundJpegReader:
             rows = min(h.height, bottom + TOP_MARGIN)
         if not self._in_top(bottom, rows):
             return None
-        kept = None if self._key is None else _TOPS.get(self._key)
+        keep = self._key is not None and self._rows is not None    # a box's search, not a whole frame's first rows
+        kept = _TOPS.get(self._key) if keep else None
         if kept is not None and kept.shape[0] >= bottom:
             self._top = kept
             return kept
@@ -193,7 +195,7 @@ class BackgroundJpegReader:
         if top is not None:
             top.setflags(write=False)
             self._top = top
-            if self._key is not None:
+            if keep:
                 _TOPS.put(self._key, top)
         return top
 

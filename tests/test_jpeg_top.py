@@ -209,16 +209,22 @@ def test_a_truncated_file_opened_for_its_top_rows_is_an_error_on_closing(tmp_pat
         jpeg.forget_decodes()
 
 
-def test_locate_of_a_box_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_path, monkeypatch):
-    """``aerofid.locate`` of one box near a JPEG's top reads its top rows alone (no whole decode, opening nor closing)
-    and answers as on the whole decode's samples."""
-    import aerofid
+def _jpeg_with_a_bullseye(tmp_path):
+    """A 2400 x 1400 RGB JPEG (10 MB decoded: its top rows read alone), a bull's-eye centred at (560.3, 159.6)."""
     from aerofid import synth
 
     scene = synth.mark_scene("bullseye", size=30, window=120, centre=(60.3, 59.6), rng=np.random.default_rng(3))
     image = np.full((2400, 1400, 3), 40, np.uint8)
     image[100:220, 500:620] = (np.clip(scene.image, 0, 1) * 255).astype(np.uint8)[:, :, None]
-    path = _write(tmp_path / "frame.jpg", image, cv2.IMWRITE_JPEG_QUALITY, 95)
+    return _write(tmp_path / "frame.jpg", image, cv2.IMWRITE_JPEG_QUALITY, 95)
+
+
+def test_locate_of_a_box_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_path, monkeypatch):
+    """``aerofid.locate`` of one box near a JPEG's top reads its top rows alone (no whole decode, opening nor closing)
+    and answers as on the whole decode's samples."""
+    import aerofid
+
+    path = _jpeg_with_a_bullseye(tmp_path)
     box = (520, 120, 600, 200)
     expected = aerofid.locate(_whole(path), box, mark="external")
     _no_whole_decode(monkeypatch)
@@ -317,12 +323,8 @@ def test_the_cli_s_boxes_open_the_scan_for_the_rows_their_searches_read(tmp_path
 
 def test_find_marks_in_a_region_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_path, monkeypatch):
     import aerofid
-    from aerofid import synth
 
-    scene = synth.mark_scene("bullseye", size=30, window=120, centre=(60.3, 59.6), rng=np.random.default_rng(3))
-    image = np.full((2400, 1400, 3), 40, np.uint8)
-    image[100:220, 500:620] = (np.clip(scene.image, 0, 1) * 255).astype(np.uint8)[:, :, None]
-    path = _write(tmp_path / "frame.jpg", image, cv2.IMWRITE_JPEG_QUALITY, 95)
+    path = _jpeg_with_a_bullseye(tmp_path)
     region = (400, 60, 800, 260)
     expected = aerofid.find_marks(_whole(path), region, mark="external")
     _no_whole_decode(monkeypatch)
@@ -364,13 +366,9 @@ def test_top_rows_read_while_the_whole_decode_runs_are_not_kept(tmp_path, monkey
         with open_raster(path) as raster:
             raster.read_window((0, 0, 50, 50))
             assert raster._reader.served_top
+            key = raster._reader._key
             release.set()
-        assert jpeg_top._TOPS.get(_file_key(path)) is None
+        assert key is not None and jpeg_top._TOPS.get(key) is None
     finally:
         release.set()
         jpeg.forget_decodes()
-
-
-def _file_key(path):
-    st = path.stat()
-    return (str(path.resolve()), st.st_mtime_ns, st.st_size)

@@ -3,12 +3,14 @@
     python benchmarks/bench_paired.py --before OTHER/src [--after src] [--method auto] [--styles cross,dot,...]
                                       [--rounds 2] [--calls 3]
 
-``--before`` and ``--after`` are the ``src`` folders of two checkouts (e.g. ``git worktree add ../before <commit>``).
-Each runs in a worker process of its own (``PYTHONPATH`` set to it, one thread); the script sends both workers the
-same box in turn, alternating which goes first, so that both see the machine in the same state. A worker measures
-``method`` on the box ``calls`` times and answers the least CPU time (``time.process_time``) and its centre.
-Per box the least time over ``rounds`` rounds is kept; per style the table gives the median time of each version
-and the median over the boxes of after / before, and whether every centre agrees within 1e-9 px.
+``--before`` and ``--after`` are the ``src`` folders of two checkouts (e.g. ``git worktree add ../before
+<commit>``). Each runs in a worker process of its own (``PYTHONPATH`` set to it, one thread); the script sends both
+workers the same box in turn, alternating which goes first, so that both see the machine in the same state. A worker
+measures ``method`` on the box ``calls`` times, each a first call on the box (``aerofid.kept.forget_kept`` before
+it; in a version without it, ``hough``'s kept analyses and fits made anew), and answers the least CPU time
+(``time.process_time``) and its centre. Per box the least time over ``rounds`` rounds is kept; per style the table
+gives the median time of each version and the median over the boxes of after / before, and whether every centre
+agrees within 1e-9 px.
 
 Boxes: bench_peers.py's synthetic 200 x 200 px scenes (seed 2026, 20 per style, the same as its tables) and, where
 ``../shared/realdata`` holds it, the 8 marks of the real Wild RC20 frame in the boxes of bench_rc20.py (style
@@ -37,6 +39,13 @@ cv2.setNumThreads(1)
 from bench_marks import STYLES
 from bench_peers import scene
 from aerofid.methods import make_detector
+try:
+    from aerofid.kept import forget_kept
+except ImportError:             # a version before session 39: what it keeps of a box made anew
+    def forget_kept():
+        from aerofid.detect.hough import analysis, detector
+        from aerofid.kept import Kept
+        analysis._ANALYSES, detector._FITS = Kept(analysis.ANALYSES_KEPT), Kept(detector.FITS_KEPT)
 rng = np.random.default_rng(2026)
 boxes = {}
 for s in STYLES:
@@ -58,6 +67,7 @@ for line in sys.stdin:
     det = make_detector(method, mark, {})
     best, d = float("inf"), None
     for _ in range(int(calls)):
+        forget_kept()
         t = time.process_time()
         d = det(img)
         best = min(best, time.process_time() - t)

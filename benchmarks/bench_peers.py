@@ -28,13 +28,14 @@ for the midsides around ``auto``'s centre there (so TL and T match themselves). 
 row is the RMS residual (um) of an affine fit of the four corners to their calibrated coordinates (as in
 bench_rc20.py), the next the largest distance from ``auto``'s centre.
 
-Times: wall time of one call on the box, the median over the scenes of each scene's median of ``repeats``
-calls, all in one run, one thread. Last, the command line as a user runs it: ``aerofid locate`` of one RC20 box
-in a fresh interpreter (start-up, imports, the JPEG's decode, the search) and its imports alone, each the
-median of ``2 * repeats + 1`` runs after one untimed run, with the package's bytecode written (as ``pip install``
-leaves it; runs before session 11 compiled the changed modules in every call where the environment set
-PYTHONDONTWRITEBYTECODE, as this machine's does).
-"""
+Times: wall time of one call on the box, the median over the scenes of each scene's median of ``repeats`` calls, all
+in one run, one thread; each call is a first call on its box, as a user's is (what aerofid keeps of a box's window
+analyses and fits is forgotten before it, ``aerofid.kept.forget_kept``; before session 39 the second and third calls
+reused them: notch dots' median 47 ms against 75 for a first call). Last, the command line as a user runs it:
+``aerofid locate`` of one RC20 box in a fresh interpreter (start-up, imports, the JPEG's decode, the search) and its
+imports alone, each the median of ``2 * repeats + 1`` runs after one untimed run, with the package's bytecode
+written (as ``pip install`` leaves it; runs before session 11 compiled the changed modules in every call where the
+environment set PYTHONDONTWRITEBYTECODE, as this machine's does)."""
 
 from __future__ import annotations
 
@@ -59,6 +60,7 @@ from aerofid import synth  # noqa: E402
 from aerofid.formats.camera_file import read_camera  # noqa: E402
 from aerofid.io.colour import to_grey  # noqa: E402
 from aerofid.io.raster import open_raster  # noqa: E402
+from aerofid.kept import forget_kept  # noqa: E402
 from aerofid.methods import make_detector  # noqa: E402
 from aerofid.orientation.adjustment import adjust  # noqa: E402
 from bench_marks import LABEL, STYLES  # noqa: E402
@@ -156,9 +158,11 @@ def match_template(img: np.ndarray, tpl: np.ndarray, centre: tuple[float, float]
 
 
 def timed(repeats: int, fn, *args, **kwargs):
-    """(last result, median seconds) of ``repeats`` calls of ``fn(*args, **kwargs)``."""
+    """(last result, median seconds) of ``repeats`` calls of ``fn(*args, **kwargs)``, each a first call on its box:
+    what aerofid keeps of the box's window analyses and fits is forgotten before it (``forget_kept``)."""
     times, out = [], None
     for _ in range(repeats):
+        forget_kept()
         t = time.perf_counter()
         out = fn(*args, **kwargs)
         times.append(time.perf_counter() - t)

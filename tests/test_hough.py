@@ -213,6 +213,24 @@ def test_accumulator_in_blocks_equals_one_block(monkeypatch):
     assert whole.sum() == 400 * 180
 
 
+@settings(max_examples=60, deadline=None)
+@given(h=st.integers(1, 70), w=st.integers(1, 70), fill=st.floats(0.0, 1.0), seed=st.integers(0, 2**16),
+       theta_step=st.sampled_from([1.0, 5.0, 7.5]), rho_step=st.sampled_from([0.25, 0.5, 1.0]))
+def test_window_accumulator_looked_up_equals_voted(h, w, fill, seed, theta_step, rho_step):
+    """A window's votes from its pixels' cells looked up (up to GRID_PIXELS) or voted (beyond) are those of
+    ``accumulate`` on its bright pixels, cell for cell: rho cells clipped at both ends too (a grid narrower than the
+    window's diagonal)."""
+    binary = np.random.default_rng(seed).random((h, w)) < fill
+    thetas = np.deg2rad(hough_lines.theta_grid(theta_step))
+    rho_max = float(np.hypot(h, w))
+    for n_rho, rho_min in ((int(np.ceil(2 * rho_max / rho_step)) + 1, -rho_max), (7, -1.3)):
+        ys, xs = np.nonzero(binary)
+        voted = hough_lines.accumulate(xs, ys, thetas, rho_min, rho_step, n_rho)
+        got = hough_lines.accumulate_window(binary, thetas, rho_min, rho_step, n_rho)
+        assert got.dtype == np.float64 and np.array_equal(got, voted)
+    assert (h * w > hough_lines.GRID_PIXELS) or hough_lines._grid_cells.cache_info().currsize > 0
+
+
 def test_parallel_lines_have_no_intersection():
     assert hough_lines.intersection(0.4, 3.0, 0.4, 7.0) is None
     assert hough_lines.intersection(0.4, 3.0, 0.4 + 1e-9, 7.0) is None
@@ -542,6 +560,38 @@ def test_a_verification_met_again_in_the_same_pixels_is_reused_where_it_lies(mon
     noisy = plus + np.random.default_rng(1).normal(0.0, 0.01, plus.shape).astype(np.float32)
     hd.verify_candidate(*pasted((160, 170), 50, 45, noisy), 60)
     assert len(fits) == 3
+
+
+def test_forget_kept_makes_the_next_call_compute_afresh(monkeypatch):
+    """After ``forget_kept`` a box's search analyses its windows and fits its candidates again, as its first call
+    did (what a benchmark times), with the same answer; without it, the second call takes them from what is kept."""
+    from aerofid.kept import forget_kept
+
+    scene = synth.panel_scene(np.random.default_rng(8), centre=(31.3, 28.6), size=9.0, angle_deg=12.0, contrast=0.4,
+                              ground=np.full((60, 64), 0.3, np.float32))
+    counts = {"fits": 0, "analyses": 0}
+    fit_start, analysed = hd.fit_start, hc._analysed
+
+    def counted(name, f):
+        def g(*args, **kw):
+            counts[name] += 1
+            return f(*args, **kw)
+        return g
+
+    monkeypatch.setattr(hd, "fit_start", counted("fits", fit_start))
+    monkeypatch.setattr(hc, "_analysed", counted("analyses", analysed))
+
+    def call():
+        before = dict(counts)
+        got = detect(scene.image, HoughParams(mark="panel"))       # 16 px windows, whose analyses are kept
+        return got, {k: counts[k] - before[k] for k in counts}
+
+    (first, done), (again, redone) = call(), call()
+    assert done["fits"] > 0 and done["analyses"] > 0 and redone == {"fits": 0, "analyses": 0}
+    forget_kept()
+    fresh, afresh = call()
+    assert afresh == done
+    assert first.found and (first.x, first.y) == (again.x, again.y) == (fresh.x, fresh.y)
 
 
 def test_a_dust_speck_on_the_crossing_does_not_hide_the_cross():

@@ -1,13 +1,15 @@
 """The latest results of a pure computation by key, in bounded number, shared by threads: what ``hough``'s searches
 keep of their verifications and window analyses (:mod:`aerofid.detect.hough`), where the overlapping windows of one
-box meet the same pixels again."""
+box meet the same pixels again. :func:`forget_kept` drops them all: the next call on a box computes it as the first
+did (a benchmark times every call so, as a user's first call on a box runs)."""
 
 from __future__ import annotations
 
 import threading
+import weakref
 from collections import OrderedDict
 from collections.abc import Hashable
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 V = TypeVar("V")
 
@@ -28,6 +30,7 @@ class Kept(Generic[V]):
         self.limit = limit
         self._kept: OrderedDict[Hashable, V] = OrderedDict()
         self._lock = threading.Lock()
+        _EVERY.add(self)
 
     def get(self, key: Hashable) -> V | None:
         """The value kept for ``key`` (now the most recent), or None."""
@@ -44,3 +47,18 @@ class Kept(Generic[V]):
             self._kept.move_to_end(key)
             while len(self._kept) > self.limit:
                 self._kept.popitem(last=False)
+
+    def clear(self) -> None:
+        """Drop every value kept."""
+        with self._lock:
+            self._kept.clear()
+
+
+_EVERY: weakref.WeakSet[Kept[Any]] = weakref.WeakSet()
+"""Every :class:`Kept` made (and not yet collected)."""
+
+
+def forget_kept() -> None:
+    """Drop what every :class:`Kept` keeps."""
+    for kept in list(_EVERY):
+        kept.clear()

@@ -9,6 +9,8 @@ the cells of a (theta, rho) grid; :func:`intersection` inverts two such lines in
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 MAX_BLOCK = 1 << 22
@@ -72,15 +74,59 @@ def accumulate(xs: np.ndarray, ys: np.ndarray, thetas: np.ndarray, rho_min: floa
     acc: np.ndarray | None = None
     block = max(1, MAX_BLOCK // max(1, xs.size))
     for start in range(0, n_theta, block):
-        t = np.asarray(thetas[start:start + block], np.float64)
-        rho = np.outer(np.cos(t), xs) + np.outer(np.sin(t), ys)          # (block, n_points)
-        j = np.floor((rho - rho_min) / rho_step).astype(np.int64)
-        np.clip(j, 0, n_rho - 1, out=j)
-        j += (np.arange(t.size) + start)[:, None] * n_rho                # each row's cells: its theta's
+        j = _cells(xs, ys, np.asarray(thetas[start:start + block], np.float64), start, rho_min, rho_step, n_rho)
         votes = np.bincount(j.ravel(), minlength=n_theta * n_rho)
         acc = votes if acc is None else acc + votes
     assert acc is not None
     return acc.reshape(n_theta, n_rho).astype(np.float64)
+
+
+def _cells(xs: np.ndarray, ys: np.ndarray, t: np.ndarray, start: int, rho_min: float, rho_step: float,
+           n_rho: int) -> np.ndarray:
+    """The cell each point (float64 ``xs``, ``ys``) votes in, in each row of the normal directions ``t`` (radians;
+    rows ``start``, ``start + 1``, ... of the accumulator), as ``(len(t), n_points)`` indices into the flattened
+    accumulator: the rule of :func:`accumulate`."""
+    rho = np.outer(np.cos(t), xs) + np.outer(np.sin(t), ys)              # (rows, n_points)
+    j = np.floor((rho - rho_min) / rho_step).astype(np.int64)
+    np.clip(j, 0, n_rho - 1, out=j)
+    j += (np.arange(t.size) + start)[:, None] * n_rho                    # each row's cells: its theta's
+    return j
+
+
+GRID_PIXELS = 4096
+"""Most pixels of a window whose every pixel's cells :func:`accumulate_window` looks up (:func:`_grid_cells`, kept
+for the last :data:`GRIDS_KEPT` window shapes and grids: 1.2 MB for 4096 pixels and 36 directions); a larger window
+is voted by :func:`accumulate`."""
+GRIDS_KEPT = 32
+"""Window shapes and grids whose cells :func:`_grid_cells` keeps (a box's searches meet a few dozen: the 16 and 40 px
+windows, their halves, and those clipped by the box's edges)."""
+
+
+def accumulate_window(binary: np.ndarray, thetas: np.ndarray, rho_min: float, rho_step: float,
+                      n_rho: int) -> np.ndarray:
+    """:func:`accumulate` of the True pixels of the 2-D ``binary`` (x = column, y = row): the same votes, the cells of
+    a small window's pixels (:data:`GRID_PIXELS`) looked up instead of computed (a Hough search votes thousands of
+    windows of a few shapes: a third of the time)."""
+    h, w = binary.shape
+    if h * w > GRID_PIXELS:
+        ys, xs = np.nonzero(binary)
+        return accumulate(xs, ys, thetas, rho_min, rho_step, n_rho)
+    cells = _grid_cells(h, w, np.asarray(thetas, np.float64).tobytes(), rho_min, rho_step, n_rho)
+    votes = np.bincount(cells[np.flatnonzero(binary)].ravel(), minlength=cells.shape[1] * n_rho)
+    return votes.reshape(cells.shape[1], n_rho).astype(np.float64)
+
+
+@functools.lru_cache(maxsize=GRIDS_KEPT)
+def _grid_cells(h: int, w: int, thetas: bytes, rho_min: float, rho_step: float, n_rho: int) -> np.ndarray:
+    """The cells (:func:`_cells`) of every pixel of an ``h`` x ``w`` window (row-major) in every row of the grid of
+    normal directions ``thetas`` (float64 bytes), as ``(h * w, directions)``: a pixel's cells are one row;
+    read-only."""
+    ys, xs = np.divmod(np.arange(h * w), w)
+    j = _cells(xs.astype(np.float64), ys.astype(np.float64), np.frombuffer(thetas, np.float64), 0, rho_min, rho_step,
+               n_rho)
+    cells = np.ascontiguousarray(j.T)
+    cells.setflags(write=False)
+    return cells
 
 
 def intersection(theta1: float, rho1: float, theta2: float, rho2: float) -> tuple[float, float] | None:
@@ -103,4 +149,4 @@ def intersection(theta1: float, rho1: float, theta2: float, rho2: float) -> tupl
     return float((rho1 * s2 - rho2 * s1) / det), float((-rho1 * c2 + rho2 * c1) / det)
 
 
-__all__ = ["accumulate", "intersection", "theta_grid"]
+__all__ = ["accumulate", "accumulate_window", "intersection", "theta_grid"]

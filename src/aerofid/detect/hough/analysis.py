@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from aerofid.detect.hough.params import DEFAULT, HoughParams
-from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
+from aerofid.detect.hough_lines import accumulate_window, intersection, theta_grid
 from aerofid.detect.threshold import Threshold, optimum_threshold
 from aerofid.kept import Kept
 
@@ -151,12 +151,12 @@ def column_rho(acc_t: np.ndarray, k: int, rho_min: float, rho_step: float, devia
 
 def window_accumulator(binary: np.ndarray, thetas_deg: np.ndarray, rho_step: float) -> tuple[np.ndarray, float]:
     """The Hough accumulator of the bright pixels of ``binary`` (seed 001, eq. 1;
-    :func:`aerofid.detect.hough_lines.accumulate`), rho cells from -hypot(h, w); returns (accumulator, rho_min)."""
-    ys, xs = np.nonzero(binary)
+    :func:`aerofid.detect.hough_lines.accumulate_window`), rho cells from -hypot(h, w); returns (accumulator,
+    rho_min)."""
     h, w = binary.shape
     rho_max = float(np.hypot(h, w))
     n_rho = int(np.ceil(2 * rho_max / rho_step)) + 1
-    return accumulate(xs, ys, np.deg2rad(thetas_deg), -rho_max, rho_step, n_rho), -rho_max
+    return accumulate_window(binary, np.deg2rad(thetas_deg), -rho_max, rho_step, n_rho), -rho_max
 
 
 @functools.lru_cache(maxsize=8)

@@ -60,7 +60,6 @@ from aerofid import synth  # noqa: E402
 from aerofid.formats.camera_file import read_camera  # noqa: E402
 from aerofid.io.colour import to_grey  # noqa: E402
 from aerofid.io.raster import open_raster  # noqa: E402
-from aerofid.kept import forget_kept  # noqa: E402
 from aerofid.methods import make_detector  # noqa: E402
 from aerofid.orientation.adjustment import adjust  # noqa: E402
 from bench_marks import LABEL, STYLES  # noqa: E402
@@ -160,6 +159,8 @@ def match_template(img: np.ndarray, tpl: np.ndarray, centre: tuple[float, float]
 def timed(repeats: int, fn, *args, **kwargs):
     """(last result, median seconds) of ``repeats`` calls of ``fn(*args, **kwargs)``, each a first call on its box:
     what aerofid keeps of the box's window analyses and fits is forgotten before it (``forget_kept``)."""
+    from aerofid.kept import forget_kept  # here: bench_paired.py's workers import this module with older versions
+
     times, out = [], None
     for _ in range(repeats):
         forget_kept()

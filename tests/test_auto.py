@@ -151,6 +151,45 @@ def test_a_lone_panel_is_not_refused_for_clutter_that_resembles_it():
         assert d.found and np.hypot(d.x - m.x, d.y - m.y) < 0.1, d.reason
 
 
+def test_a_second_panel_s_fit_ends_within_its_evaluations(monkeypatch):
+    """``panel_twins``' fits stop at LIKE_EVALUATIONS a pass: the second panel of boxes with two (made noisier, where
+    its fits take the most) converges within them and the box is refused; beside a lone panel the places on clutter
+    are fitted with that cap, refused, and the panel is found."""
+    import aerofid.detect.hough.cross_fit as cf
+    from aerofid.detect.hough.detector import LIKE_EVALUATIONS
+
+    passes: list = []
+    solve, like = cf.levenberg_marquardt, auto.verify_like
+
+    def counted(residuals, jacobian, x0, max_evaluations):
+        got = solve(residuals, jacobian, x0, max_evaluations)
+        passes.append((max_evaluations, got.nfev, got.success))
+        return got
+
+    monkeypatch.setattr(cf, "levenberg_marquardt", counted)
+    monkeypatch.setattr(auto, "verify_like", lambda *a, **k: passes.append("like") or like(*a, **k))
+
+    def twin_passes():                  # the solver's passes from the first verify_like on
+        return [p for p in passes[passes.index("like"):] if p != "like"] if "like" in passes else []
+
+    rng = np.random.default_rng(5)
+    refused = 0
+    for _ in range(10):
+        img = testing.two_panels(rng)
+        img = np.clip(img + rng.normal(0.0, 0.035, img.shape), 0, 1).astype(np.float32)
+        passes.clear()
+        d = detect(img, AutoParams(mark="panel"))
+        if "a second mark-like feature (hough)" in d.reason:
+            refused += 1
+            converged = [n for cap, n, ok in twin_passes() if ok]
+            assert converged and max(converged) <= LIKE_EVALUATIONS
+    assert refused >= 6
+    lone = synth.panel_scene(np.random.default_rng(2026), shape_hw=(200, 200), size=9.0, contrast=0.25)
+    passes.clear()
+    d = detect(lone.image, AutoParams(mark="panel"))
+    assert d.found and twin_passes() and all(cap == LIKE_EVALUATIONS for cap, _, _ in twin_passes())
+
+
 def test_clutter_only_is_not_found():
     rng = np.random.default_rng(11)
     for _ in range(4):

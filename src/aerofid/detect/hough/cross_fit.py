@@ -326,8 +326,9 @@ def _start(pt: _Patch, thetas_deg: tuple[float, float], arm: float, width: float
 
 
 def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                   retry: bool = True) -> LMSolution:
-    """One weighted least-squares pass from ``start``: Levenberg-Marquardt (MINPACK,
+                   retry: bool = True, evaluations: int = MAX_EVALUATIONS) -> LMSolution:
+    """One weighted least-squares pass from ``start``, at most ``evaluations`` model evaluations: Levenberg-Marquardt
+    (MINPACK,
     :func:`aerofid.scipy_kernels.levenberg_marquardt`) without bounds, several times faster than the bounded
     trust-region solver (a solution that leaves the plausible region is reported via ``at_bound``). When LM runs out
     of evaluations with the centre still within :data:`RETRY_SHIFT` of the start, it has wandered into a degenerate
@@ -345,7 +346,7 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
         return weights[:, None] * pt.evaluated(p)[1]
 
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):  # wild trial steps
-        sol = levenberg_marquardt(residuals, jac, start, MAX_EVALUATIONS)
+        sol = levenberg_marquardt(residuals, jac, start, evaluations)
         finite = bool(np.all(np.isfinite(sol.x)))
         ran_out = finite and not (sol.success or sol.status > 0)
         if retry and (not finite or (ran_out and np.hypot(sol.x[0] - start[0], sol.x[1] - start[1]) <= RETRY_SHIFT)):
@@ -355,13 +356,13 @@ def _least_squares(pt: _Patch, start: np.ndarray, weights: np.ndarray, lo: np.nd
             inside[4:8] = np.abs(inside[4:8])  # lengths, width, blur enter by magnitude
             inside = np.clip(inside, lo + 1e-9, hi - 1e-9)
             bounded = least_squares(residuals, inside, jac=jac, method="trf", bounds=(lo, hi), x_scale="jac",
-                                    max_nfev=MAX_EVALUATIONS)
+                                    max_nfev=evaluations)
             sol = LMSolution(np.asarray(bounded.x, float), int(bounded.status), int(bounded.nfev))
     return sol
 
 
-def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                  max_shift: float = np.inf, retry: bool = True) -> tuple[np.ndarray, np.ndarray] | None:
+def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray, max_shift: float = np.inf,
+                  retry: bool = True, evaluations: int = MAX_EVALUATIONS) -> tuple[np.ndarray, np.ndarray] | None:
     """The least-squares solution, iteratively reweighted: pixels hit by dust, scratches or impulse noise
     (|v| > HUBER_K robust sigmas) get Huber weights, so that they neither pull the centre nor inflate the
     misfit. Returns (parameters, final weights) or None when a pass fails.
@@ -375,7 +376,7 @@ def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     x: np.ndarray | None = None
     for k in range(1 + ROBUST_PASSES):
         try:
-            sol = _least_squares(pt, p0 if x is None else x, weights, lo, hi, retry)
+            sol = _least_squares(pt, p0 if x is None else x, weights, lo, hi, retry, evaluations)
         except (ValueError, np.linalg.LinAlgError):
             return None
         if not np.all(np.isfinite(sol.x)) or (not sol.success and sol.status <= 0):
@@ -458,7 +459,7 @@ def _at_bound(sol: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> str:
 def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_deg: float,
               arm: float, width: float = 2.0, blur: float = 0.8,
               margin: float = PATCH_MARGIN, max_patch: int = MAX_PATCH,
-              max_shift: float = np.inf, retry: bool = True) -> CrossFit | None:
+              max_shift: float = np.inf, retry: bool = True, evaluations: int = MAX_EVALUATIONS) -> CrossFit | None:
     """Fit the blurred-cross model around the start (x, y) with arms of half-length ``arm`` px.
 
     Parameters
@@ -476,6 +477,9 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
         (:func:`_robust_solve`; the caller refuses a '+' that far off).
     retry : bool
         Whether a pass that ran out of evaluations gets the bounded solver's second try (:func:`_least_squares`).
+    evaluations : int
+        Most model evaluations of a least-squares pass (:data:`MAX_EVALUATIONS`); a pass that runs out of them
+        without ``retry`` fails the fit.
 
     Returns
     -------
@@ -483,13 +487,14 @@ def fit_cross(window: np.ndarray, x: float, y: float, theta1_deg: float, theta2_
         None when the patch is too small, the fit does not converge, or its normal matrix is singular.
     """
     start = cross_start(window, x, y, theta1_deg, theta2_deg, arm, width, blur, margin, max_patch)
-    return None if start is None else fit_start(start, max_shift, retry)
+    return None if start is None else fit_start(start, max_shift, retry, evaluations)
 
 
-def fit_start(start: CrossStart, max_shift: float = np.inf, retry: bool = True) -> CrossFit | None:
+def fit_start(start: CrossStart, max_shift: float = np.inf, retry: bool = True,
+              evaluations: int = MAX_EVALUATIONS) -> CrossFit | None:
     """:func:`fit_cross` from its patch and start (:func:`cross_start`)."""
     pt, p0, lo, hi = start.patch, start.p0, start.lo, start.hi
-    solved = _robust_solve(pt, p0, lo, hi, max_shift, retry)
+    solved = _robust_solve(pt, p0, lo, hi, max_shift, retry, evaluations)
     if solved is None:
         return None
     sol, weights = solved

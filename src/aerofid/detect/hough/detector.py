@@ -304,13 +304,22 @@ def _verdict(ref: CrossFit | None, origin: tuple[float, float], start: tuple[flo
     return reason if reason is not None else Verified(x=float(x), y=float(y), refinement=ref)
 
 
+LIKE_EVALUATIONS = 50
+"""Most model evaluations of a least-squares pass of :func:`verify_like`, whose start is the '+' sought, turned as it
+lies: the fit of a second cloth panel took 6-30 a pass (813 second panels found in 1 220 boxes with two panels:
+plain, noisy, strongly blurred, JPEG q=40, the second panel of another contrast or size; scratch, session 39),
+while 28 of the 60 fits on aerial clutter of bench_peers.py's single-panel boxes ran out of the 100 of a search's fit
+(:data:`~aerofid.detect.hough.cross_fit.MAX_EVALUATIONS`) and failed, the others refused in 11-68."""
+
+
 def verify_like(image: np.ndarray, x: float, y: float, model: CrossFit, turn: float,
                 params: HoughParams = DEFAULT, slack: float = 1.0) -> Verified | str:
     """Beyond the seed: is there a '+' like ``model`` (a fitted '+', its parameters in any window) turned by ``turn``
     degrees, at (x, y) of ``image``? The blurred-cross fit starts there with ``model``'s bars turned (normal angles
     minus ``turn``: OpenCV's counter-clockwise turn of an image with y down), arms, stroke and blur (without the
     bounded solver's second try: from a start that close, no '+' of 35 such twins needed it, while it took 60 % of
-    the time of the fits that found none, in scratch boxes with one and two panels), and what it
+    the time of the fits that found none, in scratch boxes with one and two panels; at most :data:`LIKE_EVALUATIONS`
+    evaluations a pass), and what it
     finds must pass the same checks as a candidate of the search (:func:`shape_refusal`, :func:`quality_refusal` with
     ``slack``, within ``MAX_REFINE_SHIFT`` of (x, y)). Returns :class:`Verified` or the reason.
 
@@ -329,7 +338,8 @@ def verify_like(image: np.ndarray, x: float, y: float, model: CrossFit, turn: fl
     'sub-pixel fit moved more than 2.0 px from the start'
     """
     ref = fit_cross(image, x, y, model.theta1 - turn, model.theta2 - turn, 0.5 * max(model.length1, model.length2),
-                    width=model.width, blur=model.blur, max_shift=EARLY_EXIT_SHIFT, retry=False)
+                    width=model.width, blur=model.blur, max_shift=EARLY_EXIT_SHIFT, retry=False,
+                    evaluations=LIKE_EVALUATIONS)
     return _verdict(ref, (0.0, 0.0), (x, y), "the start", params, slack)
 
 
@@ -470,5 +480,5 @@ def detect(window: np.ndarray, params: HoughParams = DEFAULT) -> HoughResult:
                        refinement=refinement)
 
 
-__all__ = ["HoughResult", "Verified", "arm_half_length", "crossing_gap", "detect", "half_arm_runs", "half_arm_steps",
-           "quality_refusal", "refine_window", "verify_like", "shape_refusal", "verify_candidate"]
+__all__ = ["LIKE_EVALUATIONS", "HoughResult", "Verified", "arm_half_length", "crossing_gap", "detect", "half_arm_runs",
+           "half_arm_steps", "quality_refusal", "refine_window", "verify_like", "shape_refusal", "verify_candidate"]

@@ -41,11 +41,16 @@ from bench_peers import scene
 from aerofid.methods import make_detector
 try:
     from aerofid.kept import forget_kept
-except ImportError:             # a version before session 39: what it keeps of a box made anew
-    def forget_kept():
+except ImportError:
+    try:                        # sessions 37 and 38 (5f08e22 on): hough's two stores made anew
         from aerofid.detect.hough import analysis, detector
         from aerofid.kept import Kept
-        analysis._ANALYSES, detector._FITS = Kept(analysis.ANALYSES_KEPT), Kept(detector.FITS_KEPT)
+
+        def forget_kept():
+            analysis._ANALYSES, detector._FITS = Kept(analysis.ANALYSES_KEPT), Kept(detector.FITS_KEPT)
+    except (ImportError, AttributeError):   # older: timed as it runs (its repeated calls may reuse what it kept)
+        def forget_kept():
+            pass
 rng = np.random.default_rng(2026)
 boxes = {}
 for s in STYLES:

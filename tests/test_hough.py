@@ -217,18 +217,20 @@ def test_accumulator_in_blocks_equals_one_block(monkeypatch):
 @given(h=st.integers(1, 70), w=st.integers(1, 70), fill=st.floats(0.0, 1.0), seed=st.integers(0, 2**16),
        theta_step=st.sampled_from([1.0, 5.0, 7.5]), rho_step=st.sampled_from([0.25, 0.5, 1.0]))
 def test_window_accumulator_looked_up_equals_voted(h, w, fill, seed, theta_step, rho_step):
-    """A window's votes from its pixels' cells looked up (up to GRID_PIXELS) or voted (beyond) are those of
+    """A window's votes from its pixels' cells looked up (up to GRID_CELLS) or voted (beyond) are those of
     ``accumulate`` on its bright pixels, cell for cell: rho cells clipped at both ends too (a grid narrower than the
     window's diagonal)."""
     binary = np.random.default_rng(seed).random((h, w)) < fill
     thetas = np.deg2rad(hough_lines.theta_grid(theta_step))
     rho_max = float(np.hypot(h, w))
+    looked_up = h * w * len(thetas) <= hough_lines.GRID_CELLS
     for n_rho, rho_min in ((int(np.ceil(2 * rho_max / rho_step)) + 1, -rho_max), (7, -1.3)):
         ys, xs = np.nonzero(binary)
         voted = hough_lines.accumulate(xs, ys, thetas, rho_min, rho_step, n_rho)
+        asked = sum(hough_lines._grid_cells.cache_info()[:2])          # hits and misses
         got = hough_lines.accumulate_window(binary, thetas, rho_min, rho_step, n_rho)
+        assert sum(hough_lines._grid_cells.cache_info()[:2]) == asked + looked_up
         assert got.dtype == np.float64 and np.array_equal(got, voted)
-    assert (h * w > hough_lines.GRID_PIXELS) or hough_lines._grid_cells.cache_info().currsize > 0
 
 
 def test_parallel_lines_have_no_intersection():
@@ -592,6 +594,34 @@ def test_forget_kept_makes_the_next_call_compute_afresh(monkeypatch):
     fresh, afresh = call()
     assert afresh == done
     assert first.found and (first.x, first.y) == (again.x, again.y) == (fresh.x, fresh.y)
+
+
+def test_forget_kept_while_another_thread_makes_kept_stores():
+    """``forget_kept`` lists the stores under a lock: a thread making new ones meanwhile (a module imported on first
+    use in a whole frame's threads) does not break it (unlocked: "Set changed size during iteration")."""
+    import threading
+
+    from aerofid.kept import forget_kept
+
+    stop, errors, made = threading.Event(), [], []
+
+    def make():
+        while not stop.is_set():
+            made.append(Kept(2))
+            del made[:-8]
+
+    maker = threading.Thread(target=make)
+    maker.start()
+    try:
+        for _ in range(3000):
+            try:
+                forget_kept()
+            except RuntimeError as e:   # "Set changed size during iteration"
+                errors.append(e)
+    finally:
+        stop.set()
+        maker.join()
+    assert not errors and len(made) > 0
 
 
 def test_a_dust_speck_on_the_crossing_does_not_hide_the_cross():

@@ -30,7 +30,8 @@ class Kept(Generic[V]):
         self.limit = limit
         self._kept: OrderedDict[Hashable, V] = OrderedDict()
         self._lock = threading.Lock()
-        _EVERY.add(self)
+        with _EVERY_LOCK:
+            _EVERY.add(self)
 
     def get(self, key: Hashable) -> V | None:
         """The value kept for ``key`` (now the most recent), or None."""
@@ -56,9 +57,13 @@ class Kept(Generic[V]):
 
 _EVERY: weakref.WeakSet[Kept[Any]] = weakref.WeakSet()
 """Every :class:`Kept` made (and not yet collected)."""
+_EVERY_LOCK = threading.Lock()
+"""Held while :data:`_EVERY` grows or is listed (a thread may make a :class:`Kept`, importing a module, meanwhile)."""
 
 
 def forget_kept() -> None:
     """Drop what every :class:`Kept` keeps."""
-    for kept in list(_EVERY):
+    with _EVERY_LOCK:
+        every = list(_EVERY)
+    for kept in every:
         kept.clear()

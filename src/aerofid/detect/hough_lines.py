@@ -93,22 +93,23 @@ def _cells(xs: np.ndarray, ys: np.ndarray, t: np.ndarray, start: int, rho_min: f
     return j
 
 
-GRID_PIXELS = 4096
-"""Most pixels of a window whose every pixel's cells :func:`accumulate_window` looks up (:func:`_grid_cells`, kept
-for the last :data:`GRIDS_KEPT` window shapes and grids: 1.2 MB for 4096 pixels and 36 directions); a larger window
-is voted by :func:`accumulate`."""
+GRID_CELLS = 4096 * 36
+"""Most cells (pixels x directions) of a window whose every pixel's cells :func:`accumulate_window` looks up
+(:func:`_grid_cells`, kept for the last :data:`GRIDS_KEPT` window shapes and grids: 0.6 MB each at most, as 32-bit
+indices: a 64 px window and seed 001's 36 directions); a larger window, or a finer grid, is voted by
+:func:`accumulate`."""
 GRIDS_KEPT = 32
-"""Window shapes and grids whose cells :func:`_grid_cells` keeps (a box's searches meet a few dozen: the 16 and 40 px
+"""Window shapes and grids whose cells :func:`_grid_cells` keeps (a box's searches meet a few: the 16 and 40 px
 windows, their halves, and those clipped by the box's edges)."""
 
 
 def accumulate_window(binary: np.ndarray, thetas: np.ndarray, rho_min: float, rho_step: float,
                       n_rho: int) -> np.ndarray:
     """:func:`accumulate` of the True pixels of the 2-D ``binary`` (x = column, y = row): the same votes, the cells of
-    a small window's pixels (:data:`GRID_PIXELS`) looked up instead of computed (a Hough search votes thousands of
+    a small window's pixels (:data:`GRID_CELLS`) looked up instead of computed (a Hough search votes thousands of
     windows of a few shapes: a third of the time)."""
     h, w = binary.shape
-    if h * w > GRID_PIXELS:
+    if h * w * len(thetas) > GRID_CELLS:
         ys, xs = np.nonzero(binary)
         return accumulate(xs, ys, thetas, rho_min, rho_step, n_rho)
     cells = _grid_cells(h, w, np.asarray(thetas, np.float64).tobytes(), rho_min, rho_step, n_rho)
@@ -119,12 +120,12 @@ def accumulate_window(binary: np.ndarray, thetas: np.ndarray, rho_min: float, rh
 @functools.lru_cache(maxsize=GRIDS_KEPT)
 def _grid_cells(h: int, w: int, thetas: bytes, rho_min: float, rho_step: float, n_rho: int) -> np.ndarray:
     """The cells (:func:`_cells`) of every pixel of an ``h`` x ``w`` window (row-major) in every row of the grid of
-    normal directions ``thetas`` (float64 bytes), as ``(h * w, directions)``: a pixel's cells are one row;
-    read-only."""
+    normal directions ``thetas`` (float64 bytes), as ``(h * w, directions)``: a pixel's cells are one row, 32-bit
+    where the accumulator's cells are so numbered (as fast to count, half the memory); read-only."""
     ys, xs = np.divmod(np.arange(h * w), w)
-    j = _cells(xs.astype(np.float64), ys.astype(np.float64), np.frombuffer(thetas, np.float64), 0, rho_min, rho_step,
-               n_rho)
-    cells = np.ascontiguousarray(j.T)
+    t = np.frombuffer(thetas, np.float64)
+    j = _cells(xs.astype(np.float64), ys.astype(np.float64), t, 0, rho_min, rho_step, n_rho)
+    cells = np.ascontiguousarray(j.T, np.int32 if t.size * n_rho <= np.iinfo(np.int32).max else np.int64)
     cells.setflags(write=False)
     return cells
 

@@ -596,6 +596,22 @@ def test_forget_kept_makes_the_next_call_compute_afresh(monkeypatch):
     assert first.found and (first.x, first.y) == (again.x, again.y) == (fresh.x, fresh.y)
 
 
+def test_a_panel_s_fits_get_no_bounded_retry(monkeypatch):
+    """The search's verification fits of a cloth panel (``mark="panel"``) run without the bounded solver's retry; a
+    film mark's (``"external"``, ``"auto"``) keep it."""
+    asked = []
+    fit_start = hd.fit_start
+    monkeypatch.setattr(hd, "fit_start", lambda start, **kw: asked.append(kw["retry"]) or fit_start(start, **kw))
+    panel = synth.panel_scene(np.random.default_rng(8), centre=(31.3, 28.6), size=9.0, angle_deg=12.0, contrast=0.4,
+                              ground=np.full((60, 64), 0.3, np.float32))
+    assert detect(panel.image, HoughParams(mark="panel")).found and asked and not any(asked)
+    asked.clear()
+    cross = synth.mark_scene("cross", 30, width=2.0, window=70, rng=np.random.default_rng(9))
+    for mark in ("external", "auto"):
+        assert detect(cross.image, HoughParams(mark=mark)).found
+    assert asked and all(asked)
+
+
 def test_forget_kept_while_another_thread_makes_kept_stores():
     """``forget_kept`` lists the stores under a lock: a thread making new ones meanwhile (a module imported on first
     use in a whole frame's threads) does not break it (unlocked: "Set changed size during iteration")."""

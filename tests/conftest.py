@@ -37,14 +37,9 @@ def realdata():
 
 
 @pytest.fixture(autouse=True)
-def fresh_fits(monkeypatch):
-    """Each test starts without the fits and window analyses ``hough`` keeps (``detector._FITS``,
-    ``analysis._ANALYSES``) and the JPEG top rows kept (``jpeg_top._TOPS``): a test that counts or replaces them sees
-    its own, whatever ran before it."""
-    from aerofid.detect.hough import analysis, detector
-    from aerofid.io import jpeg_top
-    from aerofid.kept import Kept
+def fresh_kept():
+    """Each test starts with nothing kept (:func:`aerofid.kept.forget_kept`: the fits and window analyses ``hough``
+    keeps, a JPEG's top rows): a test that counts or replaces them sees its own, whatever ran before it."""
+    from aerofid.kept import forget_kept
 
-    monkeypatch.setattr(detector, "_FITS", Kept(detector.FITS_KEPT))
-    monkeypatch.setattr(analysis, "_ANALYSES", Kept(analysis.ANALYSES_KEPT))
-    monkeypatch.setattr(jpeg_top, "_TOPS", Kept(jpeg_top.TOPS_KEPT))
+    forget_kept()

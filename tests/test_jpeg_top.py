@@ -219,20 +219,27 @@ def _jpeg_with_a_bullseye(tmp_path):
     return _write(tmp_path / "frame.jpg", image, cv2.IMWRITE_JPEG_QUALITY, 95)
 
 
+def _on_the_array_and_the_file(monkeypatch, path, call):
+    """``call`` on the whole decode's samples of the JPEG at ``path``, then on the file itself with no whole decode
+    allowed (and none started, :func:`_no_whole_decode`): (expected, got)."""
+    expected = call(_whole(path))
+    _no_whole_decode(monkeypatch)
+    try:
+        got = call(path)
+        assert not jpeg._DECODES
+    finally:
+        jpeg.forget_decodes()
+    return expected, got
+
+
 def test_locate_of_a_box_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_path, monkeypatch):
     """``aerofid.locate`` of one box near a JPEG's top reads its top rows alone (no whole decode, opening nor closing)
     and answers as on the whole decode's samples."""
     import aerofid
 
-    path = _jpeg_with_a_bullseye(tmp_path)
-    box = (520, 120, 600, 200)
-    expected = aerofid.locate(_whole(path), box, mark="external")
-    _no_whole_decode(monkeypatch)
-    try:
-        got = aerofid.locate(path, box, mark="external")
-        assert not jpeg._DECODES
-    finally:
-        jpeg.forget_decodes()
+    expected, got = _on_the_array_and_the_file(
+        monkeypatch, _jpeg_with_a_bullseye(tmp_path),
+        lambda image: aerofid.locate(image, (520, 120, 600, 200), mark="external"))
     assert expected.found and abs(expected.x - 560.3) < 0.2 and abs(expected.y - 159.6) < 0.2
     assert (got.status, got.x, got.y, got.sigma) == (expected.status, expected.x, expected.y, expected.sigma)
 
@@ -324,15 +331,9 @@ def test_the_cli_s_boxes_open_the_scan_for_the_rows_their_searches_read(tmp_path
 def test_find_marks_in_a_region_near_the_top_of_a_jpeg_does_not_decode_it_whole(tmp_path, monkeypatch):
     import aerofid
 
-    path = _jpeg_with_a_bullseye(tmp_path)
-    region = (400, 60, 800, 260)
-    expected = aerofid.find_marks(_whole(path), region, mark="external")
-    _no_whole_decode(monkeypatch)
-    try:
-        got = aerofid.find_marks(path, region, mark="external")
-        assert not jpeg._DECODES
-    finally:
-        jpeg.forget_decodes()
+    expected, got = _on_the_array_and_the_file(
+        monkeypatch, _jpeg_with_a_bullseye(tmp_path),
+        lambda image: aerofid.find_marks(image, (400, 60, 800, 260), mark="external"))
     assert len(expected.marks) == 1 and abs(expected.marks[0].x - 560.3) < 0.2
     assert [(m.x, m.y) for m in got.marks] == [(m.x, m.y) for m in expected.marks]
 

@@ -329,6 +329,31 @@ def test_the_accumulation_is_eqs_4_and_6_with_rows_outside_skipped(seed, rows, r
     assert symmetry_accumulation(i2, row, r, d, xs, diffs) == pytest.approx(want, rel=1e-5, abs=1e-5)
 
 
+@given(seed=st.integers(0, 2**32 - 1), rows=st.integers(1, 40), r=st.integers(1, 20), extra=st.integers(0, 12),
+       transposed=st.booleans())
+@settings(max_examples=80, deadline=None)
+def test_the_mirror_differences_are_summed_over_u_in_order_either_way(seed, rows, r, extra, transposed):
+    """D(y, x) = sum over u = 1..r of |I2(x + u, y) - I2(x - u, y)| added in float32 in the order of u, the same bits
+    from the one reduction over a stack of differences and from one pass per u (:data:`MIRROR_BUDGET` 0), on any
+    image, thin ones too, and on a transposed view (the vertical axis)."""
+    import aerofid.detect.symmetry as symmetry
+
+    cols = 2 * r + 1 + extra
+    i2 = np.random.default_rng(seed).random((cols, rows) if transposed else (rows, cols)).astype(np.float32)
+    i2 = i2.T if transposed else i2
+    lo, hi = r, cols - 1 - r
+    want = np.zeros((rows, hi + 1 - lo), np.float32)
+    for u in range(1, r + 1):
+        want += np.abs(i2[:, lo + u:hi + 1 + u] - i2[:, lo - u:hi + 1 - u])
+    stacked = mirror_differences(i2, r, lo, hi)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(symmetry, "MIRROR_BUDGET", 0)
+        one_by_one = mirror_differences(i2, r, lo, hi)
+    assert stacked.x0 == one_by_one.x0 == lo
+    assert stacked.values.dtype == one_by_one.values.dtype == np.float32
+    assert np.array_equal(stacked.values, want) and np.array_equal(one_by_one.values, want)
+
+
 def test_the_disc_of_an_integer_radius_is_the_integer_test():
     """The symmetry method's discs (``disc_mask(r, r)``, ``np.hypot`` <= r) are ``dx^2 + dy^2 <= r^2`` for every
     kernel radius a window up to MAX_HALF allows."""

@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import disc_mask, point_asymmetry
@@ -884,18 +885,33 @@ class MirrorDifferences:
     x0: int
 
 
+MIRROR_BUDGET = 1 << 20
+"""Most differences (float32) :func:`mirror_differences` holds at once to sum them over ``u`` in one reduction (4 MB);
+where the kernel radius times the image's side exceeds it, they are summed one ``u`` at a time."""
+
+
 def mirror_differences(i2: np.ndarray, r: int, lo: int, hi: int) -> MirrorDifferences:
     """:class:`MirrorDifferences` of ``i2`` for the kernel radius ``r`` and the columns ``lo..hi`` (inclusive;
-    columns ``lo - r .. hi + r`` must lie inside ``i2``). The sums are taken in place (no temporary array per
-    ``u``) along the rows of ``i2`` transposed (the array a transposed view, the vertical axis, views; else a
-    contiguous copy), so that every slice is contiguous, in float32 like ``I2`` (:func:`simplified_log`): sums of
-    at most a few hundred terms, to about 1e-6 of their size, 2-3x faster than in float64."""
+    columns ``lo - r .. hi + r`` must lie inside ``i2``). Taken along the rows of ``i2`` transposed (the array a
+    transposed view, the vertical axis, views; else a contiguous copy), so that every slice is contiguous, in
+    float32 like ``I2`` (:func:`simplified_log`): sums of at most a few hundred terms, to about 1e-6 of their size,
+    2-3x faster than in float64. Where the differences of every ``u`` fit :data:`MIRROR_BUDGET` they are made in
+    one pass over a stack of views (``(r, columns, rows)``) and summed over ``u`` by one reduction (2x faster on the
+    windows of the marks than a pass per ``u``); else one ``u`` at a time in place. Both add the terms in the order
+    ``u = 1 .. r`` (numpy reduces a stack's first axis one slice after another), so both give the same sums."""
     src = np.asarray(i2.T if i2.T.flags.c_contiguous else np.ascontiguousarray(i2.T), np.float32)
-    out = np.zeros((hi + 1 - lo, src.shape[1]), np.float32)
-    step = np.empty_like(out)
-    for u in range(1, r + 1):
-        cv2.absdiff(src[lo + u:hi + 1 + u], src[lo - u:hi + 1 - u], dst=step)   # |a - b| in one pass
-        out += step
+    n = hi + 1 - lo
+    if r * n * src.shape[1] <= MIRROR_BUDGET:
+        # win[j] holds the rows lo - r + j .. hi - r + j: u's right terms are win[r + u], its left ones win[r - u]
+        win = sliding_window_view(src[lo - r:hi + 1 + r], n, axis=0).transpose(0, 2, 1)
+        step = np.subtract(win[r + 1:], win[r - 1::-1])
+        out = np.add.reduce(np.abs(step, out=step), axis=0)
+    else:
+        out = np.zeros((n, src.shape[1]), np.float32)
+        one = np.empty_like(out)
+        for u in range(1, r + 1):
+            cv2.absdiff(src[lo + u:hi + 1 + u], src[lo - u:hi + 1 - u], dst=one)   # |a - b| in one pass
+            out += one
     return MirrorDifferences(np.ascontiguousarray(out.T), int(lo))
 
 

@@ -898,10 +898,12 @@ def mirror_differences(i2: np.ndarray, r: int, lo: int, hi: int) -> MirrorDiffer
     2-3x faster than in float64. Where the differences of every ``u`` fit :data:`MIRROR_BUDGET` they are made in
     one pass over a stack of views (``(r, columns, rows)``) and summed over ``u`` by one reduction (2x faster on the
     windows of the marks than a pass per ``u``); else one ``u`` at a time in place. Both add the terms in the order
-    ``u = 1 .. r`` (numpy reduces a stack's first axis one slice after another), so both give the same sums."""
+    ``u = 1 .. r``, so both give the same sums: numpy adds along an axis that is not the fastest in memory one slice
+    after another (its pairwise summation is only along the fastest), which the stack's first axis is not unless the
+    stack holds one difference per ``u`` (one row of one column: then one ``u`` at a time)."""
     src = np.asarray(i2.T if i2.T.flags.c_contiguous else np.ascontiguousarray(i2.T), np.float32)
     n = hi + 1 - lo
-    if r * n * src.shape[1] <= MIRROR_BUDGET:
+    if 1 < n * src.shape[1] and r * n * src.shape[1] <= MIRROR_BUDGET:
         # win[j] holds the rows lo - r + j .. hi - r + j: u's right terms are win[r + u], its left ones win[r - u]
         win = sliding_window_view(src[lo - r:hi + 1 + r], n, axis=0).transpose(0, 2, 1)
         step = np.subtract(win[r + 1:], win[r - 1::-1])

@@ -141,16 +141,79 @@ def test_the_spiral_passes_over_homogeneous_windows_as_their_analysis_would(seed
     img = synth.blur(img, 0.7)
     thresholds = search.spiral_thresholds
     passed_over = []
-    monkeypatch.setattr(search, "spiral_thresholds", lambda image, centres, size: passed_over.extend(
-        t for t in thresholds(image, centres, size) if t is None) or thresholds(image, centres, size))
+    monkeypatch.setattr(search, "spiral_thresholds", lambda image, centres, *rest: passed_over.extend(
+        t for t in thresholds(image, centres, *rest) if t is None) or thresholds(image, centres, *rest))
     fast = search_box(img, EXTERNAL)
     assert len(passed_over) > 20
-    monkeypatch.setattr(search, "spiral_thresholds", lambda image, centres, size: [UNKNOWN] * len(centres))
+    monkeypatch.setattr(search, "spiral_thresholds", lambda image, centres, *rest: [UNKNOWN] * len(centres))
     slow = search_box(img, EXTERNAL)
     assert fast.best is not None and slow.best is not None
     assert [(c.stage, c.x, c.y, c.metric) for c in fast.candidates] == [(c.stage, c.x, c.y, c.metric)
                                                                         for c in slow.candidates]
     assert (fast.best.x, fast.best.y, fast.reason) == (slow.best.x, slow.best.y, slow.reason)
+
+
+@given(seed=st.integers(0, 2**32 - 1), size=st.sampled_from([8, 16, 40]), dtype=st.sampled_from(["float32",
+                                                                                                "float64"]),
+       bright=st.sampled_from([0.0, 0.004, 0.02, 0.2, 0.35, 0.5, 0.7]), gain=st.sampled_from([1.0, 1.1, 1.37]),
+       levels=st.integers(2, 6))
+@settings(max_examples=60, deadline=None)
+def test_the_spiral_refuses_by_bright_pixels_as_each_window_analysis_does(seed, size, dtype, bright, gain, levels):
+    """Every first window of a spiral that :func:`spiral_thresholds` refuses by its bright pixels is refused so,
+    with the same reason, by its own analysis at the same threshold; every other one it gives the threshold its
+    analysis starts from and does not end on those two reasons. Boxes of a few grey levels (ties at the
+    threshold), with a share of their pixels bright (more than 30 %: most windows refused), float32 and float64 (a
+    threshold a Python float: numpy compares it with a float32 window in float32)."""
+    import importlib
+
+    from aerofid.detect.hough.analysis import UNKNOWN, analyse_window
+
+    search = importlib.import_module("aerofid.detect.hough.search")
+    rng = np.random.default_rng(seed)
+    img = rng.integers(0, levels, (120, 120)) / (levels - 1) * 0.1 + 0.2
+    img[rng.random(img.shape) < bright] += 0.5
+    img = img.astype(dtype)
+    params = HoughParams(threshold_gain=gain)
+    centres = spiral_coordinates(*img.shape, size)
+    known = search.spiral_thresholds(img, centres, size, params)
+    refused = 0
+    for (x, y), first in zip(centres.tolist(), known, strict=True):
+        got = search.extract_window(img, x, y, size)
+        if got is None:
+            assert first is UNKNOWN
+            continue
+        window = got[0]
+        if isinstance(first, str):
+            refused += 1
+            threshold = optimum_threshold(window)
+            assert analyse_window(window, params, threshold) == first
+            assert analyse_window(window, params) == first
+        elif first is not None:
+            assert first == optimum_threshold(window)
+            own = analyse_window(window, params, first)
+            assert own not in ("too few bright pixels", f"more than {params.max_bright_fraction:.0%} of the window "
+                                                        "is bright")
+    assert refused > 0 or bright < 0.35
+
+
+@given(seed=st.integers(0, 2**32 - 1), dtype=st.sampled_from(["float32", "float64", "uint8"]),
+       rows=st.integers(1, 12))
+@settings(max_examples=60, deadline=None)
+def test_bright_counts_compare_as_a_python_float_threshold_does(seed, dtype, rows):
+    """Each row's count of :func:`bright_counts` is ``int((row > threshold).sum())`` with the threshold a Python
+    float, also for values at the threshold rounded to the row's type and one step either side of it (a float32 row
+    is compared in float32)."""
+    from aerofid.detect.hough.analysis import bright_counts
+
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(0.2, 0.8, rows) * (255 if dtype == "uint8" else 1)
+    w = (rng.uniform(0, 1, (rows, 64)) * (255 if dtype == "uint8" else 1)).astype(dtype)
+    if dtype != "uint8":
+        at = t.astype(dtype)
+        w[:, 0], w[:, 1], w[:, 2] = np.nextafter(at, -np.inf), at, np.nextafter(at, np.inf)
+    else:
+        w[:, 0], w[:, 1] = np.floor(t), np.ceil(t)
+    assert bright_counts(w, t).tolist() == [int((w[i] > float(t[i])).sum()) for i in range(rows)]
 
 
 # --- steps of the verification and the result type ---------------------------------------------------

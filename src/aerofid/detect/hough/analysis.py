@@ -199,6 +199,27 @@ def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT,
     return got
 
 
+def bright_refusal(count: int, pixels: int, params: HoughParams = DEFAULT) -> str | None:
+    """Why a window of ``pixels`` pixels, ``count`` of them above its threshold (the optimum threshold times
+    ``threshold_gain``), is not analysed further (:func:`analyse_window`): more than ``max_bright_fraction`` of it
+    bright (no thin mark on its ground), or fewer than ``min_pixels``; None where it is analysed."""
+    if count > params.max_bright_fraction * pixels:
+        return f"more than {params.max_bright_fraction:.0%} of the window is bright"
+    if count < params.min_pixels:
+        return "too few bright pixels"
+    return None
+
+
+def bright_counts(windows: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
+    """Per row of ``windows`` (``(n, pixels)``), the pixels above its threshold (``thresholds``, float64, one per
+    row): ``int((window > threshold).sum())`` of each, :func:`analyse_window`'s count with its threshold a Python
+    float, which numpy compares with a floating window in the window's own type (the threshold rounded to it)."""
+    t = np.asarray(thresholds, np.float64)
+    if np.issubdtype(windows.dtype, np.floating):
+        t = t.astype(windows.dtype)
+    return np.count_nonzero(windows > t[:, None], axis=1)
+
+
 def _analysed(window: np.ndarray, params: HoughParams, known: Threshold | None | Unknown) -> WindowAnalysis | str:
     """:func:`analyse_window`, computed."""
     thr = optimum_threshold(window) if isinstance(known, Unknown) else known
@@ -206,11 +227,9 @@ def _analysed(window: np.ndarray, params: HoughParams, known: Threshold | None |
         return "homogeneous window"
     threshold = thr.value * params.threshold_gain
     binary = window > threshold
-    count = int(binary.sum())
-    if count > params.max_bright_fraction * window.size:
-        return f"more than {params.max_bright_fraction:.0%} of the window is bright"
-    if count < params.min_pixels:
-        return "too few bright pixels"
+    refused = bright_refusal(int(binary.sum()), window.size, params)
+    if refused is not None:
+        return refused
     thetas = _theta_grid(params.theta_step)
     acc, rho_min = window_accumulator(binary, thetas, params.rho_step)
     acc_t = threshold_accumulator(acc, params.hough_threshold)
@@ -288,5 +307,6 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
     return best
 
 
-__all__ = ["UNKNOWN", "HoughParams", "Unknown", "WindowAnalysis", "analyse_window", "best_pair", "column_rho",
+__all__ = ["UNKNOWN", "HoughParams", "Unknown", "WindowAnalysis", "analyse_window", "best_pair", "bright_counts",
+           "bright_refusal", "column_rho",
            "matched_filter", "similarity", "theta_projection", "threshold_accumulator", "window_accumulator"]

@@ -23,7 +23,15 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.detect.hough.analysis import UNKNOWN, Unknown, WindowAnalysis, analyse_window, similarity
+from aerofid.detect.hough.analysis import (
+    UNKNOWN,
+    Unknown,
+    WindowAnalysis,
+    analyse_window,
+    bright_counts,
+    bright_refusal,
+    similarity,
+)
 from aerofid.detect.hough.params import DEFAULT, HoughParams
 from aerofid.detect.threshold import Threshold, optimum_thresholds
 
@@ -149,22 +157,29 @@ time (a '+' in the box's middle is accepted at once), then 64 at a time, those o
 positions one at a time (thresholding a handful of windows together is no faster)."""
 
 
-def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int) -> list[Threshold | None | Unknown]:
+def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int,
+                      params: HoughParams = DEFAULT) -> list[Threshold | None | Unknown | str]:
     """The optimum thresholds of the first windows at ``centres`` (:func:`extract_window`), those of one shape
     computed together (:func:`aerofid.detect.threshold.optimum_thresholds`: the numbers each window's own
     :func:`~aerofid.detect.threshold.optimum_threshold` gives, several times faster on a box's hundreds of 16 px
     windows); :data:`~aerofid.detect.hough.analysis.UNKNOWN` for a window outside the box (its analysis says
-    why)."""
-    out: list[Threshold | None | Unknown] = [UNKNOWN] * len(centres)
+    why). Where a window's bright pixels at its threshold already refuse it
+    (:func:`~aerofid.detect.hough.analysis.bright_refusal`: most of a notch dot's box is brighter than the
+    threshold of its windows of dark film), the reason its analysis would give instead, their counts taken
+    together too (:func:`~aerofid.detect.hough.analysis.bright_counts`)."""
+    out: list[Threshold | None | Unknown | str] = [UNKNOWN] * len(centres)
     shapes: dict[tuple[int, int], list[tuple[int, np.ndarray]]] = {}
     for i, (x, y) in enumerate(centres.tolist()):
         got = extract_window(image, x, y, size)
         if got is not None:
             shapes.setdefault(got[0].shape, []).append((i, got[0]))
     for group in shapes.values():
-        found = optimum_thresholds(np.stack([w.ravel() for _, w in group]))
+        windows = np.stack([w.ravel() for _, w in group])
+        found = optimum_thresholds(windows)
+        counts = bright_counts(windows, found.value * params.threshold_gain).tolist()
         for j, (i, _) in enumerate(group):
-            out[i] = found.threshold(j)
+            t = found.threshold(j)
+            out[i] = t if t is None else bright_refusal(counts[j], windows.shape[1], params) or t
     return out
 
 
@@ -258,12 +273,13 @@ class _Search:
         first_alone, chunk_size, least = SPIRAL_BATCHES
         for c0 in [0, *range(first_alone, len(centres), chunk_size)]:
             chunk = centres[c0:first_alone if c0 == 0 else c0 + chunk_size]
-            known = spiral_thresholds(self.image, chunk, size) if len(chunk) >= least else [UNKNOWN] * len(chunk)
+            known = (spiral_thresholds(self.image, chunk, size, self.params) if len(chunk) >= least
+                     else [UNKNOWN] * len(chunk))
             for (x, y), first in zip(chunk.tolist(), known, strict=True):
                 if self.capped():
                     return accepted
-                if first is None:   # a homogeneous first window: its analysis would say so and visit nothing
-                    continue
+                if first is None or isinstance(first, str):     # a homogeneous first window, or one its bright
+                    continue                                    # pixels refuse: its analysis would say so
                 if self.visit(x, y, size, first):
                     accepted = True
                     if not self.params.exhaustive:

@@ -210,14 +210,12 @@ def bright_refusal(count: int, pixels: int, params: HoughParams = DEFAULT) -> st
     return None
 
 
-def bright_counts(windows: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
-    """Per row of ``windows`` (``(n, pixels)``), the pixels above its threshold (``thresholds``, float64, one per
-    row): ``int((window > threshold).sum())`` of each, :func:`analyse_window`'s count with its threshold a Python
-    float, which numpy compares with a floating window in the window's own type (the threshold rounded to it)."""
-    t = np.asarray(thresholds, np.float64)
-    if np.issubdtype(windows.dtype, np.floating):
-        t = t.astype(windows.dtype)
-    return np.count_nonzero(windows > t[:, None], axis=1)
+def bright_pixels(window: np.ndarray, thr: Threshold, params: HoughParams = DEFAULT) -> tuple[float, np.ndarray]:
+    """The window's threshold, its optimum threshold ``thr`` times ``threshold_gain`` (of whatever number type the
+    parameter is), and its pixels above it: the one comparison of :func:`analyse_window` and of the spiral's first
+    windows (:func:`aerofid.detect.hough.search.spiral_thresholds`)."""
+    threshold = thr.value * params.threshold_gain
+    return threshold, window > threshold
 
 
 def _analysed(window: np.ndarray, params: HoughParams, known: Threshold | None | Unknown) -> WindowAnalysis | str:
@@ -225,8 +223,7 @@ def _analysed(window: np.ndarray, params: HoughParams, known: Threshold | None |
     thr = optimum_threshold(window) if isinstance(known, Unknown) else known
     if thr is None:
         return "homogeneous window"
-    threshold = thr.value * params.threshold_gain
-    binary = window > threshold
+    threshold, binary = bright_pixels(window, thr, params)
     refused = bright_refusal(int(binary.sum()), window.size, params)
     if refused is not None:
         return refused
@@ -307,6 +304,6 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
     return best
 
 
-__all__ = ["UNKNOWN", "HoughParams", "Unknown", "WindowAnalysis", "analyse_window", "best_pair", "bright_counts",
+__all__ = ["UNKNOWN", "HoughParams", "Unknown", "WindowAnalysis", "analyse_window", "best_pair", "bright_pixels",
            "bright_refusal", "column_rho",
            "matched_filter", "similarity", "theta_projection", "threshold_accumulator", "window_accumulator"]

@@ -28,7 +28,7 @@ from aerofid.detect.hough.analysis import (
     Unknown,
     WindowAnalysis,
     analyse_window,
-    bright_counts,
+    bright_pixels,
     bright_refusal,
     similarity,
 )
@@ -165,8 +165,10 @@ def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int,
     windows); :data:`~aerofid.detect.hough.analysis.UNKNOWN` for a window outside the box (its analysis says
     why). Where a window's bright pixels at its threshold already refuse it
     (:func:`~aerofid.detect.hough.analysis.bright_refusal`: most of a notch dot's box is brighter than the
-    threshold of its windows of dark film), the reason its analysis would give instead, their counts taken
-    together too (:func:`~aerofid.detect.hough.analysis.bright_counts`)."""
+    threshold of its windows of dark film), the reason its analysis would give instead: its pixels compared with
+    its threshold as its analysis compares them (:func:`~aerofid.detect.hough.analysis.bright_pixels`, one window at a
+    time: numpy compares a float32 window with a threshold that is a Python float in float32, with a numpy float64
+    in float64, so that thresholds taken together as an array could count a pixel at the threshold otherwise)."""
     out: list[Threshold | None | Unknown | str] = [UNKNOWN] * len(centres)
     shapes: dict[tuple[int, int], list[tuple[int, np.ndarray]]] = {}
     for i, (x, y) in enumerate(centres.tolist()):
@@ -174,12 +176,10 @@ def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int,
         if got is not None:
             shapes.setdefault(got[0].shape, []).append((i, got[0]))
     for group in shapes.values():
-        windows = np.stack([w.ravel() for _, w in group])
-        found = optimum_thresholds(windows)
-        counts = bright_counts(windows, found.value * params.threshold_gain).tolist()
-        for j, (i, _) in enumerate(group):
+        found = optimum_thresholds(np.stack([w.ravel() for _, w in group]))
+        for j, (i, w) in enumerate(group):
             t = found.threshold(j)
-            out[i] = t if t is None else bright_refusal(counts[j], windows.shape[1], params) or t
+            out[i] = t if t is None else bright_refusal(int(bright_pixels(w, t, params)[1].sum()), w.size, params) or t
     return out
 
 

@@ -182,6 +182,30 @@ def _locate_loads(setup: str, image: str, box: str, prefixes: tuple[str, ...]) -
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
 
 
+def test_a_box_that_needs_a_jpeg_s_whole_decode_starts_it_before_the_detectors_import(tmp_path):
+    """``aerofid locate`` opens the scan before it imports the detection modules (``aerofid.cli.locate_cmd``
+    imports none of them): a JPEG box whose rows need the whole decode has it running in its own thread while they
+    import; the mark is found all the same."""
+    jpg = str(tmp_path / "ring.jpg")
+    setup = (
+        "import numpy as np, cv2\n"
+        "yy, xx = np.mgrid[0:400, 0:300]\n"
+        "img = 40 + 160 * np.exp(-(np.hypot(xx - 147.3, yy - 348.6) - 12.0) ** 2 / 3.0)\n"
+        f"cv2.imwrite({jpg!r}, np.clip(img, 0, 255).astype(np.uint8), [cv2.IMWRITE_JPEG_QUALITY, 95])\n"
+        "import aerofid.cli.locate_cmd, aerofid.io.jpeg as J\n"
+        "print('detectors at import', 'aerofid.find' in sys.modules)\n"
+        "start = J.decoding\n"
+        "def decoding(*a, **k):\n"
+        "    print('detectors at the decode', 'aerofid.find' in sys.modules)\n"
+        "    return start(*a, **k)\n"
+        "J.decoding = decoding\n"
+    )
+    out = _locate_loads(setup, jpg, "120,320,176,376", ("aerofid.find",))
+    assert "detectors at import False" in out and "detectors at the decode False" in out, out
+    found = out.split("\n")[2].split()
+    assert found[0] == "found" and abs(float(found[1][2:]) - 147.3) < 0.1 and abs(float(found[2][2:]) - 348.6) < 0.1
+
+
 def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
     """The CLI imports the command it runs (``aerofid.cli.COMMANDS``), and a ring that ``circles`` and ``symmetry``
     corroborate needs no scipy module (the spline coefficients and moving means are aerofid's own, and so are a

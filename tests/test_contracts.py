@@ -84,6 +84,17 @@ def test_the_decode_cache_gives_every_thread_the_same_answer(tmp_path):
         assert not w.flags.writeable or not np.shares_memory(w, r.read_window((0, 0, 10, 10)))
 
 
+def test_the_method_names_a_user_gives_are_the_registry_s_methods():
+    """The names the command line offers (``aerofid.conventions``, light: no detector imported for them) are the
+    registry's methods in its order, and each runs as the method of that name."""
+    from aerofid.conventions import METHOD_NAMES
+    from aerofid.methods import make_detector
+
+    assert tuple(METHODS) == SEED_METHODS and METHOD_NAMES == ("auto", *METHODS)
+    for name in SEED_METHODS:
+        assert make_detector(name, "auto", {}).method is METHODS[name]
+
+
 def test_every_parameter_name_belongs_to_a_method_and_bad_ones_are_one_line():
     types = {"auto": auto.AutoParams, **{m: METHODS[m].params_type for m in SEED_METHODS}}
     assert set(route_params({}, types)) == {"auto", *SEED_METHODS}

@@ -21,18 +21,10 @@ from aerofid import synth
 from aerofid.detect import screen as screen_module
 from aerofid.detect.registry import METHODS
 from aerofid.detect.screen import MERGE_SHARE, Candidate, local_noise, merge_candidates, screen
-from aerofid.find import (
-    MAX_HALF,
-    Measurer,
-    recentred_half,
-    reduction_for,
-    rows_read,
-    window_half,
-    window_ladder,
-    with_window_term,
-)
+from aerofid.find import Measurer, recentred_half, reduction_for, window_ladder, with_window_term
 from aerofid.io.array import open_image
 from aerofid.methods import AutoDetector, make_detector
+from aerofid.windows import MAX_HALF, rows_read, window_half
 
 STYLES = ("cross", "ring_x_dot", "ring_cross", "dot", "bullseye", "notch_dot")
 

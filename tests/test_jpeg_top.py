@@ -311,7 +311,7 @@ def test_the_cli_s_boxes_open_the_scan_for_the_rows_their_searches_read(tmp_path
     whole decode starts at once); no box, nothing searched."""
     from aerofid.cli import locate_cmd
     from aerofid.cli.boxes import NamedBox
-    from aerofid.find import rows_read
+    from aerofid.windows import rows_read
 
     path = _write(tmp_path / "big.jpg", _texture((2400, 1400), 3))
     opened = []

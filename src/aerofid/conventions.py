@@ -25,6 +25,12 @@ MarkKind = Literal["auto", "external", "panel"]
 MARKS: tuple[str, ...] = ("auto", "external", "panel")
 """Kinds of mark: let the detector decide, an external (film) fiducial, or a cloth ground panel."""
 
+SEED_METHODS: tuple[str, ...] = ("hough", "symmetry", "circles", "lines")
+"""The seeds' methods, by the name a user gives (``locate(method=...)``, ``--method``): each is an entry of
+:data:`aerofid.detect.registry.METHODS`, in its order."""
+METHOD_NAMES: tuple[str, ...] = ("auto", *SEED_METHODS)
+"""What ``method`` may be: ``auto`` or one of the seeds' methods."""
+
 FOUND = "found"
 NOT_FOUND = "not_found"
 """Every answer's status: a mark was located, or explicitly not (never an exception, never a made-up centre)."""
@@ -45,5 +51,5 @@ def finite_or_none(v: float | None) -> float | None:
     return None if v is None or not math.isfinite(v) else float(v)
 
 
-__all__ = ["FOUND", "MARKS", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "Box", "MarkKind", "Polarity", "opposite",
-           "finite_or_none"]
+__all__ = ["FOUND", "MARKS", "METHOD_NAMES", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "SEED_METHODS", "Box",
+           "MarkKind", "Polarity", "opposite", "finite_or_none"]

@@ -41,6 +41,7 @@ from aerofid.io.raster import clip_box
 from aerofid.io.reduce import read_reduced_levels
 from aerofid.io.source import ImageSource
 from aerofid.methods import AutoDetector, Detector, MethodDetector, check_choice, check_polarity, make_detector
+from aerofid.windows import MIN_HALF, rows_read, window_half
 
 SCREEN_PIXELS = 2_000_000
 """Most pixels of the reduced region that screening holds (a power-of-two reduction is chosen to fit)."""
@@ -63,15 +64,11 @@ WINDOW_TERM_SIZES = (LADDER_STEP, 1 / LADDER_STEP)
 """Half-sizes of the two windows of the window term, relative to the final re-centred window's: one step of the
 ladder smaller and larger (on the real RC20 marks the centre moves by 0.15-0.3 px between these sizes; windows
 0.6 times the size were refused on all 8 marks, 1.6 times on 3 of them)."""
-MIN_HALF = 12
-"""Smallest half-size of a measuring window (px)."""
 MIN_RECENTRED_HALF = 24
 """Smallest half-size of the re-centred window (px): a small blob is judged with its surroundings (texture
 around a compact blob of aerial ground is what tells it from a dot on plain film)."""
 MAX_MARK_RADIUS = 160.0
 """Largest mark radius (px) sought when the caller gives none: fiducials and panels are a few to ~150 px."""
-MAX_HALF = 320
-"""Largest half-size of a measuring window (px)."""
 ACCESSORY_RATIO = 0.5
 """A mark whose extent is below this fraction of a neighbour's is its accessory..."""
 ACCESSORY_REACH = 8.0
@@ -194,8 +191,8 @@ class Measurer:
         return box, self._grey(samples, polarity)
 
     def _window(self, x: float, y: float, half: float) -> tuple[Box, np.ndarray]:
-        """The window of half-size ``half`` (within :data:`MIN_HALF`, :data:`MAX_HALF`) centred on the pixel nearest
-        (x, y), clipped to the image, and its samples."""
+        """The window of half-size ``half`` (:func:`~aerofid.windows.window_half`) centred on the pixel nearest (x, y),
+        clipped to the image, and its samples."""
         h = window_half(half)
         cx, cy = int(round(x)), int(round(y))
         box, _ = clip_box((cx - h, cy - h, cx + h + 1, cy + h + 1), self.source.width, self.source.height)
@@ -305,33 +302,15 @@ def recentred_half(extent: float, window: tuple[float, float] = RECENTRED_WINDOW
     return max(window[0] * extent + window[1], MIN_RECENTRED_HALF)
 
 
-def window_half(half: float) -> int:
-    """The half-size (px) of the window :meth:`Measurer.at` reads for ``half``: rounded up, within :data:`MIN_HALF`
-    and :data:`MAX_HALF`."""
-    return int(min(max(math.ceil(half), MIN_HALF), MAX_HALF))
-
-
 def window_ladder(radius: float, inner: float) -> list[float]:
     """Half-sizes of the windows tried on a candidate: FIRST_WINDOW of its radius, then :data:`LADDER_STEP`
-    times smaller each, down to FIRST_WINDOW of ``inner`` (at least :data:`MIN_HALF`)."""
+    times smaller each, down to FIRST_WINDOW of ``inner`` (at least :data:`~aerofid.windows.MIN_HALF`)."""
     low = max(FIRST_WINDOW[0] * inner + FIRST_WINDOW[1], MIN_HALF)
     half = max(FIRST_WINDOW[0] * radius + FIRST_WINDOW[1], low)
     out = [half]
     while out[-1] * LADDER_STEP >= low * 0.9:
         out.append(out[-1] * LADDER_STEP)
     return out
-
-
-def rows_read(region: Sequence[Any]) -> int | None:
-    """The row above which a search of ``region`` reads (for :func:`~aerofid.io.raster.open_raster`'s ``rows``): its
-    bottom, then a measuring window of the largest size (:data:`MAX_HALF`) about a point in it (the screen's
-    :data:`CONTEXT` is less); a window about a mark found outside the region may reach further. None where the
-    bottom is not a number (:func:`~aerofid.io.raster.clip_box` then tells)."""
-    try:
-        bottom = float(region[3])
-    except (TypeError, ValueError, IndexError):
-        return None
-    return math.ceil(bottom) + MAX_HALF + 1 if math.isfinite(bottom) else None
 
 
 def better(a: Detection, b: Detection) -> bool:
@@ -420,7 +399,7 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
     region : (x0, y0, x1, y1), optional
         Where the marks' centres may lie (full-image pixels, x1 and y1 exclusive); the whole image if None.
         Pixels around it are read as context (a JPEG whose region lies near its top is not decoded whole:
-        :func:`rows_read`).
+        :func:`~aerofid.windows.rows_read`).
     mark, method, polarity, colour, **params
         As :func:`aerofid.locate`.
     min_radius, max_radius : float

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import MARKS, POLARITY_CHOICES
+from aerofid.conventions import MARKS, METHOD_NAMES, POLARITY_CHOICES
 from aerofid.detect import auto
 from aerofid.detect.params import MethodParams
 from aerofid.detect.registry import METHODS, Method, route_params
@@ -23,8 +23,6 @@ from aerofid.errors import AerofidInputError
 Detector = Callable[[np.ndarray], Detection]
 """One configured method: grey window (mark bright) -> its answer."""
 
-METHOD_NAMES = ("auto", *METHODS)
-"""What ``method`` may be: ``auto`` or one of the seeds' methods (:data:`aerofid.detect.registry.METHODS`)."""
 
 
 @dataclass(frozen=True)

@@ -23,25 +23,26 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import click
 
 from aerofid.cli.boxes import NamedBox, collect_boxes
 from aerofid.cli.output import EXIT_FOUND, EXIT_NOT_FOUND, flush_stdout
-from aerofid.conventions import FOUND, MARKS, NOT_FOUND, POLARITY_CHOICES
+from aerofid.conventions import FOUND, MARKS, METHOD_NAMES, NOT_FOUND, POLARITY_CHOICES
 from aerofid.errors import AerofidInputError
-from aerofid.find import rows_read
 from aerofid.io.atomic import Staging
 from aerofid.io.colour import COLOUR_POLICIES
 from aerofid.io.raster import Raster, clip_box, open_raster
-from aerofid.locate import METHOD_NAMES, Location
-from aerofid.locate import locate as locate_mark
+from aerofid.windows import rows_read
+
+if TYPE_CHECKING:
+    from aerofid.locate import Location
 
 NAME_FIELD = "{name}"
 """In an ``--overlay`` or ``--plot`` path, replaced by each mark's name (one file per mark)."""
 
-Located = list[tuple[NamedBox, Location]]
+Located: TypeAlias = "list[tuple[NamedBox, Location]]"
 
 OPTION_NAMES = ("mark", "method", "polarity", "colour")
 """Names given by options of their own (``--mark``...), never by ``--param``."""
@@ -131,14 +132,18 @@ def _check_box(b: NamedBox, raster: Raster) -> None:
 
 def locate_all(image: str, boxes: Sequence[NamedBox], **options: Any) -> Located:
     """Every box's :class:`~aerofid.locate.Location`, the scan opened once, for the rows the boxes' searches read
-    (:func:`~aerofid.find.rows_read`: a JPEG whose boxes lie near its top is not decoded whole). Every box is checked
-    against the scan before any mark is searched for, and the options and parameters by the first search, before it
-    reads a pixel."""
+    (:func:`~aerofid.windows.rows_read`: a JPEG whose boxes lie near its top is not decoded whole). Every box is
+    checked against the scan before any mark is searched for, and the options and parameters by the first search,
+    before it reads a pixel. The detection modules are imported once the scan is open: a JPEG whose boxes need its
+    whole decode is decoded meanwhile, in the thread the raster starts (the RC20 frame's corner BL, a fresh
+    ``aerofid locate``: 457 -> 431 ms median, paired 0.96 over 12 runs; docs/benchmarks_peers.md, session 40)."""
     bottoms = [rows_read(b.box) for b in boxes]
     rows = None if None in bottoms else max((r for r in bottoms if r is not None), default=None)
     with open_raster(image, rows) as raster:
         for b in boxes:
             _check_box(b, raster)
+        from aerofid.locate import locate as locate_mark  # after the open (docstring)
+
         return [(b, locate_mark(raster, b.box, **options)) for b in boxes]
 
 

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from aerofid.conventions import SEED_METHODS
 from aerofid.detect import circles, hough, lines, symmetry
 from aerofid.detect.params import MethodParams
 from aerofid.detect.result import Detection
@@ -45,10 +46,8 @@ METHODS: dict[str, Method] = {
     "circles": Method("circles", "Seedahmed (seed 003)", circles.detect, circles.CirclesParams),
     "lines": Method("lines", "Sohn et al. (seed 004)", lines.detect, lines.LinesParams),
 }
-"""The seeds' methods, by the name a user gives (``locate(method=...)``, ``--method``)."""
+"""The seeds' methods, by the name a user gives (:data:`aerofid.conventions.SEED_METHODS`, in its order)."""
 
-SEED_METHODS = tuple(METHODS)
-"""Their names."""
 
 
 def route_params(values: Mapping[str, Any], types: Mapping[str, type[MethodParams]]) -> dict[str, MethodParams]:

@@ -3,8 +3,9 @@ imports only the layers below it, no import hides inside a function (the way cyc
 every function is short enough to read at once.
 
 Layers, lowest first (a module may import its own layer and those below):
-``conventions, errors, robust, parallel, scipy_kernels, kept`` < ``io`` < ``detect``, ``orientation`` < ``formats`` <
-``synth, synth_frame, methods, resample`` < ``find, testing`` < ``locate, frame`` < ``render, batch`` < ``cli``.
+``conventions, errors, robust, parallel, scipy_kernels, kept, windows`` < ``io`` < ``detect``, ``orientation`` <
+``formats`` < ``synth, synth_frame, methods, resample`` < ``find, testing`` < ``locate, frame`` < ``render, batch`` <
+``cli``.
 ``detect`` and ``orientation`` are independent of each other.
 """
 
@@ -23,9 +24,10 @@ from conftest import realdata_path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "aerofid"
 
-LAYER = {"conventions": 0, "errors": 0, "robust": 0, "parallel": 0, "scipy_kernels": 0, "kept": 0, "io": 1, "detect": 2,
-         "orientation": 2, "formats": 3, "synth": 4, "synth_frame": 4, "methods": 4, "resample": 4, "testing": 5,
-         "find": 5, "locate": 6, "frame": 6, "render": 7, "batch": 7, "cli": 8, "__init__": 9, "__main__": 10}
+LAYER = {"conventions": 0, "errors": 0, "robust": 0, "parallel": 0, "scipy_kernels": 0, "kept": 0, "windows": 0,
+         "io": 1, "detect": 2, "orientation": 2, "formats": 3,
+         "synth": 4, "synth_frame": 4, "methods": 4, "resample": 4, "testing": 5, "find": 5, "locate": 6, "frame": 6,
+         "render": 7, "batch": 7, "cli": 8, "__init__": 9, "__main__": 10}
 """Each top-level part of the package and its layer."""
 INDEPENDENT = {frozenset({"detect", "orientation"}), frozenset({"detect", "formats"})}
 """Parts that must not import each other although their layers would allow it."""

@@ -66,6 +66,33 @@ def test_hypotheses_are_the_definition_in_chunks_of_any_size_and_cut_anywhere(n,
     np.testing.assert_array_equal(got, plain_hypotheses(features, fiducials, s)[:most])
 
 
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(2, 9), ulps=st.integers(0, 4), round_mm=st.booleans())
+@settings(max_examples=100, deadline=None)
+def test_the_distance_band_is_the_test_of_every_pair_at_its_edges(seed, n, ulps, round_mm):
+    """:class:`layout._DistanceBand` finds by bisection the fiducial pairs that the test of every pair finds, in its
+    order, for distances on the band's edges and a few ulps either side, zero, and fiducials that coincide or lie at
+    equal distances (a square layout, rounded coordinates)."""
+    rng = np.random.default_rng(seed)
+    fiducials = rng.uniform(-120, 120, (n, 2))
+    if round_mm:
+        fiducials = np.round(fiducials / 40) * 40                     # equal distances, coinciding fiducials
+    j, l = layout._fiducial_pairs(n)
+    d_mm = np.hypot(*(fiducials[l] - fiducials[j]).T)
+    band = layout.SCALE_TOLERANCE * d_mm
+    edges = np.r_[d_mm - band, d_mm + band, d_mm, 0.0, rng.uniform(0, 400, 50)]
+    d = [edges]
+    for step in (np.inf, -np.inf):
+        near = edges
+        for _ in range(ulps):
+            near = np.nextafter(near, step)
+            d.append(near)
+    d = np.abs(np.concatenate(d))
+    a, b = layout._DistanceBand(d_mm)(d)
+    a0, b0 = np.nonzero(np.abs(d[:, None] - d_mm) <= band)
+    np.testing.assert_array_equal(a, a0)
+    np.testing.assert_array_equal(b, b0)
+
+
 @given(seed=st.integers(0, 2**31 - 1), scale=st.floats(1e-3, 1e3))
 @settings(max_examples=100, deadline=None)
 def test_the_directions_prefilter_keeps_every_hypothesis_within_the_rotation_limit(seed, scale):

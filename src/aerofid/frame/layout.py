@@ -277,6 +277,7 @@ class _Pairs:
 
     def __init__(self, features: np.ndarray, i: np.ndarray, k: np.ndarray):
         self.features, self.i, self.k = features, i, k
+        self._x, self._y = np.ascontiguousarray(features[:, 0]), np.ascontiguousarray(features[:, 1])
         self.count = len(i)
         self._d_px, self._direction, self._done = np.empty(self.count), np.empty(self.count), 0
         self.clearance = nearest_other(features)
@@ -296,7 +297,8 @@ class _Pairs:
         if end > self._done:
             end = min(max(end, 2 * self._done), self.count)
             a = slice(self._done, end)
-            dx, dy = (self.features[self.k[a]] - self.features[self.i[a]]).T
+            k, i = self.k[a], self.i[a]
+            dx, dy = self._x[k] - self._x[i], self._y[k] - self._y[i]      # the columns apart: 5x faster gathers
             self._d_px[a], self._direction[a] = np.hypot(dx, dy), np.arctan2(dy, dx)
             self._done = end
 
@@ -317,17 +319,48 @@ PAIR_BLOCK = 4096
 first chunks, so the hypotheses of later pairs are not formed."""
 
 
+class _DistanceBand:
+    """The ordered pairs of fiducials whose distance ``d_mm`` (mm) agrees with a pair of features' distance ``d``
+    (px times the pixel size): ``|d - d_mm| <= SCALE_TOLERANCE * d_mm``, the pairs that ``np.nonzero`` of that test
+    over every ``(d, d_mm)`` gives, in its order (pairs of features in turn, the fiducial pairs of each in their
+    order). A pair of features agrees with a few of a camera's fiducial pairs (56 for 8 fiducials), so they are found
+    by bisection in the sorted distances, among those within ``d / (1 + SCALE_TOLERANCE) .. d / (1 -
+    SCALE_TOLERANCE)`` and a rounding's worth more, on which the test itself then decides (the test of every pair
+    was 0.4 of the layout search of an 11000^2 frame)."""
+
+    def __init__(self, d_mm: np.ndarray):
+        self.d_mm, self.band = d_mm, SCALE_TOLERANCE * d_mm
+        self.order = np.argsort(d_mm, kind="stable")
+        self.sorted = d_mm[self.order]
+
+    def __call__(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(a, b)``: each pair of features ``a`` (an index into ``d``) with each fiducial pair ``b`` that agrees."""
+        lo = np.searchsorted(self.sorted, d / (1 + SCALE_TOLERANCE) * (1 - ROUNDING), "left")
+        hi = np.searchsorted(self.sorted, d / (1 - SCALE_TOLERANCE) * (1 + ROUNDING), "right")
+        count = hi - lo
+        a = np.repeat(np.arange(len(d)), count)
+        b = self.order[np.arange(len(a)) - np.repeat(np.cumsum(count) - count - lo, count)]
+        keep = np.abs(d[a] - self.d_mm[b]) <= self.band[b]
+        key = a[keep] * len(self.d_mm) + b[keep]        # each pair of features' fiducial pairs in their order
+        key.sort()
+        return np.divmod(key, len(self.d_mm))
+
+
+ROUNDING = 1e-9
+"""Relative margin of :class:`_DistanceBand`'s bisection beyond the exact bounds (the test's own rounding is some
+1e-14 of them)."""
+
+
 def _hypothesis_chunks(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """(i, k, j, l) with |features i-k| * s within :data:`SCALE_TOLERANCE` of |fiducials j-l|, pairs of strong
     features first, then by (j, l) (the first :data:`MAX_HYPOTHESES`), :data:`CHUNK` at a time, each with the index
     of its pair of features; formed :data:`PAIR_BLOCK` pairs at a time, as the search asks for them."""
     j, l = _fiducial_pairs(len(fiducials_mm))
-    d_mm = np.hypot(*(fiducials_mm[l] - fiducials_mm[j]).T)
-    band = SCALE_TOLERANCE * d_mm
+    agree = _DistanceBand(np.hypot(*(fiducials_mm[l] - fiducials_mm[j]).T))
     held: list[np.ndarray] = []              # pair indices and fiducial pairs not yet given out, in order
     n_held = given = 0
     for a0 in range(0, pairs.count, PAIR_BLOCK):
-        a, b = np.nonzero(np.abs((pairs.distances(a0, a0 + PAIR_BLOCK) * s)[:, None] - d_mm) <= band)
+        a, b = agree(pairs.distances(a0, a0 + PAIR_BLOCK) * s)
         a = a[:MAX_HYPOTHESES - given - n_held]
         held.append(np.stack([a + a0, b[:len(a)]]))
         n_held += len(a)
@@ -368,13 +401,14 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     for hyp, pair in _hypothesis_chunks(pairs, fiducials_mm, s):
         near = near or _NearFeatures(features, tol, pairs)
         fid_pair = _pair_index(hyp[:, 2], hyp[:, 3], len(fiducials_mm))
+        feature_directions = pairs.directions(pair)
         decisive: list[tuple[int, float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
-            turning = hyp[_may_turn_within(pairs.directions(pair), directions[a][fid_pair])]
+            turning = np.compress(_may_turn_within(feature_directions, directions[a][fid_pair]), hyp, axis=0)
             pred, kept = _predict(features, cp, turning)
             if pred is None:
                 continue
-            d, idx = near.query_predictions(pred, turning[kept])
+            d, idx = near.query_predictions(pred, np.compress(kept, turning, axis=0))
             hit = np.isfinite(d)
             count = hit.sum(axis=1)
             mean_d = np.where(hit, d, 0.0).sum(axis=1) / np.maximum(count, 1)
@@ -463,19 +497,19 @@ class _NearFeatures:
         h, n = pred.shape[:2]
         rows = np.arange(h)
         i, k, j, l = hyp.T
-        dx, dy = (pred[rows, l] - self.features[k]).T
+        dx, dy = (np.take(pred.reshape(-1, 2), rows * n + l, axis=0) - np.take(self.features, k, axis=0)).T
         square = dx * dx + dy * dy
         d_l = np.sqrt(square)
         # within the tolerance as the query tests it, on squares
         plain = (square < self.query.limit) & (self.clearance[i] > 0) & (self.clearance[k] > 2 * d_l)
         d, idx = np.empty(h * n), np.empty(h * n, np.intp)
         if plain.all():                    # each row's other fiducials (of the n - 2 that are neither j nor l)
-            ask = (rows[:, None] * n + _others(n)[_pair_index(j, l, n)]).ravel()
+            ask = (rows[:, None] * n + np.take(_others(n), _pair_index(j, l, n), axis=0)).ravel()
         else:
             ask = np.ones((h, n), bool)
             ask[rows[plain], j[plain]] = ask[rows[plain], l[plain]] = False
             ask = np.flatnonzero(ask)
-        d[ask], idx[ask] = self.query(pred.reshape(-1, 2)[ask])
+        d[ask], idx[ask] = self.query(np.take(pred.reshape(-1, 2), ask, axis=0))
         d, idx = d.reshape(h, n), idx.reshape(h, n)
         d[rows[plain], j[plain]], idx[rows[plain], j[plain]] = 0.0, i[plain]
         d[rows[plain], l[plain]], idx[rows[plain], l[plain]] = d_l[plain], k[plain]

@@ -44,16 +44,12 @@ class NearestWithin:
         if not w * h <= GRID_CELLS:
             return
         self.grid, self.w, self.h = True, int(w), int(h)
-        key = cells[:, 1].astype(np.intp) * self.w + cells[:, 0].astype(np.intp)
-        self.order = np.argsort(key, kind="stable")                 # the features cell by cell, in their order
-        # the features of cell c are order[start[c]:start[c + 1]]
+        # each feature in its cell and the 8 around it: the features a point of cell c may be near are
+        # order[start[c]:start[c + 1]], cell by cell and in their order within each
+        key = (cells[:, 1].astype(np.intp) * self.w + cells[:, 0].astype(np.intp))[:, None] + _around(self.w)
+        self.order = np.argsort(key.ravel(), kind="stable") // 9
         self.start = np.zeros(self.w * self.h + 1, np.intp)
-        np.cumsum(np.bincount(key, minlength=self.w * self.h), out=self.start[1:])
-        self.reach = np.zeros((self.h, self.w), bool)               # cells with a feature in or around them
-        ix, iy = cells.astype(np.intp).T
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                self.reach[iy + dy, ix + dx] = True
+        np.cumsum(np.bincount(key.ravel(), minlength=self.w * self.h), out=self.start[1:])
 
     def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         points = np.asarray(points, np.float64).reshape(-1, 2)
@@ -69,28 +65,27 @@ class NearestWithin:
         if not len(pt):
             return d, idx
         # the pairs come point by point: each point's least square, and of the features at it the first
-        first = np.flatnonzero(np.r_[True, pt[1:] != pt[:-1]])
+        first = np.flatnonzero(np.concatenate(([True], pt[1:] != pt[:-1])))
         least = np.minimum.reduceat(square, first)
-        at_least = square == np.repeat(least, np.diff(np.r_[first, len(pt)]))
+        at_least = square == np.repeat(least, np.diff(first, append=len(pt)))
         chosen = np.minimum.reduceat(np.where(at_least, feat, self.n), first)
         d[pt[first]], idx[pt[first]] = np.sqrt(least), chosen
         return d, idx
 
     def _pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(point, feature) index pairs of every point in a cell within reach of a feature, with each feature in its
-        cell and the 8 around it, point by point."""
+        """(point, feature) index pairs of every point with each feature in its cell and the 8 around it, point by
+        point."""
         cells = self._cells(points)
         look = np.flatnonzero((cells[:, 0] >= 1) & (cells[:, 0] < self.w - 1)
                               & (cells[:, 1] >= 1) & (cells[:, 1] < self.h - 1))
-        ix, iy = cells[look, 0].astype(np.intp), cells[look, 1].astype(np.intp)
-        near = self.reach[iy, ix]
-        look, ix, iy = look[near], ix[near], iy[near]
-        key = (iy[:, None] + np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])) * self.w + ix[:, None] + np.tile([-1, 0, 1], 3)
-        lo, count = self.start[key].ravel(), (self.start[key + 1] - self.start[key]).ravel()
-        total = int(count.sum())
-        pt = np.repeat(np.repeat(look, 9), count)
-        # each pair's place among the features of its cell: lo, lo + 1, ... lo + count - 1
-        at = np.arange(total) - np.repeat(np.cumsum(count) - count, count) + np.repeat(lo, count)
+        key = cells[look, 1].astype(np.intp) * self.w + cells[look, 0].astype(np.intp)
+        lo = self.start[key]
+        count = self.start[key + 1] - lo
+        near = count > 0
+        look, lo, count = look[near], lo[near], count[near]
+        pt = np.repeat(look, count)
+        # each pair's place among the features about its cell: lo, lo + 1, ... lo + count - 1
+        at = np.arange(len(pt)) - np.repeat(np.cumsum(count) - count - lo, count)
         return pt, self.order[at]
 
     def _cells(self, points: np.ndarray) -> np.ndarray:
@@ -115,6 +110,11 @@ class NearestWithin:
         if not pts:
             return np.zeros(0, np.intp), np.zeros(0, np.intp)
         return np.concatenate(pts), np.concatenate(feats)
+
+
+def _around(w: int) -> np.ndarray:
+    """The offsets of a cell's number to its own and the 8 around it in a grid ``w`` cells wide."""
+    return (np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1]) * w + np.tile([-1, 0, 1], 3)).astype(np.intp)
 
 
 def nearest_other(points: np.ndarray) -> np.ndarray:

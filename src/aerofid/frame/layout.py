@@ -276,7 +276,7 @@ class _Pairs:
     feature given twice), which :class:`_NearFeatures` needs at every pixel size."""
 
     def __init__(self, features: np.ndarray, i: np.ndarray, k: np.ndarray):
-        self.features, self.i, self.k = features, i, k
+        self.i, self.k = i, k
         self._x, self._y = np.ascontiguousarray(features[:, 0]), np.ascontiguousarray(features[:, 1])
         self.count = len(i)
         self._d_px, self._direction, self._done = np.empty(self.count), np.empty(self.count), 0

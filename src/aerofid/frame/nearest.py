@@ -47,7 +47,7 @@ class NearestWithin:
         # each feature in its cell and the 8 around it: the features a point of cell c may be near are
         # order[start[c]:start[c + 1]], cell by cell and in their order within each
         key = (cells[:, 1].astype(np.intp) * self.w + cells[:, 0].astype(np.intp))[:, None] + _around(self.w)
-        self.order = np.argsort(key.ravel(), kind="stable") // 9
+        self.order = np.argsort(key.ravel(), kind="stable") // key.shape[1]
         self.start = np.zeros(self.w * self.h + 1, np.intp)
         np.cumsum(np.bincount(key.ravel(), minlength=self.w * self.h), out=self.start[1:])
 
@@ -81,8 +81,6 @@ class NearestWithin:
         key = cells[look, 1].astype(np.intp) * self.w + cells[look, 0].astype(np.intp)
         lo = self.start[key]
         count = self.start[key + 1] - lo
-        near = count > 0
-        look, lo, count = look[near], lo[near], count[near]
         pt = np.repeat(look, count)
         # each pair's place among the features about its cell: lo, lo + 1, ... lo + count - 1
         at = np.arange(len(pt)) - np.repeat(np.cumsum(count) - count - lo, count)

@@ -25,6 +25,7 @@ from __future__ import annotations
 import functools
 import hashlib
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -210,11 +211,17 @@ def bright_refusal(count: int, pixels: int, params: HoughParams = DEFAULT) -> st
     return None
 
 
+def bright_value(optimum: float, params: HoughParams = DEFAULT) -> Any:
+    """A window's threshold: its ``optimum`` threshold (a Python float) times ``threshold_gain`` (a number of whatever
+    type that product has: a Python float, or a numpy scalar where the parameter is one)."""
+    return optimum * params.threshold_gain
+
+
 def bright_pixels(window: np.ndarray, thr: Threshold, params: HoughParams = DEFAULT) -> tuple[float, np.ndarray]:
-    """The window's threshold, its optimum threshold ``thr`` times ``threshold_gain`` (of whatever number type the
-    parameter is), and its pixels above it: the one comparison of :func:`analyse_window` and of the spiral's first
-    windows (:func:`aerofid.detect.hough.search.spiral_thresholds`)."""
-    threshold = thr.value * params.threshold_gain
+    """The window's threshold (:func:`bright_value`) and its pixels above it: the one comparison of
+    :func:`analyse_window`, which the spiral's first windows repeat in the same number type
+    (:func:`aerofid.detect.hough.search.spiral_thresholds`)."""
+    threshold = bright_value(thr.value, params)
     return threshold, window > threshold
 
 
@@ -305,5 +312,5 @@ def similarity(projection: np.ndarray, thetas_deg: np.ndarray, theta0: float, ma
 
 
 __all__ = ["UNKNOWN", "HoughParams", "Unknown", "WindowAnalysis", "analyse_window", "best_pair", "bright_pixels",
-           "bright_refusal", "column_rho",
+           "bright_refusal", "bright_value", "column_rho",
            "matched_filter", "similarity", "theta_projection", "threshold_accumulator", "window_accumulator"]

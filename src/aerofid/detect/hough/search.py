@@ -22,14 +22,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from aerofid.detect.hough.analysis import (
     UNKNOWN,
     Unknown,
     WindowAnalysis,
     analyse_window,
-    bright_pixels,
     bright_refusal,
+    bright_value,
     similarity,
 )
 from aerofid.detect.hough.params import DEFAULT, HoughParams
@@ -151,10 +152,27 @@ def make_candidate(stage: int, got: Analysed, size: int, params: HoughParams = D
                      window_size=size, origin=origin, analysis=a, window=window, model=model)
 
 
-SPIRAL_BATCHES = (8, 64, 16)
+SPIRAL_BATCHES = (8, 64, 1024, 16)
 """How the search thresholds its spiral's first windows (:func:`spiral_thresholds`): the first 8 positions one at a
-time (a '+' in the box's middle is accepted at once), then 64 at a time, those of a last chunk of fewer than 16
-positions one at a time (thresholding a handful of windows together is no faster)."""
+time (a '+' in the box's middle is accepted at once), then 64 at a time, twice as many each time up to 1024 (a box
+of 640 px that holds no '+' has some 3600 positions, and each batch costs some 0.3 ms of its own), those of a last
+chunk of fewer than 16 positions one at a time (thresholding a handful of windows together is no faster)."""
+
+
+def spiral_chunks(positions: int) -> list[tuple[int, int]]:
+    """The spiral's positions ``[start, end)`` thresholded together (:data:`SPIRAL_BATCHES`).
+
+    Examples
+    --------
+    >>> spiral_chunks(300)
+    [(0, 8), (8, 72), (72, 200), (200, 300)]
+    """
+    first_alone, size, largest, _ = SPIRAL_BATCHES
+    out, start = [(0, min(first_alone, positions))], first_alone
+    while start < positions:
+        out.append((start, min(start + size, positions)))
+        start, size = start + size, min(2 * size, largest)
+    return out
 
 
 def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int,
@@ -165,22 +183,49 @@ def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int,
     windows); :data:`~aerofid.detect.hough.analysis.UNKNOWN` for a window outside the box (its analysis says
     why). Where a window's bright pixels at its threshold already refuse it
     (:func:`~aerofid.detect.hough.analysis.bright_refusal`: most of a notch dot's box is brighter than the
-    threshold of its windows of dark film), the reason its analysis would give instead: its pixels compared with
-    its threshold as its analysis compares them (:func:`~aerofid.detect.hough.analysis.bright_pixels`, one window at a
-    time: numpy compares a float32 window with a threshold that is a Python float in float32, with a numpy float64
-    in float64, so that thresholds taken together as an array could count a pixel at the threshold otherwise)."""
+    threshold of its windows of dark film), the reason its analysis would give instead. The windows that lie
+    wholly inside the box are gathered at once from a view of every window of the box
+    (``numpy.lib.stride_tricks.sliding_window_view``: a failed search of a 640 px box visits some 3600 of them);
+    the few that its edges clip, one by one. Their pixels are compared with their thresholds in the type in which
+    their analysis compares them (:func:`_compared`)."""
     out: list[Threshold | None | Unknown | str] = [UNKNOWN] * len(centres)
-    shapes: dict[tuple[int, int], list[tuple[int, np.ndarray]]] = {}
-    for i, (x, y) in enumerate(centres.tolist()):
-        got = extract_window(image, x, y, size)
+    h, w = image.shape
+    c = np.asarray(centres, dtype=np.float64).reshape(-1, 2)
+    x0 = np.floor(c[:, 0] - (size - 1) / 2.0 + 0.5).astype(np.int64)   # extract_window's origin, in float64 alike
+    y0 = np.floor(c[:, 1] - (size - 1) / 2.0 + 0.5).astype(np.int64)
+    whole = (x0 >= 0) & (y0 >= 0) & (x0 + size <= w) & (y0 + size <= h)
+    groups: list[tuple[np.ndarray, np.ndarray]] = []
+    if whole.any():
+        at = np.flatnonzero(whole)
+        groups.append((at, sliding_window_view(image, (size, size))[y0[at], x0[at]]))
+    clipped: dict[tuple[int, ...], list[tuple[int, np.ndarray]]] = {}
+    for i in np.flatnonzero(~whole).tolist():
+        got = extract_window(image, float(c[i, 0]), float(c[i, 1]), size)
         if got is not None:
-            shapes.setdefault(got[0].shape, []).append((i, got[0]))
-    for group in shapes.values():
-        found = optimum_thresholds(np.stack([w.ravel() for _, w in group]))
-        for j, (i, w) in enumerate(group):
-            t = found.threshold(j)
-            out[i] = t if t is None else bright_refusal(int(bright_pixels(w, t, params)[1].sum()), w.size, params) or t
+            clipped.setdefault(got[0].shape, []).append((i, got[0]))
+    groups += [(np.array([i for i, _ in g]), np.stack([win for _, win in g])) for g in clipped.values()]
+    for at, windows in groups:
+        found = optimum_thresholds(windows.reshape(len(at), -1))
+        values = [bright_value(v, params) if f else None for v, f in zip(found.value.tolist(), found.found.tolist(),
+                                                                          strict=True)]
+        counts = _bright_counts(windows, values).tolist()
+        pixels = windows[0].size
+        for j, i in enumerate(at.tolist()):
+            out[i] = None if values[j] is None else bright_refusal(counts[j], pixels, params) or found.threshold(j)
     return out
+
+
+def _bright_counts(windows: np.ndarray, thresholds: list[Any]) -> np.ndarray:
+    """Per window of ``windows`` (n x rows x columns), its pixels above its threshold (None: none counted), compared
+    as :func:`~aerofid.detect.hough.analysis.bright_pixels` compares one window with its threshold: in the type numpy
+    gives a window and that threshold (a Python float is compared with a float32 window in float32, a numpy float64
+    in float64; the thresholds are all one product's, of one type)."""
+    known = next((v for v in thresholds if v is not None), None)
+    if known is None:
+        return np.zeros(len(thresholds), np.int64)
+    compared = np.result_type(windows.dtype, known)
+    limits = np.array([np.inf if v is None else v for v in thresholds], dtype=compared)
+    return np.count_nonzero(windows > limits.reshape(-1, 1, 1), axis=(1, 2))
 
 
 def window_sizes(params: HoughParams) -> list[int]:
@@ -270,16 +315,18 @@ class _Search:
         h, w = self.image.shape
         accepted = False
         centres = spiral_coordinates(h, w, size, self.params.overlap)
-        first_alone, chunk_size, least = SPIRAL_BATCHES
-        for c0 in [0, *range(first_alone, len(centres), chunk_size)]:
-            chunk = centres[c0:first_alone if c0 == 0 else c0 + chunk_size]
+        least = SPIRAL_BATCHES[-1]
+        for start, end in spiral_chunks(len(centres)):
+            if self.capped():
+                return accepted
+            chunk = centres[start:end]
             known = (spiral_thresholds(self.image, chunk, size, self.params) if len(chunk) >= least
                      else [UNKNOWN] * len(chunk))
             for (x, y), first in zip(chunk.tolist(), known, strict=True):
-                if self.capped():
-                    return accepted
                 if first is None or isinstance(first, str):     # a homogeneous first window, or one its bright
                     continue                                    # pixels refuse: its analysis would say so
+                if self.capped():                               # (only a visit's verification changes it)
+                    return accepted
                 if self.visit(x, y, size, first):
                     accepted = True
                     if not self.params.exhaustive:
@@ -327,4 +374,4 @@ def search_box(image: np.ndarray, params: HoughParams = DEFAULT, verify: Verifie
 
 __all__ = ["SPIRAL_BATCHES", "WINDOW_EXTERNAL", "WINDOW_PANEL", "Candidate", "SearchResult", "Verifier",
            "extract_window", "make_candidate", "recursive_analysis", "search_box", "spiral_coordinates",
-           "spiral_thresholds", "window_sizes"]
+           "spiral_chunks", "spiral_thresholds", "window_sizes"]

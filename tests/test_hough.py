@@ -121,6 +121,53 @@ def test_spiral_starts_at_the_centre_and_covers_the_box():
     assert np.all(np.diff(np.maximum.accumulate(r)) >= 0)
 
 
+def _walked_spiral(height: int, width: int, window_size: int, overlap: float) -> np.ndarray:
+    """C ``estcoor``'s spiral as the seed walks it, one step after another from the box centre (leg i: i + 1 steps
+    along y, then i + 1 along x, forwards for even i), kept where a window's central square reaches into the box."""
+    step = max(1.0, (1.0 - overlap) * window_size)
+    x, y = (width - 1) / 2.0, (height - 1) / 2.0
+    pts = [(x, y)]
+    for i in range(int(np.ceil(max(height, width) / step)) + 2):
+        sign = 1.0 if i % 2 == 0 else -1.0
+        for dx, dy in ((0.0, sign), (sign, 0.0)):
+            for _ in range(i + 1):
+                x, y = x + dx * step, y + dy * step
+                pts.append((x, y))
+    p, m = np.array(pts), step / 2.0
+    return p[(p[:, 0] > -0.5 - m) & (p[:, 0] < width - 0.5 + m) & (p[:, 1] > -0.5 - m) & (p[:, 1] < height - 0.5 + m)]
+
+
+@given(height=st.integers(1, 700), width=st.integers(1, 700), size=st.integers(4, 48),
+       overlap=st.sampled_from([0.0, 0.3, 0.5, 0.77, 0.99]))
+@settings(max_examples=150, deadline=None)
+def test_the_spiral_is_the_seeds_walk_to_the_bit(height, width, size, overlap):
+    """The spiral's centres (running sums of its steps) are those of the walk one step at a time, in its order."""
+    got, walked = spiral_coordinates(height, width, size, overlap), _walked_spiral(height, width, size, overlap)
+    assert got.shape == walked.shape and np.array_equal(got, walked)
+
+
+@pytest.mark.parametrize("scene", ["cross", "clutter"])
+def test_a_search_does_not_depend_on_how_its_spiral_is_batched(scene, monkeypatch):
+    """The spiral's first windows thresholded in batches of any size give the same search, verifications and all:
+    a '+' far from the box centre (found after hundreds of positions) and a box of clutter (every position)."""
+    import importlib
+
+    search = importlib.import_module("aerofid.detect.hough.search")
+    rng = np.random.default_rng(11)
+    img = synth.aerial_ground((260, 260), rng).astype(np.float32)
+    if scene == "cross":
+        shape = synth.union(synth.bar(30, 2, 10.0), synth.bar(30, 2, 100.0))
+        img = synth.blur(synth.paint(img, synth.coverage(img.shape, (221.4, 37.8), shape, 8), 0.95), 0.7)
+    runs = []
+    for batches in [(8, 64, 1024, 16), (8, 64, 64, 16), (1, 16, 16, 16), (8, 4096, 4096, 16)]:
+        monkeypatch.setattr(search, "SPIRAL_BATCHES", batches)
+        r = detect(img, HoughParams(mark="external"))
+        runs.append((r.found, r.x, r.y, r.reason, r.score, [(c.stage, c.x, c.y, c.metric) for c in r.candidates],
+                     [(c.x, c.y, why) for c, why in r.rejected]))
+    assert all(run == runs[0] for run in runs[1:])
+    assert runs[0][0] == (scene == "cross")
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_the_spiral_passes_over_homogeneous_windows_as_their_analysis_would(seed, monkeypatch):
     """A '+' near a corner of a box of flat ground with a patch of faint texture: the spiral passes over the positions

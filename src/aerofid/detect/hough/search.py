@@ -85,16 +85,18 @@ def spiral_coordinates(height: int, width: int, window_size: int, overlap: float
     apart, keeping those whose windows cover the box (C ``estcoor``: steps of .7 * blk_sz1, directions
     alternating)."""
     step = max(1.0, (1.0 - overlap) * window_size)
-    x, y = (width - 1) / 2.0, (height - 1) / 2.0
     dim = int(np.ceil(max(height, width) / step)) + 2
-    pts = [(x, y)]
-    for i in range(dim):
-        sign = 1.0 if i % 2 == 0 else -1.0
-        for dx, dy in ((0.0, sign), (sign, 0.0)):
-            for _ in range(i + 1):
-                x, y = x + dx * step, y + dy * step
-                pts.append((x, y))
-    p = np.array(pts)
+    # leg i: i + 1 steps along y, then i + 1 along x, by +step for even i and -step for odd ones; the centres are
+    # the running sums of the steps from the box centre, added one after another (numpy's accumulate), as the C
+    # code moves from one to the next
+    legs = np.repeat(np.arange(1, dim + 1), 2)
+    moves = np.repeat(np.repeat(np.where(np.arange(dim) % 2 == 0, step, -step), 2), legs)
+    along_y = np.repeat(np.tile([True, False], dim), legs)
+    p = np.empty((moves.size + 1, 2))
+    p[0] = (width - 1) / 2.0, (height - 1) / 2.0
+    p[1:, 0] = np.where(along_y, 0.0, moves)
+    p[1:, 1] = np.where(along_y, moves, 0.0)
+    np.add.accumulate(p, axis=0, out=p)
     # keep every centre whose window's central square (side ``step``) reaches into the box, so the windows
     # cover the box to its edges
     m = step / 2.0

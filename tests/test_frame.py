@@ -479,7 +479,7 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
         return None
 
     for name, fn in (("_sought", sought), ("_by_method", alone), ("_coarse_first", by_auto),
-                     ("_at_start", lambda *a: (by_auto(*a), "no mark")), ("_probed_area", lambda *a: (None, "no mark")),
+                     ("_at_start", lambda *a: (by_auto(*a), "no mark")), ("_probed_area", lambda *a, **k: (None, "no mark")),
                      ("_outside", lambda *a: ""), ("_coarse", lambda measurer, name, start, *a: start)):
         monkeypatch.setattr(orient_module, name, fn)
     measurer = types.SimpleNamespace(polarities=("light",))
@@ -640,9 +640,9 @@ def test_a_frame_failed_on_its_screened_features_is_screened_again_finer(monkeyp
 def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch, areas_hold_marks):
     """No fiducial is found at its feature (refused by the test). Where the areas hold the marks, every area is
     searched and the frame is ok (one midside's area search misses its mark here, as before); where they hold none
-    either (a layout matched on features that are not the frame's marks), only
-    :data:`~aerofid.frame.orient.AREA_PROBES` areas are searched before 3 marks are found (on each screen of the
-    frame, which fails), and the other fiducials say why theirs were not."""
+    either (a layout matched on features that are not the frame's marks), one area is searched before 3 marks are
+    found, as no fiducial's predicted place held a mark (on each screen of the frame, which fails), and the other
+    fiducials say why theirs were not."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
     monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
@@ -662,11 +662,34 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
         assert len(areas) == len(CAMERA.names)
         assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
         return
-    assert len(areas) == 2 * orient_module.AREA_PROBES          # the frame fails: screened again, 2 areas again
+    assert len(areas) == 2                      # the frame fails: screened again, one area again
     assert res.status == "failed" and not res.found
     unsearched = [f for f in res.fiducials if "its area was not searched" in f.reason]
-    assert len(unsearched) == len(CAMERA.names) - orient_module.AREA_PROBES
+    assert len(unsearched) == len(CAMERA.names) - 1
     assert all("refused (test)" in f.reason for f in unsearched)
+
+
+@pytest.mark.parametrize("starts_vain", [False, True])
+def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
+    """Before 3 marks are found, fiducials' areas are searched until :data:`~aerofid.frame.orient.AREA_PROBES` of
+    them held no mark, or one where no fiducial's predicted place held a mark; then no more, and the fiducial says
+    why; an area that holds a mark does not count, and from 3 marks found on every area is searched."""
+    searched: list[int] = []
+
+    def in_area(measurer, start, at, tolerance, why):
+        searched.append(int(at[0]))
+        return ("mark", "") if int(at[0]) == 1 else (None, "no mark (test)")     # fiducial 1's area holds its mark
+
+    monkeypatch.setattr(orient_module, "_in_area", in_area)
+    assert orient_module.AREA_PROBES == 2
+    vain: list[int] = []
+    probe = orient_module._probed_area
+    start = Candidate(0.0, 0.0, 5.0, 0.0)
+    got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, vain, k, starts_vain) for k in range(5)]
+    assert searched == ([0] if starts_vain else [0, 1, 2])
+    assert vain == ([0] if starts_vain else [0, 2])
+    assert all("its area was not searched" in why for _, why in got[len(searched):])
+    assert probe(None, start, (9.0, 0.0), 10.0, "why", orient_module.MIN_REFIT, vain, 9, starts_vain)[1] == "no mark (test)"
 
 
 @pytest.mark.parametrize("lie", [(0, False), (90, True), (270, True), (180, False)])

@@ -138,10 +138,13 @@ def _walked_spiral(height: int, width: int, window_size: int, overlap: float) ->
 
 
 @given(height=st.integers(1, 700), width=st.integers(1, 700), size=st.integers(4, 48),
-       overlap=st.sampled_from([0.0, 0.3, 0.5, 0.77, 0.99]))
+       overlap=st.sampled_from([0.0, 0.3, 0.5, 0.77, 0.99]),
+       kind=st.sampled_from([float, np.float64, np.float32, np.float16]))
 @settings(max_examples=150, deadline=None)
-def test_the_spiral_is_the_seeds_walk_to_the_bit(height, width, size, overlap):
-    """The spiral's centres (running sums of its steps) are those of the walk one step at a time, in its order."""
+def test_the_spiral_is_the_seeds_walk_to_the_bit(height, width, size, overlap, kind):
+    """The spiral's centres (running sums of its steps) are those of the walk one step at a time, in its order,
+    whatever number type ``overlap`` comes in (a numpy float32 makes the walk's steps and sums float32)."""
+    overlap = kind(overlap)
     got, walked = spiral_coordinates(height, width, size, overlap), _walked_spiral(height, width, size, overlap)
     assert got.shape == walked.shape and np.array_equal(got, walked)
 

@@ -88,11 +88,11 @@ def spiral_coordinates(height: int, width: int, window_size: int, overlap: float
     dim = int(np.ceil(max(height, width) / step)) + 2
     # leg i: i + 1 steps along y, then i + 1 along x, by +step for even i and -step for odd ones; the centres are
     # the running sums of the steps from the box centre, added one after another (numpy's accumulate), as the C
-    # code moves from one to the next
+    # code moves from one to the next, in the type of its steps (a numpy float32 ``overlap`` makes them float32)
     legs = np.repeat(np.arange(1, dim + 1), 2)
     moves = np.repeat(np.repeat(np.where(np.arange(dim) % 2 == 0, step, -step), 2), legs)
     along_y = np.repeat(np.tile([True, False], dim), legs)
-    p = np.empty((moves.size + 1, 2))
+    p = np.empty((moves.size + 1, 2), np.asarray(0.0 * step).dtype)
     p[0] = (width - 1) / 2.0, (height - 1) / 2.0
     p[1:, 0] = np.where(along_y, 0.0, moves)
     p[1:, 1] = np.where(along_y, moves, 0.0)
@@ -102,7 +102,9 @@ def spiral_coordinates(height: int, width: int, window_size: int, overlap: float
     m = step / 2.0
     inside = ((p[:, 0] > -0.5 - m) & (p[:, 0] < width - 0.5 + m) & (p[:, 1] > -0.5 - m)
               & (p[:, 1] < height - 0.5 + m))
-    return p[inside]
+    out = p[inside].astype(np.float64)
+    out[0] = (width - 1) / 2.0, (height - 1) / 2.0     # the centre, where the walk starts (always inside)
+    return out
 
 
 def extract_window(image: np.ndarray, x: float, y: float, size: int) -> tuple[np.ndarray, tuple[int, int]] | None:

@@ -544,8 +544,9 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                 later[k] = (len(done), start, why)  # sought in its area after the others (:data:`MIN_REFIT`)
                 order.append(k)
                 continue
+        # (with no mark found, a fiducial reaches its area only once every other was sought at its predicted place)
         out[k] = (quick, "") if quick is not None else _probed_area(
-            measurer, start, at, tolerance, why, len(done), vain, k, starts_vain=not follow and not done and i >= n - 1)
+            measurer, start, at, tolerance, why, len(done), vain, k, starts_vain=not follow and not done)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
             measurer = replace(measurer, polarities=(polarity,))

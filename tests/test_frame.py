@@ -479,7 +479,8 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
         return None
 
     for name, fn in (("_sought", sought), ("_by_method", alone), ("_coarse_first", by_auto),
-                     ("_at_start", lambda *a: (by_auto(*a), "no mark")), ("_probed_area", lambda *a, **k: (None, "no mark")),
+                     ("_at_start", lambda *a: (by_auto(*a), "no mark")),
+                     ("_probed_area", lambda *a, **k: (None, "no mark")),
                      ("_outside", lambda *a: ""), ("_coarse", lambda measurer, name, start, *a: start)):
         monkeypatch.setattr(orient_module, name, fn)
     measurer = types.SimpleNamespace(polarities=("light",))
@@ -689,7 +690,8 @@ def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
     assert searched == ([0] if starts_vain else [0, 1, 2])
     assert vain == ([0] if starts_vain else [0, 2])
     assert all("its area was not searched" in why for _, why in got[len(searched):])
-    assert probe(None, start, (9.0, 0.0), 10.0, "why", orient_module.MIN_REFIT, vain, 9, starts_vain)[1] == "no mark (test)"
+    refit = orient_module.MIN_REFIT                 # from 3 marks found on, every area is searched
+    assert probe(None, start, (9.0, 0.0), 10.0, "why", refit, vain, 9, starts_vain)[1] == "no mark (test)"
 
 
 @pytest.mark.parametrize("lie", [(0, False), (90, True), (270, True), (180, False)])

@@ -673,8 +673,9 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
 @pytest.mark.parametrize("starts_vain", [False, True])
 def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
     """Before 3 marks are found, fiducials' areas are searched until :data:`~aerofid.frame.orient.AREA_PROBES` of
-    them held no mark, or one where no fiducial's predicted place held a mark; then no more, and the fiducial says
-    why; an area that holds a mark does not count, and from 3 marks found on every area is searched."""
+    them held no mark (a roll's layout, whose film may have moved), or one while no mark is found (no fiducial's
+    predicted place held one); then no more, and the fiducial says why; an area that holds a mark does not count, and
+    from 3 marks found on every area is searched."""
     searched: list[int] = []
 
     def in_area(measurer, start, at, tolerance, why):
@@ -686,12 +687,12 @@ def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
     vain: list[int] = []
     probe = orient_module._probed_area
     start = Candidate(0.0, 0.0, 5.0, 0.0)
-    got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, vain, k, starts_vain) for k in range(5)]
+    got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, vain, k, follow=not starts_vain) for k in range(5)]
     assert searched == ([0] if starts_vain else [0, 1, 2])
     assert vain == ([0] if starts_vain else [0, 2])
     assert all("its area was not searched" in why for _, why in got[len(searched):])
     refit = orient_module.MIN_REFIT                 # from 3 marks found on, every area is searched
-    assert probe(None, start, (9.0, 0.0), 10.0, "why", refit, vain, 9, starts_vain)[1] == "no mark (test)"
+    assert probe(None, start, (9.0, 0.0), 10.0, "why", refit, vain, 9, not starts_vain)[1] == "no mark (test)"
 
 
 @pytest.mark.parametrize("lie", [(0, False), (90, True), (270, True), (180, False)])

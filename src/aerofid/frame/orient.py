@@ -520,8 +520,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             out[k] = (None, outside)
             continue
         if k in later and later[k][0] == len(done):  # no mark found since: the same measurements would fail again
-            out[k] = _probed_area(measurer, later[k][1], at, tolerance, later[k][2], len(done), vain, k,
-                                  starts_vain=not follow and not done)
+            out[k] = _probed_area(measurer, later[k][1], at, tolerance, later[k][2], len(done), vain, k, follow)
             continue
         reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
         quick, why = None, ""
@@ -544,9 +543,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                 later[k] = (len(done), start, why)  # sought in its area after the others (:data:`MIN_REFIT`)
                 order.append(k)
                 continue
-        # (with no mark found, a fiducial reaches its area only once every other was sought at its predicted place)
-        out[k] = (quick, "") if quick is not None else _probed_area(
-            measurer, start, at, tolerance, why, len(done), vain, k, starts_vain=not follow and not done)
+        out[k] = (quick, "") if quick is not None else _probed_area(measurer, start, at, tolerance, why, len(done),
+                                                                     vain, k, follow)
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
             measurer = replace(measurer, polarities=(polarity,))
@@ -902,15 +900,16 @@ def _in_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tole
 
 
 def _probed_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float, why: str,
-                 found: int, vain: list[int], k: int, starts_vain: bool = False) -> tuple[Located | None, str]:
+                 found: int, vain: list[int], k: int, follow: bool = False) -> tuple[Located | None, str]:
     """:func:`_in_area` for fiducial ``k`` of :func:`measure_marks` once ``found`` marks are found: before
     :data:`MIN_REFIT`, only until :data:`AREA_PROBES` fiducials' areas have held no mark (``vain``: ``k`` is appended
-    when its area holds none), or one where no mark was found at any fiducial's predicted place (``starts_vain``: a
-    scan with no fiducials in it, or a camera file that is not the scan's, spent 1.2-1.7 s of each layout it tried
-    in two areas); then not searched, and why."""
+    when its area holds none), or one while no mark is found (with no mark found, a fiducial reaches its area only
+    once every other was sought at its predicted place, and none held one: a scan with no fiducials in it, or a
+    camera file that is not the scan's, spent 1.2-1.7 s of each layout it tried in two areas; not so for a roll's
+    layout, ``follow``, whose film may have moved); then not searched, and why."""
     if found >= MIN_REFIT:
         return _in_area(measurer, start, at, tolerance, why)
-    if len(vain) >= (1 if starts_vain else AREA_PROBES):
+    if len(vain) >= (1 if found == 0 and not follow else AREA_PROBES):
         return None, (f"no mark at the predicted ({at[0]:.0f}, {at[1]:.0f}) ({why}); its area was not searched: "
                       f"the areas of {len(vain)} fiducials held none and {found} marks were found, too few to "
                       "predict the others (the features the layout matched are probably not the frame's marks)")

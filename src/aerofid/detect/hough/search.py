@@ -191,7 +191,7 @@ def spiral_thresholds(image: np.ndarray, centres: np.ndarray, size: int,
     wholly inside the box are gathered at once from a view of every window of the box
     (``numpy.lib.stride_tricks.sliding_window_view``: a failed search of a 640 px box visits some 3600 of them);
     the few that its edges clip, one by one. Their pixels are compared with their thresholds in the type in which
-    their analysis compares them (:func:`_compared`)."""
+    their analysis compares them (:func:`_bright_counts`)."""
     out: list[Threshold | None | Unknown | str] = [UNKNOWN] * len(centres)
     h, w = image.shape
     c = np.asarray(centres, dtype=np.float64).reshape(-1, 2)

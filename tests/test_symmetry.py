@@ -423,7 +423,7 @@ def test_point_symmetry_centre_and_asymmetry_of_a_sub_pixel_dot():
 
 def _jpeg_dot() -> np.ndarray:
     """A dot of 60 px with noise, through a JPEG of quality 40: its blocks slow the plain refinement down."""
-    s = synth.mark_scene("dot", size=60, window=160, rng=np.random.default_rng(0), noise_sigma=0.01)
+    s = synth.mark_scene("dot", size=60, window=160, rng=np.random.default_rng(1), noise_sigma=0.01)
     ok, buf = cv2.imencode(".jpg", synth.to_uint8(s.image), [cv2.IMWRITE_JPEG_QUALITY, 40])
     assert ok
     return cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE).astype(np.float32) / 255.0
@@ -440,17 +440,17 @@ def _plain_limit(img: np.ndarray, xc: float, yc: float, r: int, steps: int) -> t
 
 
 def test_point_symmetry_centre_reaches_where_the_plain_steps_lead_on_a_jpeg_mark():
-    """On a JPEG's mark the plain steps creep: as many of them as the refinement may take stop 0.009 px short of
-    where 300 of them end; the refinement, on Broyden's estimate, ends within 1e-4 px of it."""
+    """On a JPEG's mark the plain steps creep: as many of them as the refinement may take stop 0.002 px short of
+    where 300 of them end; the refinement, on Broyden's estimate, ends within 2e-4 px of it."""
     img = _jpeg_dot()
     d = detect(img)
     assert d.found
     (x15, y15), r = d.centre_eq15, d.radius
     limit = _plain_limit(img, x15, y15, r, 300)
-    assert np.hypot(*np.subtract(_plain_limit(img, x15, y15, r, REFINE_ITERATIONS), limit)) > 0.005
+    assert np.hypot(*np.subtract(_plain_limit(img, x15, y15, r, REFINE_ITERATIONS), limit)) > 0.0015
     got = point_symmetry_centre(img, x15, y15, r)
-    assert got is not None and np.hypot(*np.subtract(got, limit)) < 1e-3
-    assert np.hypot(d.x - limit[0], d.y - limit[1]) < 1e-3
+    assert got is not None and np.hypot(*np.subtract(got, limit)) < 2e-4
+    assert np.hypot(d.x - limit[0], d.y - limit[1]) < 2e-4
 
 
 def test_point_symmetry_centre_of_a_clean_mark_is_its_first_plain_step():

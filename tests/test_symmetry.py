@@ -24,6 +24,7 @@ from aerofid.detect.symmetry import (
     FiducialArea,
     SymmetryParams,
     SymmetryResult,
+    _broyden_update,
     _gauss_newton_step,
     _half_disc,
     axis_peak,
@@ -451,6 +452,24 @@ def test_point_symmetry_centre_reaches_where_the_plain_steps_lead_on_a_jpeg_mark
     got = point_symmetry_centre(img, x15, y15, r)
     assert got is not None and np.hypot(*np.subtract(got, limit)) < 2e-4
     assert np.hypot(d.x - limit[0], d.y - limit[1]) < 2e-4
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=8, max_size=8))
+def test_broyden_update_meets_the_secant_condition(v):
+    """Broyden's update of ``H`` (minus the inverse Jacobian of the step) maps the last change of the step onto the
+    last change of the centre, ``H_new (-dg) = dc``, and leaves directions orthogonal to ``H^T dc`` as they were
+    (``H_new y = H y`` for ``y`` orthogonal to ``H^T dc``)."""
+    inverse = np.eye(2) + 0.3 * np.array(v[:4]).reshape(2, 2)
+    dc, dg = np.array(v[4:6]), np.array(v[6:8])
+    den = float(dc @ inverse @ dg)
+    new = _broyden_update(inverse, dc, dg)
+    if abs(den) < 1e-3 * (1.0 + np.hypot(*dc) * np.hypot(*dg)):
+        return                                          # near-singular updates: checked only where well posed
+    assert np.allclose(new @ -dg, dc, atol=1e-9)
+    u = inverse.T @ dc
+    y = np.array([-u[1], u[0]])
+    assert np.allclose(new @ y, inverse @ y, atol=1e-9)
 
 
 def test_point_symmetry_centre_of_a_clean_mark_is_its_first_plain_step():

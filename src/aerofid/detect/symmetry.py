@@ -1155,6 +1155,12 @@ BROYDEN_ALIGN = 0.95
 """Least cosine of the angle between two successive plain steps for :func:`point_symmetry_centre` to step on
 Broyden's estimate."""
 BROYDEN_MAX_GAIN = 5.0
+BROYDEN_MIN_RADIUS = 16
+"""Least kernel radius (px) at which :func:`point_symmetry_centre` steps on Broyden's estimate. About a smaller disc
+(a few hundred residuals, and fewer: `auto`'s isolated blob, 6 px) the median's scale and the Huber weights change
+by jumps from step to step, the plain steps wander rather than shrink, and Broyden's steps wandered further: a real
+NAGAP midside (``hipp_nagap_ee/fiducial_templates/nagap/curve/T.jpg``) that the plain steps found was refused. Every
+step saved on the frames of ``benchmarks/bench_frames.py`` and the real RC20 frame was at 16 px or more."""
 """Most times the plain step that a step on Broyden's estimate may be (the plain steps shrinking by 0.8 a step or
 faster; else the plain step, afresh). Up to 50 times, the creeping refinements of a clean JPEG frame converged too,
 but two notch dots of ``benchmarks/bench_marks.py`` that ``auto`` found were refused."""
@@ -1215,7 +1221,7 @@ def _point_symmetry(img: np.ndarray, xc: float, yc: float, r: int) -> tuple[floa
         if g is None:
             return None
         d = g                                       # the plain step, unless Broyden's estimate stands
-        if before is not None and _steady(before[1], g):
+        if before is not None and r >= BROYDEN_MIN_RADIUS and _steady(before[1], g):
             inverse = _broyden_update(inverse, c - before[0], g - before[1])
             d = inverse @ g
             if not np.isfinite(d).all() or np.hypot(*d) > BROYDEN_MAX_GAIN * np.hypot(*g):

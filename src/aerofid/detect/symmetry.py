@@ -1155,15 +1155,17 @@ BROYDEN_ALIGN = 0.95
 """Least cosine of the angle between two successive plain steps for :func:`point_symmetry_centre` to step on
 Broyden's estimate."""
 BROYDEN_MAX_GAIN = 5.0
+"""Most times the plain step that a step on Broyden's estimate may be (the plain steps shrinking by 0.8 a step or
+faster; else the plain step, afresh). Up to 50 times, the creeping refinements of a clean JPEG frame converged too,
+but a real EarthExplorer block midside (``hipp_nagap_ee/fiducial_templates/ee/block/B.jpg``) moved 0.22 px (0.005 px
+at 5), and without :data:`BROYDEN_MIN_RADIUS` two notch dots of ``benchmarks/bench_marks.py`` that ``auto`` found
+were refused."""
 BROYDEN_MIN_RADIUS = 16
 """Least kernel radius (px) at which :func:`point_symmetry_centre` steps on Broyden's estimate. About a smaller disc
-(a few hundred residuals, and fewer: `auto`'s isolated blob, 6 px) the median's scale and the Huber weights change
+(a few hundred residuals, and fewer: ``auto``'s isolated blob, 6 px) the median's scale and the Huber weights change
 by jumps from step to step, the plain steps wander rather than shrink, and Broyden's steps wandered further: a real
 NAGAP midside (``hipp_nagap_ee/fiducial_templates/nagap/curve/T.jpg``) that the plain steps found was refused. Every
 step saved on the frames of ``benchmarks/bench_frames.py`` and the real RC20 frame was at 16 px or more."""
-"""Most times the plain step that a step on Broyden's estimate may be (the plain steps shrinking by 0.8 a step or
-faster; else the plain step, afresh). Up to 50 times, the creeping refinements of a clean JPEG frame converged too,
-but two notch dots of ``benchmarks/bench_marks.py`` that ``auto`` found were refused."""
 REFINE_DRIFT = 4
 """The spline coefficients of :func:`point_symmetry_centre` are those of the window's part around its start,
 with this much room for the centre to move before they are made again around it."""
@@ -1189,7 +1191,8 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
     from the median residual, which a mark's aliased edges (and a JPEG's blocks, and noise) exceed: much of what
     places the centre is in down-weighted residuals, and the plain steps ``c + g(c)`` converge linearly, on noisy and
     JPEG marks often not within :data:`REFINE_ITERATIONS`. So while the plain steps shrink steadily
-    (:data:`BROYDEN_PROGRESS`, :data:`BROYDEN_ALIGN`), each step is ``H g``, ``H`` Broyden's estimate of
+    (:data:`BROYDEN_PROGRESS`, :data:`BROYDEN_ALIGN`) about a disc of :data:`BROYDEN_MIN_RADIUS` px or more, each
+    step is ``H g``, ``H`` Broyden's estimate of
     ``-(dg/dc)^-1`` from the steps so far (``H = I`` first: the plain step; the "good" update of the inverse,
     Broyden 1965), at most :data:`BROYDEN_MAX_GAIN` plain steps long; otherwise the plain step, and ``H`` afresh. The
     limit is the plain steps' own: on the noisy frames of ``benchmarks/bench_frames.py`` and the real RC20 marks the

@@ -472,15 +472,14 @@ def test_broyden_update_meets_the_secant_condition(v):
     assert np.allclose(new @ y, inverse @ y, atol=1e-9)
 
 
-def test_point_symmetry_centre_of_a_clean_mark_is_its_first_plain_step():
-    """Where the first plain step is below 1e-4 px, the refinement takes it and stops: a clean mark's centre is as
-    the plain Gauss-Newton gives it, to the bit."""
-    s = synth.mark_scene("ring_x_dot", 40, window=120, centre=(60.3, 58.6), rng=np.random.default_rng(3),
-                         noise_sigma=0.0)
+def test_point_symmetry_centre_is_judged_by_its_plain_step():
+    """A refinement that ends on a step of Broyden's estimate is judged settled by the plain step there, as the plain
+    refinement is: on this cross the last step on the estimate was 1.04e-2 px, the plain one 5.3e-3, and judging the
+    former refused the mark (a review's case)."""
+    s = synth.mark_scene("cross", 47.37, window=139, rng=np.random.default_rng(1707470775), noise_sigma=0.005,
+                         blur_sigma=0.7)
     d = detect(s.image)
-    assert d.found
-    x, y = point_symmetry_centre(s.image, d.x, d.y, d.radius)
-    assert (x, y) == _plain_limit(s.image, d.x, d.y, d.radius, 1)
+    assert d.found and np.hypot(d.x - s.marks[0].x, d.y - s.marks[0].y) < 0.15
 
 
 @settings(max_examples=25, deadline=None)

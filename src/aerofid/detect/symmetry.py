@@ -1156,10 +1156,10 @@ BROYDEN_ALIGN = 0.95
 Broyden's estimate."""
 BROYDEN_MAX_GAIN = 5.0
 """Most times the plain step that a step on Broyden's estimate may be (the plain steps shrinking by 0.8 a step or
-faster; else the plain step, afresh). Up to 50 times, the creeping refinements of a clean JPEG frame converged too,
-but a real EarthExplorer block midside (``hipp_nagap_ee/fiducial_templates/ee/block/B.jpg``) moved 0.22 px (0.005 px
-at 5), and without :data:`BROYDEN_MIN_RADIUS` two notch dots of ``benchmarks/bench_marks.py`` that ``auto`` found
-were refused."""
+faster; else the plain step, afresh). Up to 50 times, the creeping refinements of a clean JPEG frame came nearer their
+limit too (104 -> 94 steps, before :data:`BROYDEN_MAX_STEP`), but a real EarthExplorer block midside
+(``hipp_nagap_ee/fiducial_templates/ee/block/B.jpg``) moved 0.22 px (0.005 px at 5), and without
+:data:`BROYDEN_MIN_RADIUS` two notch dots of ``benchmarks/bench_marks.py`` that ``auto`` found were refused."""
 BROYDEN_MAX_STEP = 0.02
 """Longest step (px) of :func:`point_symmetry_centre` on Broyden's estimate: it finishes the plain steps' creep, and
 a long step from one secant pair left the basin of their limit (a faint, blurred JPEG dot: 0.22 px, to another
@@ -1201,7 +1201,7 @@ def point_symmetry_centre(img: np.ndarray, xc: float, yc: float, r: int) -> tupl
     :data:`BROYDEN_MAX_STEP` px long; otherwise the plain step, and ``H`` afresh. The plain step alone stops the
     iteration (below 1e-4 px: then it is the step taken) and judges the answer (below 1e-2 px at the last iteration),
     as before. On the noisy frames of ``benchmarks/bench_frames.py`` and the real RC20 frame the refinements take
-    about a quarter fewer steps and end nearer the plain steps' limit (on RC20 the plain ones stopped up to 0.011 px
+    a fifth to a third fewer steps and end nearer the plain steps' limit (on RC20 the plain ones stopped up to 0.011 px
     short of it).
     """
     got = _point_symmetry(img, xc, yc, r)

@@ -13,7 +13,7 @@ thread; wall time (``time.perf_counter``): compare styles and steps of one run, 
 from __future__ import annotations
 
 import argparse
-import dataclasses
+import importlib
 import os
 import time
 from collections import Counter
@@ -52,8 +52,9 @@ def install(spent: Counter) -> None:
     """Time every step of :data:`STEPS` and every seed method into ``spent`` (seconds by name)."""
     for name in STEPS:
         setattr(auto, name, _timed(spent, name, getattr(auto, name)))
-    for name, method in list(registry.METHODS.items()):
-        registry.METHODS[name] = dataclasses.replace(method, function=_timed(spent, name, method.function))
+    for name, method in registry.METHODS.items():
+        module = importlib.import_module(method.module)
+        module.detect = _timed(spent, name, module.detect)
 
 
 def bench_style(style: str, n: int, calls: int, spent: Counter) -> tuple[float, dict[str, float]]:

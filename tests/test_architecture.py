@@ -42,7 +42,8 @@ def _module_name(path: Path) -> str:
 
 
 def _imports(path: Path) -> tuple[set[str], list[int]]:
-    """The aerofid modules ``path`` imports, and the line numbers of imports inside functions."""
+    """The aerofid modules ``path`` imports (also those it names in a string, to import them by that name), and the
+    line numbers of imports inside functions."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     out: set[str] = set()
     nested: list[int] = []
@@ -54,6 +55,9 @@ def _imports(path: Path) -> tuple[set[str], list[int]]:
                 names = [f"{node.module}.{a.name}" for a in node.names]
                 names += [node.module or ""] if node.module != "aerofid" else []
             out |= {n for n in names if n == "aerofid" or n.startswith("aerofid.")}
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.startswith("aerofid.") \
+                and node.value.replace(".", "").isidentifier():
+            out.add(node.value)  # a module imported by its name at its first use (the registry's methods)
     for fn in ast.walk(tree):
         if isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
             for n in ast.walk(fn):
@@ -165,13 +169,15 @@ def test_import_aerofid_loads_no_part_until_a_name_is_used():
 
 
 START_UP_HEAVY = ("scipy.ndimage", "scipy.sparse", "scipy.stats", "scipy.spatial", "matplotlib", "aerofid.batch",
-                  "aerofid.frame", "aerofid.resample", "tifffile", "yaml")
-"""What a one-box ``aerofid locate`` of a ring must not import (issue 10: a call pays only for what it uses)."""
+                  "aerofid.frame", "aerofid.resample", "tifffile", "yaml", "aerofid.detect.lines", "json", "xml")
+"""What a one-box ``aerofid locate`` of a ring must not import (issue 10: a call pays only for what it uses): the
+``lines`` method, which no check of a ring runs (the registry imports a method at its first call), and JSON and XML
+with no file to read or write."""
 
 
 def _locate_loads(setup: str, image: str, box: str, prefixes: tuple[str, ...]) -> str:
     """Stdout of one ``aerofid locate IMAGE --box BOX --mark external`` in a fresh interpreter (after ``setup``), then
-    its exit status and the loaded modules whose names start with one of ``prefixes``, a line each."""
+    its exit status and the loaded modules of ``prefixes`` (each a module and its submodules), a line each."""
     code = (
         "import sys\n" + setup +
         "from aerofid.cli import main\n"
@@ -179,7 +185,7 @@ def _locate_loads(setup: str, image: str, box: str, prefixes: tuple[str, ...]) -
         f"    main(['locate', {image!r}, '--box', {box!r}, '--mark', 'external'])\n"
         "except SystemExit as e:\n"
         "    print('status', e.code)\n"
-        f"print(sorted(m for m in sys.modules if m.startswith({prefixes!r})))\n"
+        f"print(sorted(m for m in sys.modules if any(m == p or m.startswith(p + '.') for p in {prefixes!r})))\n"
     )
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
 

@@ -9,30 +9,53 @@ take them: the one place that knows which names belong to which method.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from aerofid.conventions import SEED_METHODS
-from aerofid.detect import circles, hough, lines, symmetry
+from aerofid.detect.circles import CirclesParams
+from aerofid.detect.hough.params import HoughParams
+from aerofid.detect.lines_params import LinesParams
 from aerofid.detect.params import MethodParams
 from aerofid.detect.result import Detection
+from aerofid.detect.symmetry import SymmetryParams
 from aerofid.errors import AerofidInputError
 
 
 @dataclass(frozen=True)
 class Method:
-    """A seed's method: its name, the seed it implements, its ``detect`` function and its parameter class."""
+    """A seed's method: its name, the seed it implements, the module of its ``detect`` function and its parameter
+    class.
+
+    The module is imported at the method's first call, not with the registry: a call that never runs a method
+    (``lines`` on the RC20 marks' ``aerofid locate``) does not pay for its import (issue 10's start-up).
+    """
 
     name: str
     seed: str
-    function: Callable[..., Detection]
+    module: str
+    """The module that holds the method's ``detect(window, params)``, e.g. ``"aerofid.detect.lines"``."""
     params_type: type[MethodParams]
-    again: Callable[..., Detection] | None = None
-    """``again(window, x, y, params, final)``: the answer on another window of a mark the method measured at (x, y)
-    (window pixels) as ``final``, cheaper than ``function`` (:func:`aerofid.detect.symmetry.remeasure`), or None."""
+    remeasures: bool = False
+    """Whether the module has ``remeasure(window, x, y, params, final)``, the method's :attr:`again`."""
+
+    @property
+    def function(self) -> Callable[..., Detection]:
+        """The method's ``detect(window, params)`` (its module imported now if it was not)."""
+        return cast("Callable[..., Detection]", importlib.import_module(self.module).detect)
+
+    @property
+    def again(self) -> Callable[..., Detection] | None:
+        """``again(window, x, y, params, final)``: the answer on another window of a mark the method measured at
+        (x, y) (window pixels) as ``final``, cheaper than :attr:`function`
+        (:func:`aerofid.detect.symmetry.remeasure`), or None."""
+        if not self.remeasures:
+            return None
+        return cast("Callable[..., Detection]", importlib.import_module(self.module).remeasure)
 
     def detect(self, window: np.ndarray, params: MethodParams | None = None) -> Detection:
         """Run the method on ``window`` with ``params`` (its defaults when None)."""
@@ -40,11 +63,11 @@ class Method:
 
 
 METHODS: dict[str, Method] = {
-    "hough": Method("hough", "Hunt, Ryan & Gifford (seed 001, thesis 000)", hough.detect, hough.HoughParams),
-    "symmetry": Method("symmetry", "Cho & Kim (seed 002)", symmetry.detect, symmetry.SymmetryParams,
-                       symmetry.remeasure),
-    "circles": Method("circles", "Seedahmed (seed 003)", circles.detect, circles.CirclesParams),
-    "lines": Method("lines", "Sohn et al. (seed 004)", lines.detect, lines.LinesParams),
+    "hough": Method("hough", "Hunt, Ryan & Gifford (seed 001, thesis 000)", "aerofid.detect.hough", HoughParams),
+    "symmetry": Method("symmetry", "Cho & Kim (seed 002)", "aerofid.detect.symmetry", SymmetryParams,
+                       remeasures=True),
+    "circles": Method("circles", "Seedahmed (seed 003)", "aerofid.detect.circles", CirclesParams),
+    "lines": Method("lines", "Sohn et al. (seed 004)", "aerofid.detect.lines", LinesParams),
 }
 """The seeds' methods, by the name a user gives (:data:`aerofid.conventions.SEED_METHODS`, in its order)."""
 

@@ -7,15 +7,16 @@ Every refusal is one :class:`~aerofid.errors.AerofidInputError` line naming the 
 
 from __future__ import annotations
 
-import json
 import re
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aerofid.errors import AerofidInputError
+
+if TYPE_CHECKING:
+    import xml.etree.ElementTree as ET
 
 __all__ = ["MAX_DEPTH", "is_header", "load_json", "parse_xml", "table_rows", "too_deep"]
 
@@ -67,6 +68,8 @@ def load_json(text: str, source: str) -> Any:
     ...
     aerofid.errors.AerofidInputError: duplicate key(s) a in x.json; each key once
     """
+    import json  # only when JSON is read: not on a box given on the command line
+
     if _json_depth(text) > MAX_DEPTH:
         raise too_deep(source)
     try:
@@ -86,6 +89,8 @@ def parse_xml(text: str, source: str) -> ET.Element:
     >>> parse_xml("<a><b>1</b></a>", "x.xml").find("b").text
     '1'
     """
+    import xml.etree.ElementTree as ET  # only when XML is read: not on a box given on the command line
+
     parser: ET.XMLPullParser = ET.XMLPullParser(events=("start", "end"))
     depth = 0
     root: ET.Element | None = None

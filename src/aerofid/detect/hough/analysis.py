@@ -23,7 +23,6 @@ the sub-pixel fit and verification (beyond the seed) in :mod:`aerofid.detect.hou
 from __future__ import annotations
 
 import functools
-import hashlib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,7 +31,7 @@ import numpy as np
 from aerofid.detect.hough.params import DEFAULT, HoughParams
 from aerofid.detect.hough_lines import accumulate_window, intersection, theta_grid
 from aerofid.detect.threshold import Threshold, optimum_threshold
-from aerofid.kept import Kept
+from aerofid.kept import Kept, digest
 
 METHOD = "hough"
 
@@ -188,7 +187,7 @@ def analyse_window(window: np.ndarray, params: HoughParams = DEFAULT,
     if max(window.shape) > KEPT_SIDE:
         return _analysed(window, params, known)
     pixels = np.ascontiguousarray(window)
-    key = (hashlib.blake2b(pixels.tobytes(), digest_size=20).digest(), pixels.shape, pixels.dtype.str, params,
+    key = (digest(pixels.tobytes()), pixels.shape, pixels.dtype.str, params,
            None if known is None else "unknown" if isinstance(known, Unknown) else known)
     got = _ANALYSES.get(key)
     if got is None:

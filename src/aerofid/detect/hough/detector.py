@@ -3,7 +3,6 @@ refined to sub-pixel by the cross fit (:mod:`.cross_fit`) and verified as a '+' 
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -16,7 +15,7 @@ from aerofid.detect.hough.cross_fit import CrossFit, cross_start, fit_cross, fit
 from aerofid.detect.hough.params import DEFAULT, HoughParams
 from aerofid.detect.hough.search import Candidate, extract_window, search_box
 from aerofid.detect.result import Detection, unusable_window
-from aerofid.kept import Kept
+from aerofid.kept import Kept, digest
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -288,11 +287,9 @@ def _fit_key(image: np.ndarray, cand: Candidate, refine_size: int,
              a.x, a.y, a.theta1, a.theta2, a.binary.shape,
              # the settings it reads, so that a run that changes them (bench_fits.py's limit) is not served old fits
              MIN_START_SHARE, MAX_REFINE_SHIFT, REFINE_WINDOW_FACTOR, EARLY_EXIT_SHIFT, cross_fit.MAX_EVALUATIONS)
-    digest = hashlib.blake2b(repr(where).encode(), digest_size=20)
-    for pixels in (first[0], None if larger is None else larger[0], cand.window, a.binary):
-        if pixels is not None:
-            digest.update(np.ascontiguousarray(pixels).tobytes())
-    return (digest.digest(), params), (x0, y0)
+    pixels = (first[0], None if larger is None else larger[0], cand.window, a.binary)
+    key = digest(repr(where).encode(), *(np.ascontiguousarray(p).tobytes() for p in pixels if p is not None))
+    return (key, params), (x0, y0)
 
 
 def _verdict(ref: CrossFit | None, origin: tuple[float, float], start: tuple[float, float], named: str,

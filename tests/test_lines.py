@@ -247,9 +247,9 @@ def test_stretch_planes_equal_each_stretchs_own_least_squares(seed, ramp, theta)
     h, w = rng.integers(12, 60, 2)
     yy, xx = np.mgrid[0:h, 0:w]
     window = 0.3 + ramp * 0.004 * xx - 0.002 * yy + rng.normal(0, 0.02, (h, w))
-    fr = lines._frame(window, theta, float(rng.uniform(0, min(h, w))))
+    fr = lines._frame(window, theta, float(rng.uniform(0, min(h, w))), np.inf)   # every pixel
     band = float(rng.uniform(1.0, 4.0))
-    ring = (np.abs(fr.v) > band) & (np.abs(fr.v) <= band + 3.0) & (rng.random(fr.v.size) > 0.2)
+    ring = (np.abs(fr.v) > band) & (np.abs(fr.v) <= band + lines.RING_WIDTH) & (rng.random(fr.v.size) > 0.2)
     if ring.sum() < 4:
         return
     uc = float(rng.uniform(0, max(h, w)))
@@ -272,7 +272,7 @@ def test_a_stretch_of_one_row_gets_its_own_least_squares_plane():
     own, as numpy's lstsq gives it (the minimum-norm plane)."""
     yy, xx = np.mgrid[0:9, 0:40]
     window = 0.3 + 0.01 * xx + 0.02 * yy + 0.001 * np.sin(xx * yy)
-    fr = lines._frame(window, 0.0, 20.0)
+    fr = lines._frame(window, 0.0, 20.0, np.inf)
     ring = np.abs(fr.v) > 2.0
     got = lines._local_background(fr, ring, 0.0, 2.0, np.ones(fr.v.size, bool))
     last = fr.u == 8.0                       # the second stretch: row 8 alone
@@ -280,3 +280,17 @@ def test_a_stretch_of_one_row_gets_its_own_least_squares_plane():
     assert lines._stretch_planes((fr.u[ring] >= 8).astype(np.int64), fr.g[ring], fr.v[ring], fr.u[ring], 2.0,
                                  2).solo == (1,)
     np.testing.assert_allclose(got[last], want, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("style", ["cross", "ring_cross"])
+def test_a_line_fit_reads_only_the_pixels_near_its_line_and_answers_as_on_the_whole_window(monkeypatch, style):
+    """fit_line takes the window's pixels within its band and background strips (``_frame``'s reach): every
+    refinement step, and so the answer, is the one made on every pixel of the window, to the bit."""
+    scenes = [s.image for s, _ in _marks(style, 4, seed=5)]
+    near = [lines.detect(img) for img in scenes]
+    whole_frame = lines._frame
+    monkeypatch.setattr(lines, "_frame", lambda window, theta, rho, reach: whole_frame(window, theta, rho, np.inf))
+    for img, got in zip(scenes, near, strict=True):
+        want = lines.detect(img)
+        assert got.found and repr((got.x, got.y, got.sigma_x, got.lines)) == repr((want.x, want.y, want.sigma_x,
+                                                                                    want.lines))

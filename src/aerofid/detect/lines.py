@@ -247,9 +247,14 @@ def bar_half_width(acc: np.ndarray, i: int, j: int, rho_step: float, reach: int 
 
 # --- beyond the seed: each line refined to sub-pixel -----------------------------------------------------
 
+RING_WIDTH = 3.0
+"""Width (px) of the strips beside a line's band whose pixels measure its local background (:func:`_ground_ring`)."""
+
+
 @dataclass(frozen=True)
 class _Frame:
-    """Every pixel of the window in the line's frame: grey value, offset v across and position u along it."""
+    """The window's pixels near a line (``near``: a mask of the window's pixels, row by row) in the line's frame:
+    grey value, offset v across and position u along it, column and row."""
 
     g: np.ndarray
     v: np.ndarray
@@ -258,15 +263,21 @@ class _Frame:
     tangent: np.ndarray
     xs: np.ndarray
     ys: np.ndarray
+    near: np.ndarray
 
 
-def _frame(window: np.ndarray, theta: float, rho: float) -> _Frame:
-    """The window's pixels in the frame of the line ``x cos(theta) + y sin(theta) = rho``."""
+def _frame(window: np.ndarray, theta: float, rho: float, reach: float) -> _Frame:
+    """The window's pixels within ``reach`` px of the line ``x cos(theta) + y sin(theta) = rho`` in its frame, in
+    the window's order: a line's fit reads no pixel beyond its band and the strips beside it, and on a 200 px window
+    these are a tenth of its pixels. Each pixel's values are those of the whole window's arrays, to the bit
+    (elementwise arithmetic), and every sum over them adds the same terms in the same order."""
     n = np.array([np.cos(theta), np.sin(theta)])
     t = np.array([-np.sin(theta), np.cos(theta)])
     xs, ys = _pixel_coordinates(window.shape)
-    return _Frame(window.ravel().astype(np.float64), xs * n[0] + ys * n[1] - rho, xs * t[0] + ys * t[1], n, t,
-                  xs, ys)
+    v = xs * n[0] + ys * n[1] - rho
+    near = np.abs(v) <= reach
+    xs, ys = xs[near], ys[near]
+    return _Frame(window.ravel()[near].astype(np.float64), v[near], xs * t[0] + ys * t[1], n, t, xs, ys, near)
 
 
 @functools.lru_cache(maxsize=8)
@@ -282,17 +293,17 @@ def _pixel_coordinates(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
 
 def _ground_ring(fr: _Frame, band: float, other: tuple[float, float, float] | None,
                  background_mask: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, float]:
-    """The pixels to use: ``keep`` (not in the ``other`` line's band), and the ``ring`` of strips up to 3 px
-    beside the band that measures the local background (without ``background_mask`` pixels), with the
-    fraction of that ring the mask covers."""
+    """The pixels to use: ``keep`` (not in the ``other`` line's band), and the ``ring`` of strips
+    :data:`RING_WIDTH` px wide beside the band that measures the local background (without ``background_mask``
+    pixels), with the fraction of that ring the mask covers."""
     keep = np.ones(fr.v.shape, bool)
     if other is not None:
         th2, rho2, band2 = other
         keep &= np.abs(fr.xs * np.cos(th2) + fr.ys * np.sin(th2) - rho2) > band2
-    ring = (np.abs(fr.v) > band) & (np.abs(fr.v) <= band + 3.0) & keep
+    ring = (np.abs(fr.v) > band) & (np.abs(fr.v) <= band + RING_WIDTH) & keep
     side_fg = 0.0
     if background_mask is not None:
-        bm = background_mask.ravel()
+        bm = background_mask.ravel()[fr.near]
         side_fg = float(bm[ring].mean()) if ring.any() else 1.0
         ring &= ~bm
     return keep, ring, side_fg
@@ -491,8 +502,8 @@ def fit_line(window: np.ndarray, theta: float, rho: float, half_width: float, ce
     standard deviation is the a-posteriori one of the fit, but never below what the window's ``noise`` alone
     gives the centroids. None when the line has too little support.
     """
-    fr = _frame(window, theta, rho)
     band = half_width + band_margin
+    fr = _frame(window, theta, rho, band + RING_WIDTH)
     keep, ring, side_fg = _ground_ring(fr, band, other, background_mask)
     if ring.sum() < 6:
         return None

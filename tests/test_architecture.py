@@ -41,6 +41,16 @@ def _module_name(path: Path) -> str:
     return ".".join(parts)
 
 
+def _names_a_module(text: str) -> bool:
+    """Whether ``text`` is exactly the name of one of aerofid's modules (``aerofid.detect.lines``): not a prefix
+    (``"aerofid."``), not a name with no file."""
+    parts = text.split(".")
+    if parts[0] != "aerofid" or len(parts) < 2 or not all(p.isidentifier() for p in parts):
+        return False
+    where = SRC.parent.joinpath(*parts)
+    return where.with_suffix(".py").is_file() or (where / "__init__.py").is_file()
+
+
 def _imports(path: Path) -> tuple[set[str], list[int]]:
     """The aerofid modules ``path`` imports (also those it names in a string, to import them by that name), and the
     line numbers of imports inside functions."""
@@ -55,8 +65,7 @@ def _imports(path: Path) -> tuple[set[str], list[int]]:
                 names = [f"{node.module}.{a.name}" for a in node.names]
                 names += [node.module or ""] if node.module != "aerofid" else []
             out |= {n for n in names if n == "aerofid" or n.startswith("aerofid.")}
-        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.startswith("aerofid.") \
-                and node.value.replace(".", "").isidentifier():
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and _names_a_module(node.value):
             out.add(node.value)  # a module imported by its name at its first use (the registry's methods)
     for fn in ast.walk(tree):
         if isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):

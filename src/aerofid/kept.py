@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import threading
 import weakref
-from _blake2 import blake2b  # hashlib's own, without hashlib's load of OpenSSL (2.5 ms of a command's start-up)
+from _blake2 import blake2b  # hashlib's own, without hashlib's load of OpenSSL (2.5 ms of the import)
 from collections import OrderedDict
 from collections.abc import Hashable
 from typing import Any, Generic, TypeVar

@@ -31,8 +31,10 @@ class Method:
     """A seed's method: its name, the seed it implements, the module of its ``detect`` function and its parameter
     class.
 
-    The module is imported at the method's first call, not with the registry: a call that never runs a method
-    (``lines`` on the RC20 marks' ``aerofid locate``) does not pay for its import (issue 10's start-up).
+    The module is imported at the method's first call where its parameter class has not brought it already: ``lines``'
+    parameters are apart (:mod:`aerofid.detect.lines_params`), so that a call that never runs ``lines`` (the RC20
+    marks' ``aerofid locate``) does not pay for its import (issue 10's start-up); ``hough``, ``symmetry`` and
+    ``circles`` define theirs in their own modules, which ``auto`` runs on every box.
     """
 
     name: str

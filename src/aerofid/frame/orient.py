@@ -900,7 +900,7 @@ def _in_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tole
 
 
 def _probed_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float, why: str,
-                 found: int, vain: list[int], k: int, follow: bool = False) -> tuple[Located | None, str]:
+                 found: int, vain: list[int], k: int, follow: bool) -> tuple[Located | None, str]:
     """:func:`_in_area` for fiducial ``k`` of :func:`measure_marks` once ``found`` marks are found: before
     :data:`MIN_REFIT`, only until :data:`AREA_PROBES` fiducials' areas have held no mark (``vain``: ``k`` is appended
     when its area holds none), or one while no mark is found (with no mark found, a fiducial reaches its area only

@@ -242,6 +242,28 @@ def test_a_one_box_locate_imports_only_what_it_uses(tmp_path):
     assert out.strip().splitlines()[-2:] == ["status 0", "[]"], out
 
 
+def test_what_always_holds_arrays_in_a_one_box_locate_compares_by_identity():
+    """A dataclass of the modules a one-box ``aerofid locate`` imports whose array fields are all required, and the
+    mutable traces the detectors fill, have no generated ``__eq__`` or ``__hash__`` (``eq=False``): numpy's ``==`` is
+    elementwise, so a field-by-field ``__eq__`` raises on them unless they share their arrays, and each generated
+    method is a compile at start-up (issue 10). Results whose arrays are optional (``Location``, ``SymmetryResult``...)
+    keep theirs."""
+    code = ("import sys, dataclasses\nimport aerofid.cli.locate_cmd, aerofid.locate\n"
+            "for name, module in sorted(sys.modules.items()):\n"
+            "    for c in vars(module).values() if name.startswith('aerofid') else ():\n"
+            "        if isinstance(c, type) and dataclasses.is_dataclass(c) and c.__module__ == name:\n"
+            "            arrays = [str(f.type) for f in dataclasses.fields(c) if 'ndarray' in str(f.type)]\n"
+            "            print(name, c.__name__, c.__eq__ is object.__eq__, bool(arrays),\n"
+            "                  all('None' not in a for a in arrays), c.__dataclass_params__.frozen)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    classes = [line.split() for line in out.splitlines()]
+    identity = {f"{m}.{c}" for m, c, same, *_ in classes if same == "True"}
+    required = {f"{m}.{c}" for m, c, _, arrays, all_required, frozen in classes
+                if (arrays == "True" and all_required == "True") or (c == "_Trace" and frozen == "False")}
+    assert len(required) >= 20 and required <= identity, sorted(required - identity)
+    assert {"aerofid.locate.Location", "aerofid.detect.symmetry.SymmetryResult"}.isdisjoint(identity)
+
+
 def test_a_one_box_locate_of_the_real_rc20_ring_fits_no_cross():
     """The real RC20 ring's X has an open centre: ``hough``'s cross-check of the ring proposes two candidates where no
     stroke crosses, refused before any fit (``AutoParams.cross_check_crossing_gap``), so one ``aerofid locate`` of it

@@ -80,7 +80,7 @@ WEAK_CANDIDATE = 0.4
 (a second mark of the same kind screens about as strong)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Located:
     """One measured mark (full-image pixels): the detector's answer moved to the image, the window it saw."""
 

@@ -45,7 +45,7 @@ machine precision) would count as converged here (scipy's table has no entry for
 tests for 1, 2 and 4 end a run before them."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LMSolution:
     """The end of a least-squares pass: the parameters, least_squares' ``status`` and the model evaluations it made."""
 

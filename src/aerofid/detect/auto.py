@@ -322,7 +322,7 @@ def _plot_answers(fig: Figure, window: np.ndarray, res: AutoResult) -> None:
     ax.set_title(f"auto: not found: {res.reason}"[:110], fontsize=8, wrap=True)
 
 
-@dataclass
+@dataclass(eq=False)
 class _Trace:
     """What the rule has learnt so far (becomes the :class:`AutoResult`'s typed fields)."""
 
@@ -357,7 +357,7 @@ class _Trace:
                           members=tuple(members), **self.fields())
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Context:
     """One call of :func:`detect`: the window, its noise, auto's parameters and each seed method's."""
 

@@ -125,7 +125,7 @@ RADIUS_TOL = 1.5
 
 # --- edges ----------------------------------------------------------------------------------------------
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class EdgePoints:
     """Canny edge pixels with sub-pixel positions and unit gradient directions."""
 
@@ -318,7 +318,7 @@ def _sectors(ep_x: np.ndarray, ep_y: np.ndarray, cx: float, cy: float, n_sectors
     return np.floor((a + np.pi) / (2 * np.pi) * n_sectors).astype(int) % n_sectors
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Shells:
     """The edge points :func:`estimate_radii` weighs, sorted by their distance ``d`` from its centre, with the sums
     of their polarities over the first j points (``outward[j]``) and, per angular sector, how many of the first j
@@ -494,7 +494,7 @@ def de_hough(ep: EdgePoints, cx: float, cy: float, radii: list[float], tol: floa
 
 # --- Gauss-Helmert adjustment ---------------------------------------------------------------------------
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CircleFit:
     """Result of the concentric-circles adjustment."""
 
@@ -788,7 +788,7 @@ class CirclesResult(Detection):
             ax.set_title(f"circles: {self.reason}"[:90], fontsize=8)
 
 
-@dataclass
+@dataclass(eq=False)
 class _Trace:
     """Internal: the intermediate results gathered so far (the diagnostic fields of :class:`CirclesResult`)."""
 

@@ -84,7 +84,7 @@ class ScoreParts:
     fit: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class HoughPeaks:
     """The Hough transform of the binary image and its two peaks (seed 004, figure 5)."""
 
@@ -251,7 +251,7 @@ RING_WIDTH = 3.0
 """Width (px) of the strips beside a line's band whose pixels measure its local background (:func:`_ground_ring`)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Frame:
     """The window's pixels near a line (``near``: a mask of the window's pixels, row by row) in the line's frame:
     grey value, offset v across and position u along it, column and row."""
@@ -335,7 +335,7 @@ def _local_background(fr: _Frame, ring: np.ndarray, uc: float, band: float, at: 
     return bg
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _StretchPlanes:
     """Planes ``g = c0 + c1 (v - v0) + c2 (u - u0)`` per stretch (index = stretch number), ``fitted`` where one
     was solved here; ``solo``: stretches to fit on their own."""
@@ -406,7 +406,7 @@ def _plane(g: np.ndarray, v: np.ndarray, u: np.ndarray, v_at: np.ndarray, u_at: 
     return np.full(np.shape(v_at), float(median(g)) if g.size else 0.0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Slices:
     """The 1 px slices across the line kept as bar: centroid offsets V at positions U (relative to the
     intersection), the noise-only variance of each centroid, and the bar's contrast over the noise."""

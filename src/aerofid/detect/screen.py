@@ -308,7 +308,7 @@ def _threads(pixels: int, threads: int | None) -> int:
     return THREADS if pixels >= THREADED_PIXELS else 1
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Found:
     """Candidates as arrays (what :func:`level_candidates` finds, many thousands on a whole frame): centres, radii,
     strengths and inner radii, float64, in the fields' order of :class:`Candidate`."""

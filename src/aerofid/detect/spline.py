@@ -189,7 +189,7 @@ def square_grid(img: np.ndarray, xc: float, yc: float, r: int, order: int = 3,
     return got
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SplinePart:
     """The cubic spline coefficients of the part of an image within some px of a pixel (:func:`near`), mirrored at
     the part's edges (:func:`cubic_prefilter`), with 2 edge values more around them (the spline's support reaches

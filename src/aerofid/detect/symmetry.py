@@ -228,7 +228,7 @@ def _diag(default: Any = None) -> Any:
     return field(default=default, compare=False, repr=False)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FiducialArea:
     """Seed 3.1: the fiducial area's bounds, in window pixels (with ``diagonal``, L1, L2, p1, p2 and the
     profiles are in the diagonally projected window; L3 and ``y_mid`` are mapped back)."""
@@ -260,7 +260,7 @@ class FiducialArea:
     y_mid_rotated: float | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class AxisProfile:
     """One step of the mark analysis along one axis: eq. (6) ``I4`` and eq. (7) ``I5`` at ``positions``."""
 
@@ -292,7 +292,7 @@ class SelfDiagnosis:
         return float((self.R12 + self.R34 + self.R13 + self.R24) / 4.0)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SubpixelStage:
     """Seed 3.4, on the enlarged neighbourhood: its LoG, the iterations (x', y', d') in enlarged px, the last
     profiles, the enlarged kernel radius and the enlargement rate."""
@@ -375,7 +375,7 @@ class SymmetryResult(Detection):
         ax2.set_title("high-pass profiles, eq. (7)", fontsize=9)
 
 
-@dataclass
+@dataclass(eq=False)
 class _Trace:
     """Internal: the intermediate results gathered so far (the diagnostic fields of :class:`SymmetryResult`)."""
 
@@ -874,7 +874,7 @@ def simplified_log(img: np.ndarray, inner: int = 2, gap: int = 3, outer: int = 4
     return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MirrorDifferences:
     """``D(y, x) = sum_{u=1..r} |I2(x + u, y) - I2(x - u, y)|`` for every row ``y`` of ``I2`` and the columns
     ``x0 .. x0 + n - 1``: the part of eq. (4) that depends on neither the row of a step nor its interval, so the

@@ -122,7 +122,7 @@ def _reddi_iteration(class_means: Callable[[int], tuple[float, float]], n_bins: 
     return None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Thresholds:
     """:func:`optimum_thresholds` of several windows: per window, whether it has one (``found``) and the fields of
     :class:`Threshold` (NaN, and 0 iterations, where it has none)."""

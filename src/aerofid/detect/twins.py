@@ -22,7 +22,7 @@ PEAK_SEPARATION = 2
 """Peaks closer than this many px (a 5 x 5 neighbourhood) are one."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Matches:
     """Per position of a template's centre pixel in the window (offset ``half`` from the map's origin): the best
     correlation over the turns, and the turn (degrees) that gave it; ``offset``: where in its centre pixel the

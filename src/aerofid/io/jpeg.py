@@ -339,7 +339,7 @@ def decodes_in_background(header: ImageHeader, kind: str) -> bool:
     return kind == "jpeg" and header.itemsize == 1 and header.samples in (1, 3) and header.scalable
 
 
-@dataclass
+@dataclass(eq=False)
 class Decoding:
     """A whole decode running in its own thread (:func:`decoding`), started by process ``pid``; ``traceback`` is
     where it failed, if it did."""

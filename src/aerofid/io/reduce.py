@@ -119,7 +119,7 @@ def check_reduced_size(box: Sequence[int], factor: int, bands: int, limit_bytes:
         )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class BlockWeights:
     """The weights that average the pixels of a window along one axis in blocks, from a source whose pixel ``i``
     covers image pixels ``[i scale, (i + 1) scale)``: block ``j``'s mean is the sum over ``m`` of ``weight[j, m]``

@@ -48,7 +48,7 @@ UNKNOWN = Unknown()
 """A window's optimum threshold not yet computed (:func:`analyse_window` computes it)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class WindowAnalysis:
     """The Hough analysis of one window (thesis ``fid``), in the window's own pixel coordinates."""
 

@@ -182,7 +182,7 @@ EVALUATIONS_KEPT = 8
 """The model evaluations a patch keeps (:meth:`_Patch.evaluated`): the latest, by parameters."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Patch:
     """The pixels fitted: coordinates, grey values, the start centre and the patch's half-size."""
 
@@ -236,7 +236,7 @@ def _patch(window: np.ndarray, x: float, y: float, thetas_deg: tuple[float, floa
     return _Patch(px, py, g, x, y, half)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CrossStart:
     """Where :func:`fit_cross` starts: the patch fitted, the start parameters and their plausible region."""
 

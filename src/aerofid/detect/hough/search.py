@@ -47,7 +47,7 @@ Verifier = Callable[["Candidate", int], object]
 it (and is returned as :attr:`SearchResult.verified`)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Candidate:
     """A converged candidate of one stage: centre in box pixels and its similarity metric."""
 

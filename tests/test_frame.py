@@ -33,7 +33,7 @@ from aerofid.io.raster import Raster, open_raster
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.methods import make_detector
 from aerofid.orientation.camera import Camera
-from aerofid.orientation.correspondence import arrangement_matrix, match_fiducials
+from aerofid.orientation.correspondence import arrangement_matrix, lie_of, match_fiducials
 from aerofid.synth_frame import frame_spec, frame_truth, render_frame, wild_rc10_camera, write_frame
 
 CAMERA = wild_rc10_camera()
@@ -807,6 +807,55 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     assert (again.status, again.searched) == ("ok", "roll areas"), again.reasons
     pairs = [*zip(res.fiducials, again.fiducials, strict=True), *zip(res.extra_marks, again.extra_marks, strict=True)]
     assert max(math.hypot(f.x - g.x, f.y - g.y) for f, g in pairs) < 0.01
+
+
+@pytest.fixture(scope="module")
+def rc20_scan():
+    """The real RC20 frame's pixels (RGB) and its orientation in its own lie, given."""
+    if not RC20.exists():
+        pytest.skip("../shared/realdata is absent")
+    rgb = cv2.cvtColor(cv2.imread(str(RC20 / "15BCC02013_114.jpg")), cv2.COLOR_BGR2RGB)
+    return rgb, aerofid.orient_frame(rgb, RC20 / "MeasuresCamera.xml", lie=(0, False), pixel_size_mm=RC20_PX_MM)
+
+
+RC20_PX_MM = 25.4 / 600
+"""The RC20 scan's pixel size (its JPEG's 600 dpi)."""
+
+
+@pytest.mark.parametrize(("turns", "flipped"), [(k, f) for f in (False, True) for k in range(4)])
+def test_the_real_rc20_frame_turned_and_flipped_in_the_scanner_gives_the_same_marks(rc20_scan, turns, flipped):
+    """The real frame as a scanner could have taken it in each of the 8 lies (its pixels flipped left-right, then
+    turned ``turns`` quarter turns counter-clockwise, losslessly): the same 4 corners and 4 midside marks, where the
+    turn puts them, to 0.05 px (a mark's window lies on other pixels). Its 4 corners are symmetric under every lie,
+    so without the lie the frame is doubtful and says so, its marks found all the same; given the lie the turn makes
+    (:func:`~aerofid.orientation.correspondence.lie_of` the original orientation turned), it is ok, every corner named
+    as in the original, and the orientation is the original's turned."""
+    rgb, base = rc20_scan
+    h, w = rgb.shape[:2]
+    turned = np.ascontiguousarray(np.rot90(rgb[:, ::-1] if flipped else rgb, turns))
+    flip = np.array([[-1.0, 0.0, w - 1.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) if flipped else np.eye(3)
+    to_turned = flip                                      # original pixel -> turned pixel (homogeneous)
+    for k in range(turns):
+        width = (w, h)[k % 2]                             # the image's width before this quarter turn
+        to_turned = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, width - 1.0], [0.0, 0.0, 1.0]]) @ to_turned
+
+    def moved(f):
+        return (to_turned @ [f.x, f.y, 1.0])[:2]
+
+    marks = np.array([moved(f) for f in (*base.fiducials, *base.extra_marks)])
+    doubtful = aerofid.orient_frame(turned, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM)
+    assert doubtful.status == "doubtful" and doubtful.reasons[0].startswith("the film's lie cannot be told")
+    found = [(f.x, f.y) for f in (*doubtful.fiducials, *doubtful.extra_marks) if f.status == "found"]
+    assert len(found) == 8 and max(np.hypot(*(marks - p).T).min() for p in found) < 0.05
+    assert base.orientation is not None
+    pixel_to_mm = base.orientation.pixel_to_mm @ np.linalg.inv(to_turned)
+    lie = lie_of(pixel_to_mm)
+    res = aerofid.orient_frame(turned, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM, lie=lie)
+    assert res.status == "ok" and (res.rotation_deg, res.mirrored) == lie, res.reasons
+    assert max(math.hypot(*(moved(f) - (g.x, g.y))) for f, g in zip(base.fiducials, res.fiducials, strict=True)) < 0.05
+    assert res.orientation is not None
+    off = np.abs(res.orientation.pixel_to_mm - pixel_to_mm)       # mm per px, and mm (0.002 mm: 0.05 px)
+    assert off[:, :2].max() < 1e-6 and off[:, 2].max() < 0.002, off
 
 
 def test_a_camera_file_of_the_corners_alone_gets_the_formats_midside_marks_found_too(tmp_path):

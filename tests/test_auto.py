@@ -195,6 +195,25 @@ def test_a_second_panel_s_fit_ends_well_within_its_evaluations(monkeypatch):
     assert d.found and twin_passes() and all(cap == hd.LIKE_EVALUATIONS for cap, _, _ in twin_passes())
 
 
+def test_a_mark_beside_mark_like_dots_is_refused_with_its_centre():
+    """A ring, X and dot with a second mark-like dot in the box is refused as ambiguous, and the refusal says where
+    the mark it verified lies (:attr:`AutoResult.ambiguous_at`): on a box centred there without the dot it is found
+    at the same centre. A mark alone has none."""
+    rng = np.random.default_rng(0)
+    img = synth.mark_scene("ring_x_dot", size=24.0, window=120, centre=(70.3, 64.6), rng=rng).image.copy()
+    yy, xx = np.mgrid[0:120, 0:120]
+    for cx, cy in ((22.0, 20.0), (25.0, 40.0)):          # two number dots, as beside a Wild corner mark
+        img[np.hypot(xx - cx, yy - cy) <= 6] = 0.85
+    img = synth.blur(img, 0.7).astype(np.float32)
+    d = detect(img)
+    assert not d.found and "ambiguous" in d.reason and d.ambiguous_at is not None
+    x, y = d.ambiguous_at
+    assert np.hypot(x - 70.3, y - 64.6) < 0.05
+    again = detect(np.ascontiguousarray(img[27:104, 32:109]))   # 38 px about (70, 65): the dots left out
+    assert again.found and again.ambiguous_at is None
+    assert np.hypot(again.x + 32 - x, again.y + 27 - y) < 0.01
+
+
 def test_clutter_only_is_not_found():
     rng = np.random.default_rng(11)
     for _ in range(4):

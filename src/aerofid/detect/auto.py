@@ -268,6 +268,11 @@ class AutoResult(Detection):
         The mark-like components among them.
     second_marks : tuple of Detection
         Answers found on the rest of the window (step 3, uniqueness).
+    ambiguous_at : (x, y) or None
+        The centre (in the window ``auto`` saw) of the mark it verified but refused for the second mark-like
+        feature beside it (step 3, uniqueness): where the tighter box that the refusal asks for would lie (the search
+        of a whole frame, whose geometry judges which feature is the fiducial, draws it: :mod:`aerofid.frame.orient`).
+        None when no mark was refused so.
     """
 
     answers: Mapping[str, Detection] = field(default_factory=dict, compare=False, repr=False)
@@ -284,6 +289,7 @@ class AutoResult(Detection):
     structure_left: int | None = field(default=None, compare=False, repr=False)
     mark_like: tuple[Blob, ...] = field(default=(), compare=False, repr=False)
     second_marks: tuple[Detection, ...] = field(default=(), compare=False, repr=False)
+    ambiguous_at: tuple[float, float] | None = field(default=None, compare=False, repr=False)
 
     @property
     def extent(self) -> float | None:
@@ -339,6 +345,7 @@ class _Trace:
     structure_left: int | None = None
     mark_like: list[Blob] = field(default_factory=list)
     second_marks: list[Detection] = field(default_factory=list)
+    ambiguous_at: tuple[float, float] | None = None
 
     def fields(self) -> dict[str, Any]:
         return {"answers": dict(self.answers), "windows": dict(self.windows),
@@ -346,7 +353,7 @@ class _Trace:
                 "mark_extent": self.mark_extent, "noise": self.noise, "plain_ground": self.plain_ground,
                 "ground_level": self.ground_level, "core_snr": self.core_snr,
                 "structure_left": self.structure_left, "mark_like": tuple(self.mark_like),
-                "second_marks": tuple(self.second_marks)}
+                "second_marks": tuple(self.second_marks), "ambiguous_at": self.ambiguous_at}
 
     def not_found(self, reason: str) -> AutoResult:
         return AutoResult.not_found(METHOD, reason, **self.fields())
@@ -607,6 +614,7 @@ def conclude(ctx: _Context, trace: _Trace, group: list[Detection], extent: float
         return trace.not_found(chk.reason)
     why = uniqueness(ctx, trace, group, best, extent, dot)
     if why is not None:
+        trace.ambiguous_at = (float(best.x), float(best.y))
         return trace.not_found(why)
     return trace.found(best, auto_score(group, chk, ctx.params), group)
 

@@ -988,24 +988,30 @@ def _corner_beside_its_number_dots() -> tuple[np.ndarray, tuple[float, float]]:
 
 def test_a_first_mark_refused_beside_its_number_dots_is_measured_in_a_tighter_box(monkeypatch):
     """The first fiducial's feature is the mark and its number dots merged (radius 96 px, its centre 47 px off the
-    mark's: the real RC20 frame turned a half turn): ``auto`` on the reduced scan verifies the mark but refuses it for
-    the dots in the window; measured again on the window centred on it, without the dots (as the refusal asks of a
-    person), it is found, and measured at full resolution where it is."""
+    mark's: the real RC20 frame in two of its lies): ``auto`` on the reduced scan verifies the mark but refuses it
+    for the dots in the window; the prediction lies nearer the mark than the dots, and measured again on windows
+    centred on it (as the refusal asks of a person) it is found, then measured at full resolution where it is. With
+    the prediction among the dots, the refusal stands: the prediction, not the box, picks the fiducial."""
     img, xy = _corner_beside_its_number_dots()
     start = Candidate(xy[0] - 25.0, xy[1] - 40.0, 96.0, 1.0, 96.0)
     refusals: list[str] = []
     tighter = orient_module._in_a_tighter_box
 
-    def seen(measurer, refused):
+    def seen(measurer, refused, at):
         refusals.append(refused.detection.reason)
-        return tighter(measurer, refused)
+        return tighter(measurer, refused, at)
 
     monkeypatch.setattr(orient_module, "_in_a_tighter_box", seen)
     with open_image(img) as source:
         measurer = Measurer(source, make_detector("auto", "auto", {}), ("bright", "dark"))
         got = orient_module._coarse_first(measurer, start, (start.x, start.y), 71.0)
+        refused = measurer.candidate(start, settle=False)           # the same refusal at full resolution
+        kept = [tighter(measurer, refused, at) for at in ((start.x, start.y), (256.0, 275.0))]
     assert len(refusals) == 1 and refusals[0].startswith("a second mark-like feature"), refusals
     assert got is not None and math.hypot(got.x - xy[0], got.y - xy[1]) < 0.05
+    assert refused.detection.reason.startswith("a second mark-like feature")
+    assert kept[0].found and math.hypot(kept[0].x - xy[0], kept[0].y - xy[1]) < 0.05
+    assert kept[1] is refused                                           # the dots lie nearer this prediction
 
 
 def _midside_beside_the_data_strip() -> tuple[np.ndarray, tuple[float, float]]:

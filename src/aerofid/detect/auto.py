@@ -297,6 +297,13 @@ class AutoResult(Detection):
         return float(self.mark_extent) if self.found and np.isfinite(self.mark_extent) else None
 
     @property
+    def rivals(self) -> tuple[tuple[float, float], ...]:
+        """Where the features that made the mark at :attr:`ambiguous_at` ambiguous lie (the window ``auto`` saw): the
+        centres of the mark-like components left beside it, and the second marks' centres."""
+        blobs = tuple(((x0 + x1 - 1) / 2.0, (y0 + y1 - 1) / 2.0) for x0, y0, x1, y1, _ in self.mark_like)
+        return blobs + tuple((d.x, d.y) for d in self.second_marks)
+
+    @property
     def member(self) -> Detection | None:
         """The member whose centre is returned (None when nothing was found)."""
         return _by_priority(self.members) if self.members else None

@@ -791,27 +791,38 @@ def _coarse_first(measurer: Measurer, start: Candidate, at: tuple[float, float],
     reduced = replace(measurer, source=view)
     coarse = reduced.candidate(_reduced(start, view), settle=False)
     if not coarse.found:
-        coarse = _in_a_tighter_box(reduced, coarse)
+        coarse = _in_a_tighter_box(reduced, coarse, view.from_full(*at))
     if not coarse.found or coarse.detection.method not in METHODS:
         return None
     return _by_method(replace(measurer, polarities=(coarse.polarity,)), coarse.detection.method, _full(coarse, view),
                       at, tolerance)
 
 
-def _in_a_tighter_box(measurer: Measurer, refused: Located) -> Located:
+RIVAL_SHARE = 0.5
+""":func:`_in_a_tighter_box` measures again a mark ``auto`` refused for the features beside it only when the mark lies
+at most this share of each one's distance from the prediction: the prediction, not the box, picks the fiducial."""
+
+
+def _in_a_tighter_box(measurer: Measurer, refused: Located, at: tuple[float, float]) -> Located:
     """A mark that ``auto`` verified but refused for a second mark-like feature in its window
     (:attr:`~aerofid.detect.auto.AutoResult.ambiguous_at`), measured again, as the refusal asks of a person, in
-    tighter boxes centred on it: the candidate's windows (:meth:`aerofid.find.Measurer.candidate`) from the one refused
-    down to the mark's extent, until one finds it. In a frame the geometry, not the box, judges which feature is the
-    fiducial (the fine measurement must lie within the layout's tolerance of the prediction, and the adjustment tests
-    every mark). The real RC20 frame in two of its 8 lies (turned three quarters, or flipped top to bottom): the
-    strongest feature, a corner mark merged with its number dots at the screening's scale, 47 px from the mark,
-    made a first window that held both, and the search of the fiducial at full resolution then took 0.25 s to fail
-    (``tests/test_frame.py``). ``refused`` itself when nothing was refused so."""
+    tighter boxes centred on it (the candidate's windows, :meth:`aerofid.find.Measurer.candidate`, from the one refused
+    down to the mark's extent, until one finds it), where the prediction ``at`` (the measurer's pixels) picks it: it
+    lies at most :data:`RIVAL_SHARE` of the distance of every rival feature (:attr:`~aerofid.detect.auto.AutoResult.
+    rivals`) from ``at``. Else, and when nothing was refused so, ``refused`` itself. Before :data:`MIN_REFIT` marks are
+    found the layout's tolerance can exceed the distance between a mark and a like feature beside it: a review's
+    frame with a copy of each mark 108-125 px beside it had a copy taken within the tolerance for a second fiducial
+    (its mark nearer the prediction), and the frame was doubtful instead of ok. The real RC20 frame in two of its 8
+    lies (turned three quarters, or flipped top to bottom): the strongest feature, a corner mark merged with its number
+    dots at the screening's scale, 46 px from the mark and 200-270 px from the dots, made a first window that held
+    both, and the fiducial's search at full resolution then took 0.25 s to fail (``tests/test_frame.py``)."""
     d = refused.detection
     if not isinstance(d, AutoResult) or d.ambiguous_at is None or not math.isfinite(d.mark_extent):
         return refused
     x, y = d.origin[0] + d.ambiguous_at[0], d.origin[1] + d.ambiguous_at[1]
+    near = math.hypot(x - at[0], y - at[1])
+    if any(near > RIVAL_SHARE * math.hypot(d.origin[0] + rx - at[0], d.origin[1] + ry - at[1]) for rx, ry in d.rivals):
+        return refused
     c = refused.candidate
     assert c is not None
     return measurer.candidate(replace(c, x=x, y=y, inner=min(c.inner, d.mark_extent)), settle=False)

@@ -808,8 +808,9 @@ def _in_a_tighter_box(measurer: Measurer, refused: Located, at: tuple[float, flo
     (:attr:`~aerofid.detect.auto.AutoResult.ambiguous_at`), measured again, as the refusal asks of a person, in
     tighter boxes centred on it (the candidate's windows, :meth:`aerofid.find.Measurer.candidate`, from the one refused
     down to the mark's extent, until one finds it), where the prediction ``at`` (the measurer's pixels) picks it: it
-    lies at most :data:`RIVAL_SHARE` of the distance of every rival feature (:attr:`~aerofid.detect.auto.AutoResult.
-    rivals`) from ``at``. Else, and when nothing was refused so, ``refused`` itself. Before :data:`MIN_REFIT` marks are
+    lies at most :data:`RIVAL_SHARE` of the distance of every rival feature
+    (:attr:`~aerofid.detect.auto.AutoResult.rivals`) from ``at``. Else, and when nothing was refused so, ``refused``
+    itself. Before :data:`MIN_REFIT` marks are
     found the layout's tolerance can exceed the distance between a mark and a like feature beside it: a review's
     frame with a copy of each mark 108-125 px beside it had a copy taken within the tolerance for a second fiducial
     (its mark nearer the prediction), and the frame was doubtful instead of ok. The real RC20 frame in two of its 8

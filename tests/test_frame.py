@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 import types
+import zlib
 from dataclasses import replace
 from pathlib import Path
 
@@ -299,7 +300,7 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
     first = replace(complete, complete=not nearly, matched=(*range(7), None))
     whole = replace(complete, matched=tuple(range(10, 18)))
 
-    def layouts(*args, first_complete=False, nearly=True):
+    def layouts(*args, first_complete=False, nearly=True, sizes=None):
         return [first] if nearly else [whole]
 
     monkeypatch.setattr(orient_module, "_layouts", layouts)
@@ -334,7 +335,7 @@ def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_oth
     other = replace(first, matched=(None,) * len(first.matched))
     calls = []
 
-    def whole(*args, first_complete=False, nearly=True):
+    def whole(*args, first_complete=False, nearly=True, sizes=None):
         calls.append(first_complete or nearly)                  # the whole search: neither ends it early
         return [first, other]
 
@@ -782,6 +783,23 @@ def test_the_pixel_size_is_read_from_jfif_and_png_tags(tmp_path):
     assert pixel_size_from_tags(tmp_path / "b.jpg") is None
     (tmp_path / "c.jpg").write_bytes(jfif.replace(b"\x01\x04\xb0\x04\xb0", b"\x01\x00\x48\x00\x48"))  # 72 dpi
     assert pixel_size_from_tags(tmp_path / "c.jpg") is None
+    (tmp_path / "d.jpg").write_bytes(jfif.replace(b"\x01\x04\xb0\x04\xb0", b"\x02\x00\x26\x00\x26"))  # 38/cm
+    assert pixel_size_from_tags(tmp_path / "d.jpg") is None                                # 96.52 dpi: 96 dpi stored
+    (tmp_path / "e.jpg").write_bytes(jfif.replace(b"\x01\x04\xb0\x04\xb0", b"\x02\x01\xd8\x01\xd8"))  # 472/cm
+    assert pixel_size_from_tags(tmp_path / "e.jpg") == pytest.approx(10 / 472)           # 1199 dpi
+
+
+@pytest.mark.parametrize(("per_metre", "dpi"), [(3779, None), (3780, None), (2835, None), (47244, 1200.0)])
+def test_a_png_s_screen_default_in_whole_dots_per_metre_is_no_scan_resolution(tmp_path, per_metre, dpi):
+    """PNG stores whole dots per metre: image software's 96 dpi is 3779 or 3780 (95.99, 96.01 dpi), 72 dpi 2835."""
+    ok, png = cv2.imencode(".png", np.zeros((4, 4), np.uint8))
+    chunk = b"pHYs" + per_metre.to_bytes(4, "big") * 2 + b"\x01"
+    phys = len(chunk[4:]).to_bytes(4, "big") + chunk + zlib.crc32(chunk).to_bytes(4, "big")
+    data = png.tobytes()
+    (tmp_path / "a.png").write_bytes(data[:33] + phys + data[33:])                   # after the 25-byte IHDR chunk
+    assert cv2.imread(str(tmp_path / "a.png")) is not None
+    got = pixel_size_from_tags(tmp_path / "a.png")
+    assert got is None if dpi is None else got == pytest.approx(25.4 / dpi, rel=1e-4)
 
 
 @pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
@@ -938,7 +956,7 @@ def test_a_frame_without_calibration_is_measured_on_the_formats_nominal_layout(t
     found = [(f.x, f.y) for f in res.fiducials if f.x is not None and f.y is not None]
     assert len(found) >= 7
     assert max(np.hypot(*(marks - p).T).min() for p in found) < 0.1
-    assert res.pixel_size_mm == pytest.approx(0.1, rel=0.01)
+    assert res.pixel_size_mm == pytest.approx(0.1) and res.pixel_size_source == "tags"
     assert res.orientation is not None
     px_to_mm = np.array(truth.px_to_mm)
     centre = np.linalg.solve(px_to_mm[:, :2], -px_to_mm[:, 2])               # the true fiducial centre, px
@@ -958,6 +976,42 @@ def test_a_frame_without_calibration_is_measured_on_the_formats_nominal_layout(t
     assert not any((tmp_path / "mm").iterdir())
     r = _cli("--measurements", "m.csv", cwd=tmp_path)
     assert r.returncode == 2 and r.stderr.startswith("error: --measurements needs the camera file")
+
+
+def test_a_format_s_nominal_layout_is_sought_near_the_pixel_size_the_scan_declares(tmp_path):
+    """--camera 23cm with a pixel size (given, or the file's tags): the layout is sought within SCALE_SPREAD of it (the
+    camera's marks lie off the nominal ones by a few per cent), and the size declared is the one reported; at a size
+    that is not the scan's the frame fails, and does not ask for the pixel size it was given."""
+    spec = frame_spec(CAMERA, 0.1, np.random.default_rng(4))
+    truth = write_frame(spec, tmp_path / "frame.tif", "tiled")
+    marks = np.array(list(truth.marks.values()))
+    image = tifffile.imread(tmp_path / "frame.tif")                                   # an array: no tags
+    estimated = aerofid.orient_frame(image, "23cm")
+    near = aerofid.orient_frame(image, "23cm", pixel_size_mm=0.104)
+    for res in (estimated, near):
+        found = [(f.x, f.y) for f in res.fiducials if f.x is not None and f.y is not None]
+        assert res.status == "doubtful" and len(found) >= 7, res.reasons
+        assert max(np.hypot(*(marks - p).T).min() for p in found) < 0.1
+    assert (estimated.pixel_size_source, near.pixel_size_source) == ("estimated", "given")
+    assert estimated.pixel_size_mm == pytest.approx(0.1, rel=0.01) and near.pixel_size_mm == 0.104
+    assert [f.x for f in near.fiducials] == [f.x for f in estimated.fiducials]
+    wrong = aerofid.orient_frame(image, "23cm", pixel_size_mm=0.2)
+    assert wrong.status == "failed" and (wrong.pixel_size_mm, wrong.pixel_size_source) == (0.2, "given")
+    assert not any("pixel size was estimated" in r for r in wrong.reasons), wrong.reasons
+
+
+def test_the_real_usgs_browse_frame_is_not_oriented_on_a_screen_s_resolution(realdata):
+    """The USGS browse image of a Fairchild T-12 frame (812 x 786 px, about 0.3 mm a pixel, marks a few px across):
+    its PNG declares 96 dpi (3779 dots per metre), a screen's default, not its pixel size; its marks are too small to
+    find, and the frame fails with the reasons, never a wrong orientation. Given a pixel size, it is not asked for."""
+    path = realdata("tma_browse/example_image.PNG")
+    assert pixel_size_from_tags(path) is None
+    res = aerofid.orient_frame(path)
+    assert res.status == "failed" and res.pixel_size_source == "estimated"
+    assert any("pixel size was estimated" in r for r in res.reasons), res.reasons
+    given = aerofid.orient_frame(path, pixel_size_mm=0.3)
+    assert given.status == "failed" and (given.pixel_size_mm, given.pixel_size_source) == (0.3, "given")
+    assert not any("pixel size was estimated" in r for r in given.reasons), given.reasons
 
 
 def test_the_frames_method_of_a_tie_does_not_depend_on_the_process():

@@ -187,17 +187,18 @@ def match_layout(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "
 def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: str = "up",
                       pixel_size_mm: float | None = None, position_error_px: float = 0.0,
                       tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None,
-                      first_complete: bool = False, nearly: bool = True) -> list[LayoutMatch]:
+                      first_complete: bool = False, nearly: bool = True,
+                      size_range: tuple[float, float] | None = None) -> list[LayoutMatch]:
     """The layouts found (:func:`match_layout`'s parameters), best first, each with at least :data:`MIN_MATCHED`
     matches and a different set of them: one per pixel size tried. An unknown pixel size is tried on a
-    geometric grid of step :data:`SCALE_STEP` over :func:`pixel_size_range` (each layout's fit then gives its
-    own); the second and later are what the frame's measurement tries when the first one's marks are not found
-    (a frame's image corners and edges can mimic a square layout at another scale).
+    geometric grid of step :data:`SCALE_STEP` over ``size_range`` (default: :func:`pixel_size_range`; each layout's
+    fit then gives its own); the second and later are what the frame's measurement tries when the first one's marks
+    are not found (a frame's image corners and edges can mimic a square layout at another scale).
 
-    With ``first_complete``, unknown sizes are tried nearest the usual one first (:func:`prior_order`) and the
-    search ends at the first :attr:`~LayoutMatch.decisive` layout of at least :data:`SETTLING_FIDUCIALS`
-    fiducials, which is then the one returned (the frame's measurement asks for the whole search when its marks
-    do not make the frame ok).
+    With ``first_complete``, unknown sizes are tried nearest the usual one first (:func:`prior_order`; nearest the
+    middle of a ``size_range`` given) and the search ends at the first :attr:`~LayoutMatch.decisive` layout of at
+    least :data:`SETTLING_FIDUCIALS` fiducials, which is then the one returned (the frame's measurement asks for the
+    whole search when its marks do not make the frame ok).
 
     With ``nearly`` (the default) a layout with all its fiducials but one on close features ends a pixel size's
     search (:data:`NEARLY_COMPLETE`); without, only a complete one does (the whole search, which the frame's
@@ -208,9 +209,11 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     if len(features) < 2 or len(fiducials_mm) < 2:
         return []
     settle = first_complete and can_end_early(fiducials_mm, pixel_size_mm)
-    scales = [pixel_size_mm] if pixel_size_mm is not None else scale_grid(pixel_size_range(fiducials_mm, scan_size))
+    scales = ([pixel_size_mm] if pixel_size_mm is not None
+              else scale_grid(size_range or pixel_size_range(fiducials_mm, scan_size)))
     if settle:
-        scales = prior_order(scales, fiducials_mm, scan_size)
+        scales = (prior_order(scales, fiducials_mm, scan_size) if size_range is None
+                  else nearest_first(scales, math.sqrt(size_range[0] * size_range[1])))
     found: dict[tuple[int | None, ...], tuple[tuple[float, float], LayoutMatch]] = {}
     pairs = _Pairs.of(features)
     for s in scales:
@@ -242,7 +245,15 @@ def prior_order(scales: list[float], fiducials_mm: np.ndarray, scan_size: tuple[
     """
     if scan_size is None:
         return list(scales)
-    prior = float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size))
+    return nearest_first(scales, float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size)))
+
+
+def nearest_first(scales: list[float], prior: float) -> list[float]:
+    """``scales`` nearest ``prior`` first, by ratio (of equals the first given).
+
+    >>> nearest_first([0.02, 0.021, 0.022], 0.0218)
+    [0.022, 0.021, 0.02]
+    """
     return sorted(scales, key=lambda s: abs(math.log(s / prior)))
 
 
@@ -691,4 +702,4 @@ def _apply(A: np.ndarray, mm: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_at", "layout_candidates", "match_layout",
-           "pixel_size_range", "can_end_early", "prior_order", "scale_grid"]
+           "nearest_first", "pixel_size_range", "can_end_early", "prior_order", "scale_grid"]

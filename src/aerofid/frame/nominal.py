@@ -19,6 +19,11 @@ NOMINAL_LAYOUTS = {
 """The nominal fiducials (film mm, y up) of a format: 23 cm (9 in) aerial film with corner marks about 106 mm
 and midside marks about 110 mm from the centre (Wild RC8 to RC30 and most 23 cm cameras within a few mm; the
 layout search allows 3 % of scale and 2 mm, and a camera whose marks lie elsewhere gets those it finds)."""
+SCALE_SPREAD = 1.05
+"""How far in scale (a ratio) a camera's marks may lie from its format's nominal layout: a scan whose pixel size is
+declared (given, its resolution tags) is searched for the layout at pixel sizes within this ratio of it either way
+(:func:`nominal_sizes`). The Jena LMK of certificate OSL/1785 has its corner marks 110 mm from the centre, 3.8 % beyond
+the nominal 106 mm; the real Wild RC20 frame's, 106 mm."""
 FORMAT_ALIASES = {"23cm": "23cm", "23": "23cm", "230mm": "23cm", "9in": "23cm", "9x9": "23cm"}
 """How a format may be named on the command line (spaces and case ignored)."""
 DEFAULT_FORMAT = "23cm"
@@ -52,6 +57,16 @@ def nominal_camera(name: str) -> Camera | None:
         return None
     return Camera.from_dict({"name": f"nominal {key} format (uncalibrated)",
                              "fiducials": {k: list(v) for k, v in NOMINAL_LAYOUTS[key].items()}})
+
+
+def nominal_sizes(pixel_size_mm: float) -> tuple[float, float]:
+    """The pixel sizes (mm) at which a format's nominal layout is sought in a scan of declared ``pixel_size_mm``: the
+    camera's marks lie within :data:`SCALE_SPREAD` of the nominal ones in scale.
+
+    >>> [round(s, 4) for s in nominal_sizes(0.021)]
+    [0.02, 0.0221]
+    """
+    return pixel_size_mm / SCALE_SPREAD, pixel_size_mm * SCALE_SPREAD
 
 
 def extra_marks(camera: Camera) -> dict[str, tuple[float, float]]:
@@ -101,4 +116,5 @@ def _layout_fit(xy: np.ndarray, nominal: np.ndarray) -> tuple[np.ndarray, set[in
     return None if best is None else best[1:]
 
 
-__all__ = ["FORMAT_MATCH_MM", "NOMINAL_LAYOUTS", "UNCALIBRATED", "extra_marks", "nominal_camera"]
+__all__ = ["FORMAT_MATCH_MM", "NOMINAL_LAYOUTS", "SCALE_SPREAD", "UNCALIBRATED", "extra_marks", "nominal_camera",
+           "nominal_sizes"]

@@ -47,7 +47,14 @@ from aerofid.find import (
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import LayoutMatch, can_end_early, layout_candidates
-from aerofid.frame.nominal import DEFAULT_FORMAT, UNCALIBRATED, extra_marks, format_name, nominal_camera
+from aerofid.frame.nominal import (
+    DEFAULT_FORMAT,
+    UNCALIBRATED,
+    extra_marks,
+    format_name,
+    nominal_camera,
+    nominal_sizes,
+)
 from aerofid.frame.profile import METHODS, RollProfile, disagreements
 from aerofid.frame.result import (
     DOUBTFUL,
@@ -96,8 +103,8 @@ of it in those areas."""
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
-ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan has no resolution tags): give it "
-                  "(--pixel-size, or pixel_size_um in the camera file)")
+ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan declares none: no resolution tags, or a "
+                  "screen's default 72 or 96 dpi): give it (--pixel-size, or pixel_size_um in the camera file)")
 """Appended to the reasons of a frame that is not ok when nothing declared the pixel size."""
 MIN_TOLERANCE_PX = 8.0
 """Least tolerance (px) of a prediction by the found marks."""
@@ -149,7 +156,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         are estimates.
     pixel_size_mm : float, optional
         The scan's pixel size; default: the file's resolution tags, else the camera file's ``pixel_size_um``,
-        else estimated from the marks' layout.
+        else estimated from the marks' layout. On a format's nominal layout the layout is sought within
+        :data:`~aerofid.frame.nominal.SCALE_SPREAD` of a pixel size given or tagged, and that is the one reported.
     mark, method, polarity, colour : str
         As :func:`aerofid.locate` (polarity ``"auto"``: marks bright or dark).
     model : str
@@ -190,21 +198,22 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
     lie = _checked_options(cam, pixel_size_mm, lie, profile)
     detector, polarities = configure(method, mark, polarity, colour, {})
     with open_image(image) as source:
-        # a nominal layout's scale is not the scan's: the layout search finds it
-        size, size_source = ((None, "estimated") if nominal is not None
-                             else scan_pixel_size(source, cam, pixel_size_mm, profile))
+        declared = scan_pixel_size(source, cam, pixel_size_mm, profile)
+        # a nominal layout's scale is not the scan's: the layout search finds it, near a pixel size the scan declares
+        size, size_source = (None, "estimated") if nominal is not None else declared
+        sizes = nominal_sizes(declared[0]) if nominal is not None and declared[0] is not None else None
         measurer = Measurer(source, detector, polarities, colour)
-        frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None)
+        frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None, sizes)
         extras = {} if nominal is not None else extra_marks(cam)
         best = frame.in_roll_areas()
         if best is None or not _settled(best):
             best, screened = frame.on_whole_frame(extras, best)
             if best is None:
-                return _no_layout(screened, len(cam.fiducials), size, size_source)
+                return _no_layout(screened, len(cam.fiducials), *declared)
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
     if nominal is not None:
-        return _uncalibrated(best, str(fmt))
+        return _uncalibrated(best, str(fmt), *declared)
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
     return best
@@ -223,6 +232,8 @@ class _Frame:
     lie: tuple[int, bool] | None
     profile: RollProfile | None
     nominal: bool
+    sizes: tuple[float, float] | None = None
+    """The pixel sizes the layout is sought at when ``size`` is None (default: those the scan's size allows)."""
 
     def oriented(self, features: tuple[Candidate, ...], f: int, searched: str,
                  extras: dict[str, tuple[float, float]]) -> FrameOrientation | None:
@@ -231,7 +242,8 @@ class _Frame:
         cam = self.cam
         fid_mm = cam.xy_mm
         head = self.head(len(features), f, searched)
-        search = _Search(self.source, features, f, cam.y_axis, self.size, self.measurer, self.profile, self.nominal)
+        search = _Search(self.source, features, f, cam.y_axis, self.size, self.measurer, self.profile, self.nominal,
+                         self.sizes)
 
         def judged(layout: LayoutMatch, located: list[tuple[Located | None, str]]) -> FrameOrientation:
             return _judged(cam, layout, located, self.model, head, self.size, self.size_source, self.lie,
@@ -287,6 +299,7 @@ class _Search:
     measurer: Measurer
     profile: RollProfile | None
     nominal: bool
+    sizes: tuple[float, float] | None = None
 
     def best(self, fid_mm: np.ndarray, judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]],
                                                          FrameOrientation]) -> FrameOrientation | None:
@@ -294,12 +307,14 @@ class _Search:
         fiducials but one on features, :func:`_ended_nearly`, which gives way to the whole search's) of the layouts of
         ``fid_mm`` measured in turn (:func:`_attempts`) until one is ok (a nominal layout's: once half its marks are
         found), each judged by ``judged``; None when the features do not hold the layout."""
-        layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True)
+        layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True,
+                           sizes=self.sizes)
         if not layouts:
             return None
         best: FrameOrientation | None = None
         best_layout = layouts[0]
-        for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts):
+        for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts,
+                                self.sizes):
             located = measure_marks(self.measurer, layout, fid_mm, self.features, self.profile)
             res = _second_look(self.measurer, layout, located, judged(layout, located), judged)
             if best is None or _standing(res) > _standing(best) or (_standing(res) == _standing(best)
@@ -330,16 +345,19 @@ def _first(layout: LayoutMatch, n: int) -> LayoutMatch:
 
 
 def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
-             size: float | None, first_complete: bool = False, nearly: bool = True) -> list[LayoutMatch]:
+             size: float | None, first_complete: bool = False, nearly: bool = True,
+             sizes: tuple[float, float] | None = None) -> list[LayoutMatch]:
     """Step 2: the camera's layouts among the ``features`` screened at reduction ``f``, best first (with
-    ``first_complete`` and ``nearly``: :func:`aerofid.frame.layout.layout_candidates`)."""
+    ``first_complete``, ``nearly`` and the pixel sizes ``sizes`` to try when ``size`` is None:
+    :func:`aerofid.frame.layout.layout_candidates`)."""
     return layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, y_axis, size,
                              position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height),
-                             first_complete=first_complete, nearly=nearly)
+                             first_complete=first_complete, nearly=nearly, size_range=sizes)
 
 
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
-              size: float | None, layouts: list[LayoutMatch]) -> Iterator[LayoutMatch]:
+              size: float | None, layouts: list[LayoutMatch],
+              sizes: tuple[float, float] | None = None) -> Iterator[LayoutMatch]:
     """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known, and where
     its search ended at all fiducials but one on close features (:func:`_ended_nearly`: a chance layout can end it
     before the complete one is formed), the whole search's best where it lies on other features; else the first
@@ -357,7 +375,7 @@ def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_
     yield from layouts[:ALTERNATIVES]
     if len(layouts) == 1 and first.decisive and can_end_early(fid_mm, size):
         same = (first.matched, first.rotation_deg, first.mirrored)
-        others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None, nearly=False)
+        others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None, nearly=False, sizes=sizes)
                   if (m.matched, m.rotation_deg, m.mirrored) != same]
         yield from others[:ALTERNATIVES - 1]
 
@@ -393,12 +411,14 @@ def _checked_options(cam: Camera, pixel_size_mm: float | None, lie: tuple[int, b
     return lie if lie is not None else (profile.rotation_deg, profile.mirrored)
 
 
-def _uncalibrated(res: FrameOrientation, fmt: str) -> FrameOrientation:
+def _uncalibrated(res: FrameOrientation, fmt: str, size: float | None, size_source: str) -> FrameOrientation:
     """A frame oriented on a format's nominal layout: doubtful (or failed) and flagged uncalibrated; the reasons
-    that only a calibration gives a meaning to (the lie, the residuals, the pixel size) dropped."""
+    that only a calibration gives a meaning to (the lie, the residuals, the pixel size) dropped; the pixel size the
+    scan declares (``size``, from ``size_source``), if it does, in place of the nominal layout's estimate."""
     kept = tuple(r for r in res.reasons if "found" in r or "marks used" in r)
-    return replace(res, status=FAILED if res.status == FAILED else DOUBTFUL,
-                   reasons=(UNCALIBRATED.format(fmt=fmt), *kept))
+    res = replace(res, status=FAILED if res.status == FAILED else DOUBTFUL,
+                  reasons=(UNCALIBRATED.format(fmt=fmt), *kept))
+    return res if size is None else replace(res, pixel_size_mm=size, pixel_size_source=size_source)
 
 
 def _reviewed(res: FrameOrientation, doubts: list[str]) -> FrameOrientation:

@@ -18,12 +18,16 @@ MIN_DPI, MAX_DPI = 50.0, 20000.0
 above 20000 dpi no film scanner goes."""
 SCREEN_DEFAULTS = (72.0, 96.0)
 """dpi values that image software writes when it knows nothing of the scan: not a scan resolution."""
+SCREEN_ROUNDING = 1.3
+"""How far (dpi) a tag may lie from a screen default and still be one: PNG stores whole dots per metre (96 dpi is
+3779 or 3780, 95.99 or 96.01 dpi; the USGS browse frame of ``tma_browse`` declares 3779), JFIF and TIFF may store
+whole dots per centimetre (96 dpi as 38, 96.52 dpi; 72 as 28, 71.12 dpi). No film scanner scans near 72 or 96 dpi."""
 
 
 def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:
     """The pixel size (mm per px) the file's resolution tags declare, or None when it declares none, declares
     different x and y resolutions, or a value no scan has (:data:`MIN_DPI`, :data:`MAX_DPI`,
-    :data:`SCREEN_DEFAULTS`).
+    :data:`SCREEN_DEFAULTS` to within :data:`SCREEN_ROUNDING`).
 
     Examples
     --------
@@ -47,7 +51,8 @@ def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:
                 dpi = None
     except (OSError, ValueError, struct.error, tifffile.TiffFileError):
         return None
-    if dpi is None or not (MIN_DPI <= dpi <= MAX_DPI) or dpi in SCREEN_DEFAULTS:
+    if dpi is None or not (MIN_DPI <= dpi <= MAX_DPI) or any(abs(dpi - d) <= SCREEN_ROUNDING
+                                                             for d in SCREEN_DEFAULTS):
         return None
     return MM_PER_INCH / dpi
 

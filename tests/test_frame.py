@@ -26,7 +26,7 @@ from aerofid.formats.camera_file import write_camera
 from aerofid.frame import orient as orient_module
 from aerofid.frame import verdict as verdict_module
 from aerofid.frame.layout import layout_candidates, match_layout
-from aerofid.frame.nominal import extra_marks
+from aerofid.frame.nominal import extra_marks, nominal_camera
 from aerofid.frame.profile import learn_profile
 from aerofid.frame.report import frame_html, frame_text
 from aerofid.io.array import open_image
@@ -1012,6 +1012,34 @@ def test_the_real_usgs_browse_frame_is_not_oriented_on_a_screen_s_resolution(rea
     given = aerofid.orient_frame(path, pixel_size_mm=0.3)
     assert given.status == "failed" and (given.pixel_size_mm, given.pixel_size_source) == (0.3, "given")
     assert not any("pixel size was estimated" in r for r in given.reasons), given.reasons
+
+
+def test_four_midside_marks_alone_keep_their_names():
+    """Only the 4 midside marks found: a square of marks, which fits the square of the corners turned 45 degrees as
+    well as the midsides' square. The frame's lie turns it at most LIE_ROTATION_DEG beyond a multiple of 90 degrees,
+    so they stay midsides (any turn named them corners)."""
+    cam = nominal_camera("23cm")
+    midsides = [k for k, n in enumerate(cam.names) if n.startswith("midside")]
+    turn = np.deg2rad(1.5)
+    rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    px = cam.xy_mm[midsides] * [1, -1] @ rot.T / 0.021 + 5500                 # 21 um, y down, turned 1.5 degrees
+    reasons: list[str] = []
+    io, _ = verdict_module._adjust(cam, px, "affine", "", None, reasons)
+    assert sorted(f.name for f in io.fiducials) == sorted(cam.names[k] for k in midsides), reasons
+
+
+def test_the_marks_of_a_real_composite_are_not_named_corners_turned_45_degrees(realdata):
+    """spymicmac's documentation figure of a Zeiss RMK frame (1919 x 1907 px, its 4 midside marks magnified in insets
+    with a red dot on each, in a square): read without its tags (a figure's 300 dpi), the dots are the 4 marks found,
+    named midsides with the frame upright (they were named corners, the frame turned 45 degrees)."""
+    rgb = cv2.imread(str(realdata("spymicmac_docs/zeiss_mid.png")))[..., ::-1].copy()
+    res = aerofid.orient_frame(rgb)
+    found = {f.name for f in res.fiducials if f.status == "found"}
+    assert found and all(n.startswith("midside") for n in found), found
+    assert res.orientation is not None
+    a = np.array(res.orientation.pixel_to_mm)[:2, :2]
+    turn = math.degrees(math.atan2(a[1, 0], a[0, 0])) % 90.0
+    assert min(turn, 90.0 - turn) < 1.0, turn
 
 
 def test_the_frames_method_of_a_tie_does_not_depend_on_the_process():

@@ -34,7 +34,12 @@ from aerofid.io.raster import Raster, open_raster
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.methods import make_detector
 from aerofid.orientation.camera import Camera
-from aerofid.orientation.correspondence import arrangement_matrix, lie_of, match_fiducials
+from aerofid.orientation.correspondence import (
+    AmbiguousCorrespondenceError,
+    arrangement_matrix,
+    lie_of,
+    match_fiducials,
+)
 from aerofid.synth_frame import frame_spec, frame_truth, render_frame, wild_rc10_camera, write_frame
 
 CAMERA = wild_rc10_camera()
@@ -1015,9 +1020,9 @@ def test_the_real_usgs_browse_frame_is_not_oriented_on_a_screen_s_resolution(rea
 
 
 def test_four_midside_marks_alone_keep_their_names():
-    """Only the 4 midside marks found: a square of marks, which fits the square of the corners turned 45 degrees as
-    well as the midsides' square. The frame's lie turns it at most LIE_ROTATION_DEG beyond a multiple of 90 degrees,
-    so they stay midsides (any turn named them corners)."""
+    """Only the 4 midside marks measured, unnamed: a square of points, which fits the square of the corners turned 45
+    degrees as well as the midsides' square. The film turns at most FILM_TURN_DEG beyond its arrangement, so they are
+    named midsides (any turn named them corners), by the frame's verdict and by ``aerofid.orient``."""
     cam = nominal_camera("23cm")
     midsides = [k for k, n in enumerate(cam.names) if n.startswith("midside")]
     turn = np.deg2rad(1.5)
@@ -1025,7 +1030,11 @@ def test_four_midside_marks_alone_keep_their_names():
     px = cam.xy_mm[midsides] * [1, -1] @ rot.T / 0.021 + 5500                 # 21 um, y down, turned 1.5 degrees
     reasons: list[str] = []
     io, _ = verdict_module._adjust(cam, px, "affine", "", None, reasons)
-    assert sorted(f.name for f in io.fiducials) == sorted(cam.names[k] for k in midsides), reasons
+    named = {cam.names[k] for k in midsides}
+    assert {f.name for f in io.fiducials} == named, reasons
+    with pytest.raises(AmbiguousCorrespondenceError) as e:    # a symmetric layout: the lie is not told, the names are
+        aerofid.orient(cam, px, "affine", correspondence="auto")
+    assert {cam.names[j] for j in e.value.correspondence.best.assignment} == named
 
 
 def test_the_marks_of_a_real_composite_are_not_named_corners_turned_45_degrees(realdata):

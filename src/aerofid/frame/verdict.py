@@ -11,7 +11,7 @@ import numpy as np
 
 from aerofid.errors import AerofidInputError
 from aerofid.find import Located
-from aerofid.frame.layout import MAX_ROTATION_DEG, LayoutMatch
+from aerofid.frame.layout import LayoutMatch
 from aerofid.frame.result import (
     DOUBTFUL,
     FAILED,
@@ -38,12 +38,6 @@ MAX_RMS_PX = 1.0
 beyond an affinity (a few um) explain a few tenths of a pixel (the real RC20 frame: 0.32 px at 42 um)."""
 SCALE_AGREEMENT = 0.02
 """Largest relative difference between the adjusted pixel size and the one the scan or camera file declared."""
-LIE_ROTATION_DEG = 2 * MAX_ROTATION_DEG
-"""The film's largest rotation beyond its lie's multiple of 90 degrees when the found marks are named by the lie that
-fits them best (:func:`_adjust`): the layout's limit, with as much again for the marks' measurement. Any rotation
-(45 degrees, the default of :func:`aerofid.orientation.correspondence.match_fiducials`) named the four midside marks of
-a frame corners, turned 45 degrees: a square of marks fits a square of fiducials at every turn (the real composite
-``spymicmac_docs/zeiss_mid.png``, tests/test_frame.py)."""
 MIN_REDUNDANCY = 2
 """Fewest redundant observations for the marks to check each other (affine: 4 marks)."""
 
@@ -86,7 +80,7 @@ def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int,
     symmetric layout), the given ``lie`` is taken if it is among them, else the nominal one (then the frame is
     doubtful: the reason says so); a given lie that fits worse than another is a reason too."""
     try:
-        io = orient(cam, px, model, correspondence="auto", image=image, max_rotation_deg=LIE_ROTATION_DEG)
+        io = orient(cam, px, model, correspondence="auto", image=image)
         assert io.correspondence is not None
         best = io.correspondence.best
         if lie is not None and (best.rotation_deg, best.mirrored) != tuple(lie):
@@ -132,8 +126,7 @@ def _lie_without_a_blunder(cam: Camera, px: np.ndarray, model: str, image: str, 
     told: dict[tuple[int, bool], list[int]] = {}
     for i in range(len(px)):
         try:
-            c = match_fiducials(np.delete(px, i, axis=0), cam.xy_mm, model, y_axis=cam.y_axis, fiducial_names=cam.names,
-                                max_rotation_deg=LIE_ROTATION_DEG)
+            c = match_fiducials(np.delete(px, i, axis=0), cam.xy_mm, model, y_axis=cam.y_axis, fiducial_names=cam.names)
         except AerofidInputError:
             continue
         if c.status == "unique":
@@ -220,4 +213,4 @@ def _by_layout(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located
     return tuple(out)
 
 
-__all__ = ["LIE_ROTATION_DEG", "MAX_RMS_PX", "adjusted_pixel_mm", "verdict"]
+__all__ = ["MAX_RMS_PX", "adjusted_pixel_mm", "verdict"]

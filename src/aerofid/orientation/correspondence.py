@@ -19,6 +19,12 @@ from aerofid.scipy_kernels import linear_sum_assignment
 
 #: Significance level of the test that tells two fiducial arrangements apart.
 ALPHA_ARRANGEMENT = 0.01
+FILM_TURN_DEG = 15.0
+"""The film's largest turn in the scanner beyond its arrangement when points are assigned to fiducials: a film laid
+by hand lies within a degree or two of the scanner's axes (a whole frame's layout search allows 4). Any turn (45
+degrees either way) cannot be allowed: a square of points fits a square of fiducials at every turn, and the four midside
+marks of a frame whose corners were not found were named corners, the frame turned 45 degrees (the real composite
+``spymicmac_docs/zeiss_mid.png``, tests/test_frame.py)."""
 #: The 8 arrangements: rotation of the film image on the scan (degrees, counter-clockwise as seen on the
 #: film's mm frame) and whether the scan is mirrored (film scanned from the other side).
 ARRANGEMENTS = tuple((rot, mir) for mir in (False, True) for rot in (0, 90, 180, 270))
@@ -112,12 +118,13 @@ class AmbiguousCorrespondenceError(AerofidInputError):
 
 def match_fiducials(px: np.ndarray, mm: np.ndarray, model: str = "affine", *, y_axis: str = "up",
                     fiducial_names: Sequence[str] | None = None, alpha: float = ALPHA_ARRANGEMENT,
-                    max_rotation_deg: float = 45.0) -> Correspondence:
+                    max_rotation_deg: float = FILM_TURN_DEG) -> Correspondence:
     """Assign unnamed measured points (m x 2 px) to calibrated fiducials (n x 2 mm), m <= n.
 
     For each of the 8 arrangements (4 rotations x 2 sides) every pair of measured points is matched to
-    every pair of calibrated fiducials; the similarity they define (rotation within +-45 degrees of the
-    arrangement, so each hypothesis belongs to one arrangement) maps all fiducials onto the scan and the
+    every pair of calibrated fiducials; the similarity they define (rotation within ``max_rotation_deg`` of the
+    arrangement, :data:`FILM_TURN_DEG`; at most 45, so each hypothesis belongs to one arrangement) maps all
+    fiducials onto the scan and the
     measured points are assigned to them (Hungarian method). The best assignment of each arrangement is
     then fitted with ``model`` (similarity when the model has no redundancy) and the arrangements are ranked
     by ``v^T v``. The best is ``unique`` only if the runner-up is worse by the F test
@@ -268,5 +275,5 @@ def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) ->
     return Correspondence("ambiguous", best, tuple(uniq), reason, names, tied)
 
 
-__all__ = ["ALPHA_ARRANGEMENT", "ARRANGEMENTS", "AmbiguousCorrespondenceError", "ArrangementFit", "Correspondence",
-           "arrangement_matrix", "lie_of", "match_fiducials"]
+__all__ = ["ALPHA_ARRANGEMENT", "ARRANGEMENTS", "FILM_TURN_DEG", "AmbiguousCorrespondenceError", "ArrangementFit",
+           "Correspondence", "arrangement_matrix", "lie_of", "match_fiducials"]

@@ -54,8 +54,7 @@ def scan_geometry(transform: ProjectiveTransform, at: Sequence[float] = (0.0, 0.
 
 def orient(camera: Camera, measurements: Measurements | Mapping | np.ndarray, model: str = "affine", *,
            correspondence: str | None = None, reject: bool = True, alpha: float = ALPHA_BLUNDER,
-           min_blunder_px: float = MIN_BLUNDER_PX, image: str | None = None,
-           max_rotation_deg: float = 45.0) -> InteriorOrientation:
+           min_blunder_px: float = MIN_BLUNDER_PX, image: str | None = None) -> InteriorOrientation:
     """Interior orientation of one scan from measured fiducial centres (seed 004, section 4).
 
     Parameters
@@ -76,9 +75,6 @@ def orient(camera: Camera, measurements: Measurements | Mapping | np.ndarray, mo
         See :func:`aerofid.orientation.blunders.reject_blunders`.
     image : str or None
         The scan's name in the result (default: the measurements' image).
-    max_rotation_deg : float
-        With ``"auto"``: the film's largest rotation beyond its arrangement (default 45: any rotation); a whole frame's
-        layout bounds it (:data:`aerofid.frame.verdict.LIE_ROTATION_DEG`).
 
     Returns
     -------
@@ -115,7 +111,7 @@ def orient(camera: Camera, measurements: Measurements | Mapping | np.ndarray, mo
     if (correspondence or ("names" if meas.named else "auto")) == "names":
         names = _names_as_given(camera, meas)
     else:
-        names, corr, warnings = _names_by_arrangement(camera, meas, model, max_rotation_deg)
+        names, corr, warnings = _names_by_arrangement(camera, meas, model)
     px = meas.xy
     mm = np.array([[camera.fiducial(n).x_mm, camera.fiducial(n).y_mm] for n in names])
     if len(px) < cls.min_points:
@@ -147,11 +143,10 @@ def _names_as_given(cam: Camera, meas: Measurements) -> list[str]:
     return list(meas.names)
 
 
-def _names_by_arrangement(cam: Camera, meas: Measurements, model: str,
-                          max_rotation_deg: float) -> tuple[list[str], Correspondence, list[str]]:
+def _names_by_arrangement(cam: Camera, meas: Measurements,
+                          model: str) -> tuple[list[str], Correspondence, list[str]]:
     """Names from the best film arrangement (:func:`match_fiducials`), the correspondence, and warnings."""
-    corr = match_fiducials(meas.xy, cam.xy_mm, model, y_axis=cam.y_axis, fiducial_names=cam.names,
-                           max_rotation_deg=max_rotation_deg)
+    corr = match_fiducials(meas.xy, cam.xy_mm, model, y_axis=cam.y_axis, fiducial_names=cam.names)
     if corr.status != "unique":
         raise AmbiguousCorrespondenceError(f"fiducial correspondence is ambiguous: {corr.reason}", corr)
     names = [cam.names[j] for j in corr.assignment]

@@ -305,7 +305,7 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
     first = replace(complete, complete=not nearly, matched=(*range(7), None))
     whole = replace(complete, matched=tuple(range(10, 18)))
 
-    def layouts(*args, first_complete=False, nearly=True, sizes=None):
+    def layouts(*args, first_complete=False, nearly=True, sizes=None, max_turn_deg=4.0):
         return [first] if nearly else [whole]
 
     monkeypatch.setattr(orient_module, "_layouts", layouts)
@@ -340,7 +340,7 @@ def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_oth
     other = replace(first, matched=(None,) * len(first.matched))
     calls = []
 
-    def whole(*args, first_complete=False, nearly=True, sizes=None):
+    def whole(*args, first_complete=False, nearly=True, sizes=None, max_turn_deg=4.0):
         calls.append(first_complete or nearly)                  # the whole search: neither ends it early
         return [first, other]
 
@@ -648,8 +648,8 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
     """No fiducial is found at its feature (refused by the test). Where the areas hold the marks, every area is
     searched and the frame is ok (one midside's area search misses its mark here, as before); where they hold none
     either (a layout matched on features that are not the frame's marks), one area is searched before 3 marks are
-    found, as no fiducial's predicted place held a mark (on each screen of the frame, which fails), and the other
-    fiducials say why theirs were not."""
+    found, as no fiducial's predicted place held a mark (on each screen of the frame, which fails, and once more with
+    the film sought turned further), and the other fiducials say why theirs were not."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
     monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
@@ -669,7 +669,7 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
         assert len(areas) == len(CAMERA.names)
         assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
         return
-    assert len(areas) == 2                      # the frame fails: screened again, one area again
+    assert len(areas) == 3                      # the frame fails: screened again, then sought turned: one area each
     assert res.status == "failed" and not res.found
     unsearched = [f for f in res.fiducials if "its area was not searched" in f.reason]
     assert len(unsearched) == len(CAMERA.names) - 1
@@ -1017,6 +1017,22 @@ def test_the_real_usgs_browse_frame_is_not_oriented_on_a_screen_s_resolution(rea
     given = aerofid.orient_frame(path, pixel_size_mm=0.3)
     assert given.status == "failed" and (given.pixel_size_mm, given.pixel_size_source) == (0.3, "given")
     assert not any("pixel size was estimated" in r for r in given.reasons), given.reasons
+
+
+@pytest.mark.parametrize("tilt", [-7.0, 9.0])
+def test_a_film_laid_askew_is_sought_turned_further(monkeypatch, tilt):
+    """A film turned 7-9 degrees in the scanner, beyond the layout search's usual 4: its features hold no layout, or
+    a chance one whose marks are not found, so the layout is sought again turned up to FILM_TURN_DEG, and the frame is
+    ok with its marks (those left on the scan) at their true centres and its turn measured; without that second search
+    it fails."""
+    spec = replace(frame_spec(CAMERA, COARSE_MM, np.random.default_rng(4)), tilt_deg=tilt)
+    image, truth = render_frame(spec), frame_truth(spec)
+    res = aerofid.orient_frame(image, CAMERA, pixel_size_mm=COARSE_MM)
+    assert res.ok and len(res.found) >= 6, res.reasons
+    assert max(_errors(res, truth.marks).values()) < 0.1
+    assert res.orientation is not None and res.orientation.rotation_deg == pytest.approx(-tilt, abs=0.05)
+    monkeypatch.setattr(orient_module, "ASKEW_MARKS", 0.0)
+    assert aerofid.orient_frame(image, CAMERA, pixel_size_mm=COARSE_MM).status == "failed"
 
 
 def test_four_midside_marks_alone_keep_their_names():

@@ -38,7 +38,8 @@ SCALE_TOLERANCE = 0.03
 known pixel size: scanners' and films' scale errors are a few tenths of a per cent, a coarse feature's position
 a few reduced pixels over a baseline of a hundred."""
 MAX_ROTATION_DEG = 4.0
-"""Largest rotation of the frame in the scanner beyond the lie's multiple of 90 degrees."""
+"""Largest rotation of the frame in the scanner beyond the lie's multiple of 90 degrees that the search allows
+(``max_turn_deg`` of :func:`layout_candidates`; a film laid by hand lies within a degree or two)."""
 PIXEL_SIZE_RANGE_MM = (0.004, 0.2)
 """Pixel sizes considered when the scan says none: 4 um (6350 dpi) to 200 um (127 dpi)."""
 MIN_SPAN = 0.5
@@ -188,7 +189,8 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
                       pixel_size_mm: float | None = None, position_error_px: float = 0.0,
                       tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None,
                       first_complete: bool = False, nearly: bool = True,
-                      size_range: tuple[float, float] | None = None) -> list[LayoutMatch]:
+                      size_range: tuple[float, float] | None = None,
+                      max_turn_deg: float = MAX_ROTATION_DEG) -> list[LayoutMatch]:
     """The layouts found (:func:`match_layout`'s parameters), best first, each with at least :data:`MIN_MATCHED`
     matches and a different set of them: one per pixel size tried. An unknown pixel size is tried on a
     geometric grid of step :data:`SCALE_STEP` over ``size_range`` (default: :func:`pixel_size_range`; each layout's
@@ -199,6 +201,9 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     middle of a ``size_range`` given) and the search ends at the first :attr:`~LayoutMatch.decisive` layout of at
     least :data:`SETTLING_FIDUCIALS` fiducials, which is then the one returned (the frame's measurement asks for the
     whole search when its marks do not make the frame ok).
+
+    ``max_turn_deg``: the frame's largest rotation beyond its lie's multiple of 90 degrees (each hypothesis that turns
+    it further is dropped, step 2 of the module docstring).
 
     With ``nearly`` (the default) a layout with all its fiducials but one on close features ends a pixel size's
     search (:data:`NEARLY_COMPLETE`); without, only a complete one does (the whole search, which the frame's
@@ -218,7 +223,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     pairs = _Pairs.of(features)
     for s in scales:
         got = _best_hypothesis(features, pairs, fiducials_mm, y_axis, s, tolerance_mm / s + position_error_px,
-                               position_error_px, nearly)
+                               position_error_px, nearly, max_turn_deg)
         if got is None or got[1].n_matched < MIN_MATCHED:
             continue
         if settle and got[1].decisive:
@@ -389,7 +394,7 @@ def _hypothesis_chunks(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> Ite
 
 
 def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarray, y_axis: str, s: float,
-                     tol: float, position_error_px: float, nearly: bool
+                     tol: float, position_error_px: float, nearly: bool, max_turn_deg: float = MAX_ROTATION_DEG
                      ) -> tuple[tuple[float, float], LayoutMatch] | None:
     """The best hypothesis at pixel size ``s`` (module docstring, step 3). The :data:`SHORTLIST` hypotheses with
     the most fiducials on a feature within ``tol`` (then the least mean distance), one per set of matches, are
@@ -415,8 +420,9 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
         feature_directions = pairs.directions(pair)
         decisive: list[tuple[int, float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
-            turning = np.compress(_may_turn_within(feature_directions, directions[a][fid_pair]), hyp, axis=0)
-            pred, kept = _predict(features, cp, turning)
+            turning = np.compress(_may_turn_within(feature_directions, directions[a][fid_pair], max_turn_deg), hyp,
+                                  axis=0)
+            pred, kept = _predict(features, cp, turning, max_turn_deg)
             if pred is None:
                 continue
             d, idx = near.query_predictions(pred, np.compress(kept, turning, axis=0))
@@ -559,16 +565,17 @@ def support(distances: np.ndarray, tol: float) -> float:
         return float(np.where(d <= tol, 1.0 - (d / tol) ** 2, 0.0).sum())
 
 
-def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray,
+             max_turn_deg: float = MAX_ROTATION_DEG) -> tuple[np.ndarray | None, np.ndarray]:
     """Each hypothesis's prediction of every fiducial (h x n x 2 px): the similarity mapping fiducials j, l
     (``cp``: the layout turned by the lie, in px) onto features i, k; hypotheses that rotate the frame more
-    than :data:`MAX_ROTATION_DEG` are dropped, and which were kept is the second answer (None and no hypothesis
+    than ``max_turn_deg`` are dropped, and which were kept is the second answer (None and no hypothesis
     when none is)."""
     i, k, j, l = hyp.T
     dp = (features[k, 0] - features[i, 0]) + 1j * (features[k, 1] - features[i, 1])
     dc = (cp[l, 0] - cp[j, 0]) + 1j * (cp[l, 1] - cp[j, 1])
     z = dp / dc                                                   # scale x rotation as a complex number
-    keep = _within_rotation(z)
+    keep = _within_rotation(z, max_turn_deg)
     if not keep.any():
         return None, keep
     z, i, j = z[keep], i[keep], j[keep]
@@ -577,33 +584,34 @@ def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray) -> tuple[np.
     return np.stack([p.real, p.imag], axis=2), keep
 
 
-TAN_MAX_ROTATION = math.tan(math.radians(MAX_ROTATION_DEG))
 ANGLE_MARGIN = 1e-9
-"""Radians beyond :data:`MAX_ROTATION_DEG` that :func:`_may_turn_within` lets through (the rounding of two arctangents
+"""Radians beyond the largest rotation that :func:`_may_turn_within` lets through (the rounding of two arctangents
 and their difference is some 1e-15): :func:`_within_rotation` decides."""
 
 
-def _may_turn_within(feature_direction: np.ndarray, fiducial_direction: np.ndarray) -> np.ndarray:
-    """Whether hypotheses may turn the frame by at most :data:`MAX_ROTATION_DEG` (their pair of features' and pair of
+def _may_turn_within(feature_direction: np.ndarray, fiducial_direction: np.ndarray,
+                     max_turn_deg: float = MAX_ROTATION_DEG) -> np.ndarray:
+    """Whether hypotheses may turn the frame by at most ``max_turn_deg`` (their pair of features' and pair of
     fiducials' directions, radians): a superset of :func:`_within_rotation`'s, from the directions' difference, so
     that the similarity is computed only for the few that can pass (1 in 16 of a lie's hypotheses on a frame's 512
     features)."""
     turn = np.abs(feature_direction - fiducial_direction)                  # in [0, 2 pi]: either way round
-    limit = math.radians(MAX_ROTATION_DEG) + ANGLE_MARGIN
+    limit = math.radians(max_turn_deg) + ANGLE_MARGIN
     return (turn <= limit) | (turn >= 2 * math.pi - limit)
 
 
-def _within_rotation(z: np.ndarray) -> np.ndarray:
-    """``|angle(z)| <= MAX_ROTATION_DEG``, as ``np.angle`` reads it: the angle computed only where the cheap test
-    ``|Im z| <= tan(MAX_ROTATION_DEG) Re z`` is within rounding of its limit (most hypotheses turn the frame far more,
+def _within_rotation(z: np.ndarray, max_turn_deg: float = MAX_ROTATION_DEG) -> np.ndarray:
+    """``|angle(z)| <= max_turn_deg``, as ``np.angle`` reads it: the angle computed only where the cheap test
+    ``|Im z| <= tan(max_turn_deg) Re z`` is within rounding of its limit (most hypotheses turn the frame far more,
     and ``np.angle`` is an arctan2 per hypothesis), or where ``z`` is not a finite number well above underflow (zero,
     subnormal, infinite or NaN: none of a similarity between distinct points)."""
+    tan_max = math.tan(math.radians(max_turn_deg))
     re, im = np.abs(z.real), np.abs(z.imag)
     plain = np.isfinite(re) & np.isfinite(im) & (np.maximum(re, im) > 1e-290)
-    near = (z.real > 0) & (im <= TAN_MAX_ROTATION * (1 + 1e-9) * re)
-    keep = plain & near & (im <= TAN_MAX_ROTATION * (1 - 1e-9) * re)
+    near = (z.real > 0) & (im <= tan_max * (1 + 1e-9) * re)
+    keep = plain & near & (im <= tan_max * (1 - 1e-9) * re)
     doubt = np.flatnonzero((near | ~plain) & ~keep)
-    keep[doubt] = np.abs(np.angle(z[doubt])) <= math.radians(MAX_ROTATION_DEG)
+    keep[doubt] = np.abs(np.angle(z[doubt])) <= math.radians(max_turn_deg)
     return keep
 
 

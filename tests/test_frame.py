@@ -320,6 +320,19 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
     assert best.name == ("whole" if nearly else "first")
 
 
+def test_layouts_tied_with_the_first_alternatives_are_measured_too():
+    """Of an unknown pixel size's layouts, the first ALTERNATIVES are measured in turn, then up to TIED_ALTERNATIVES
+    more that match as many fiducials as the best of those: a faded frame (seed 1010 of a scratch sweep, 2564 px at
+    97.5 um, 6 of its 8 marks among the features) had its true layout fourth, after three chance ones of 6 matches at
+    other pixel sizes, and failed."""
+    from aerofid.frame import orient
+
+    layouts = [types.SimpleNamespace(n_matched=n, name=k) for k, n in enumerate((6, 6, 5, 6, 4, 6, 6, 6, 6))]
+    tried = [m.name for m in orient._attempts(None, (), 4, CAMERA.xy_mm, "up", None, layouts)]
+    assert tried == [0, 1, 2, 3, 5, 6][:orient.ALTERNATIVES + orient.TIED_ALTERNATIVES]
+    assert [m.name for m in orient._attempts(None, (), 4, CAMERA.xy_mm, "up", None, layouts[:4])] == [0, 1, 2, 3]
+
+
 @pytest.mark.parametrize("complete", [True, False])
 def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_others(monkeypatch, complete):
     """The early end of the search over unknown sizes, at a complete layout or at one with all fiducials but one on

@@ -305,7 +305,7 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
     first = replace(complete, complete=not nearly, matched=(*range(7), None))
     whole = replace(complete, matched=tuple(range(10, 18)))
 
-    def layouts(*args, first_complete=False, nearly=True, sizes=None, max_turn_deg=4.0):
+    def layouts(*args, first_complete=False, nearly=True, sizes=None, turns=(0.0, 4.0)):
         return [first] if nearly else [whole]
 
     monkeypatch.setattr(orient_module, "_layouts", layouts)
@@ -353,7 +353,7 @@ def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_oth
     other = replace(first, matched=(None,) * len(first.matched))
     calls = []
 
-    def whole(*args, first_complete=False, nearly=True, sizes=None, max_turn_deg=4.0):
+    def whole(*args, first_complete=False, nearly=True, sizes=None, turns=(0.0, 4.0)):
         calls.append(first_complete or nearly)                  # the whole search: neither ends it early
         return [first, other]
 

@@ -39,7 +39,7 @@ known pixel size: scanners' and films' scale errors are a few tenths of a per ce
 a few reduced pixels over a baseline of a hundred."""
 MAX_ROTATION_DEG = 4.0
 """Largest rotation of the frame in the scanner beyond the lie's multiple of 90 degrees that the search allows
-(``max_turn_deg`` of :func:`layout_candidates`; a film laid by hand lies within a degree or two)."""
+(``turns`` of :func:`layout_candidates`; a film laid by hand lies within a degree or two)."""
 PIXEL_SIZE_RANGE_MM = (0.004, 0.2)
 """Pixel sizes considered when the scan says none: 4 um (6350 dpi) to 200 um (127 dpi)."""
 MIN_SPAN = 0.5
@@ -190,7 +190,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
                       tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None,
                       first_complete: bool = False, nearly: bool = True,
                       size_range: tuple[float, float] | None = None,
-                      max_turn_deg: float = MAX_ROTATION_DEG) -> list[LayoutMatch]:
+                      turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> list[LayoutMatch]:
     """The layouts found (:func:`match_layout`'s parameters), best first, each with at least :data:`MIN_MATCHED`
     matches and a different set of them: one per pixel size tried. An unknown pixel size is tried on a
     geometric grid of step :data:`SCALE_STEP` over ``size_range`` (default: :func:`pixel_size_range`; each layout's
@@ -202,8 +202,8 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     least :data:`SETTLING_FIDUCIALS` fiducials, which is then the one returned (the frame's measurement asks for the
     whole search when its marks do not make the frame ok).
 
-    ``max_turn_deg``: the frame's largest rotation beyond its lie's multiple of 90 degrees (each hypothesis that turns
-    it further is dropped, step 2 of the module docstring).
+    ``turns``: the frame's rotation beyond its lie's multiple of 90 degrees is more than the first and at most the
+    second (degrees; each hypothesis that turns it otherwise is dropped, step 2 of the module docstring).
 
     With ``nearly`` (the default) a layout with all its fiducials but one on close features ends a pixel size's
     search (:data:`NEARLY_COMPLETE`); without, only a complete one does (the whole search, which the frame's
@@ -223,7 +223,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     pairs = _Pairs.of(features)
     for s in scales:
         got = _best_hypothesis(features, pairs, fiducials_mm, y_axis, s, tolerance_mm / s + position_error_px,
-                               position_error_px, nearly, max_turn_deg)
+                               position_error_px, nearly, turns)
         if got is None or got[1].n_matched < MIN_MATCHED:
             continue
         if settle and got[1].decisive:
@@ -394,7 +394,8 @@ def _hypothesis_chunks(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> Ite
 
 
 def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarray, y_axis: str, s: float,
-                     tol: float, position_error_px: float, nearly: bool, max_turn_deg: float = MAX_ROTATION_DEG
+                     tol: float, position_error_px: float, nearly: bool,
+                     turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)
                      ) -> tuple[tuple[float, float], LayoutMatch] | None:
     """The best hypothesis at pixel size ``s`` (module docstring, step 3). The :data:`SHORTLIST` hypotheses with
     the most fiducials on a feature within ``tol`` (then the least mean distance), one per set of matches, are
@@ -420,9 +421,9 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
         feature_directions = pairs.directions(pair)
         decisive: list[tuple[int, float, int, np.ndarray]] = []
         for a, cp in enumerate(turned):
-            turning = np.compress(_may_turn_within(feature_directions, directions[a][fid_pair], max_turn_deg), hyp,
+            turning = np.compress(_may_turn_within(feature_directions, directions[a][fid_pair], turns[1]), hyp,
                                   axis=0)
-            pred, kept = _predict(features, cp, turning, max_turn_deg)
+            pred, kept = _predict(features, cp, turning, turns)
             if pred is None:
                 continue
             d, idx = near.query_predictions(pred, np.compress(kept, turning, axis=0))
@@ -566,16 +567,18 @@ def support(distances: np.ndarray, tol: float) -> float:
 
 
 def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray,
-             max_turn_deg: float = MAX_ROTATION_DEG) -> tuple[np.ndarray | None, np.ndarray]:
+             turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> tuple[np.ndarray | None, np.ndarray]:
     """Each hypothesis's prediction of every fiducial (h x n x 2 px): the similarity mapping fiducials j, l
-    (``cp``: the layout turned by the lie, in px) onto features i, k; hypotheses that rotate the frame more
-    than ``max_turn_deg`` are dropped, and which were kept is the second answer (None and no hypothesis
-    when none is)."""
+    (``cp``: the layout turned by the lie, in px) onto features i, k; hypotheses that rotate the frame by no more
+    than the first of ``turns`` or more than the second are dropped, and which were kept is the second answer (None
+    and no hypothesis when none is)."""
     i, k, j, l = hyp.T
     dp = (features[k, 0] - features[i, 0]) + 1j * (features[k, 1] - features[i, 1])
     dc = (cp[l, 0] - cp[j, 0]) + 1j * (cp[l, 1] - cp[j, 1])
     z = dp / dc                                                   # scale x rotation as a complex number
-    keep = _within_rotation(z, max_turn_deg)
+    keep = _within_rotation(z, turns[1])
+    if turns[0] > 0:
+        keep &= ~_within_rotation(z, turns[0])
     if not keep.any():
         return None, keep
     z, i, j = z[keep], i[keep], j[keep]

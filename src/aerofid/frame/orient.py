@@ -245,16 +245,17 @@ class _Frame:
     """The pixel sizes the layout is sought at when ``size`` is None (default: those the scan's size allows)."""
 
     def oriented(self, features: tuple[Candidate, ...], f: int, searched: str,
-                 extras: dict[str, tuple[float, float]], max_turn_deg: float = MAX_ROTATION_DEG
+                 extras: dict[str, tuple[float, float]], turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)
                  ) -> FrameOrientation | None:
-        """Steps 2-4 on ``features`` screened at reduction ``f`` (``searched``: where), the film turned at most
-        ``max_turn_deg`` beyond its lie, with the format's other marks ``extras`` to fall back on
+        """Steps 2-4 on ``features`` screened at reduction ``f`` (``searched``: where), the film turned beyond its
+        lie by more than the first of ``turns`` and at most the second, with the format's other marks ``extras`` to
+        fall back on
         (:meth:`_Search.with_format_marks`); None when they hold no layout."""
         cam = self.cam
         fid_mm = cam.xy_mm
         head = self.head(len(features), f, searched)
         search = _Search(self.source, features, f, cam.y_axis, self.size, self.measurer, self.profile, self.nominal,
-                         self.sizes, max_turn_deg)
+                         self.sizes, turns)
 
         def judged(layout: LayoutMatch, located: list[tuple[Located | None, str]]) -> FrameOrientation:
             return _judged(cam, layout, located, self.model, head, self.size, self.size_source, self.lie,
@@ -268,14 +269,15 @@ class _Frame:
         on :func:`frame_features`), None when neither holds an answer; and the head of the last screen. Where the
         better one fails, the frame is screened again at half the reduction (a noisy frame's thin marks can vanish
         in it); where fewer than :data:`ASKEW_MARKS` of its fiducials are found, its layout is sought again with the
-        film turned further (:data:`~aerofid.orientation.correspondence.FILM_TURN_DEG`)."""
+        film turned further (beyond :data:`~aerofid.frame.layout.MAX_ROTATION_DEG`, up to
+        :data:`~aerofid.orientation.correspondence.FILM_TURN_DEG`: the layouts measured so far are not met again)."""
         features, f = frame_features(self.source)
         best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras))
         if (best is None or best.status == FAILED) and f > 1:
             features, f = frame_features(self.source, f // 2)
             best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras))
         if best is None or len(best.found) < ASKEW_MARKS * len(self.cam.fiducials):
-            best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras, FILM_TURN_DEG))
+            best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras, (MAX_ROTATION_DEG, FILM_TURN_DEG)))
         _check_decoded(self.source)
         return best, self.head(len(features), f, WHOLE_FRAME)
 
@@ -314,7 +316,7 @@ class _Search:
     profile: RollProfile | None
     nominal: bool
     sizes: tuple[float, float] | None = None
-    max_turn_deg: float = MAX_ROTATION_DEG
+    turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)
 
     def best(self, fid_mm: np.ndarray, judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]],
                                                          FrameOrientation]) -> FrameOrientation | None:
@@ -323,13 +325,13 @@ class _Search:
         ``fid_mm`` measured in turn (:func:`_attempts`) until one is ok (a nominal layout's: once half its marks are
         found), each judged by ``judged``; None when the features do not hold the layout."""
         layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True,
-                           sizes=self.sizes, max_turn_deg=self.max_turn_deg)
+                           sizes=self.sizes, turns=self.turns)
         if not layouts:
             return None
         best: FrameOrientation | None = None
         best_layout = layouts[0]
         for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts,
-                                self.sizes, self.max_turn_deg):
+                                self.sizes, self.turns):
             located = measure_marks(self.measurer, layout, fid_mm, self.features, self.profile)
             res = _second_look(self.measurer, layout, located, judged(layout, located), judged)
             if best is None or _standing(res) > _standing(best) or (_standing(res) == _standing(best)
@@ -362,19 +364,19 @@ def _first(layout: LayoutMatch, n: int) -> LayoutMatch:
 def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
              size: float | None, first_complete: bool = False, nearly: bool = True,
              sizes: tuple[float, float] | None = None,
-             max_turn_deg: float = MAX_ROTATION_DEG) -> list[LayoutMatch]:
+             turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> list[LayoutMatch]:
     """Step 2: the camera's layouts among the ``features`` screened at reduction ``f``, best first (with
-    ``first_complete``, ``nearly``, the pixel sizes ``sizes`` to try when ``size`` is None and the film's largest
-    turn ``max_turn_deg``: :func:`aerofid.frame.layout.layout_candidates`)."""
+    ``first_complete``, ``nearly``, the pixel sizes ``sizes`` to try when ``size`` is None and the film's ``turns``:
+    :func:`aerofid.frame.layout.layout_candidates`)."""
     return layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, y_axis, size,
                              position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height),
                              first_complete=first_complete, nearly=nearly, size_range=sizes,
-                             max_turn_deg=max_turn_deg)
+                             turns=turns)
 
 
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
               size: float | None, layouts: list[LayoutMatch], sizes: tuple[float, float] | None = None,
-              max_turn_deg: float = MAX_ROTATION_DEG) -> Iterator[LayoutMatch]:
+              turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> Iterator[LayoutMatch]:
     """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known, and where
     its search ended at all fiducials but one on close features (:func:`_ended_nearly`: a chance layout can end it
     before the complete one is formed), the whole search's best where it lies on other features; else the first
@@ -388,7 +390,7 @@ def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_
         if _ended_nearly(first):
             taken = set(first.matched) - {None}
             yield from [m for m in _layouts(source, features, f, fid_mm, y_axis, size, nearly=False,
-                                            max_turn_deg=max_turn_deg)
+                                            turns=turns)
                         if set(m.matched) - {None} != taken][:1]
         return
     yield from layouts[:ALTERNATIVES]
@@ -397,7 +399,7 @@ def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_
     if len(layouts) == 1 and first.decisive and can_end_early(fid_mm, size):
         same = (first.matched, first.rotation_deg, first.mirrored)
         others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None, nearly=False, sizes=sizes,
-                                      max_turn_deg=max_turn_deg)
+                                      turns=turns)
                   if (m.matched, m.rotation_deg, m.mirrored) != same]
         yield from others[:ALTERNATIVES - 1]
 

@@ -248,8 +248,7 @@ class _Frame:
                  ) -> FrameOrientation | None:
         """Steps 2-4 on ``features`` screened at reduction ``f`` (``searched``: where), the film turned beyond its
         lie by more than the first of ``turns`` and at most the second, with the format's other marks ``extras`` to
-        fall back on
-        (:meth:`_Search.with_format_marks`); None when they hold no layout."""
+        fall back on (:meth:`_Search.with_format_marks`); None when they hold no layout."""
         cam = self.cam
         fid_mm = cam.xy_mm
         head = self.head(len(features), f, searched)
@@ -369,8 +368,7 @@ def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_m
     :func:`aerofid.frame.layout.layout_candidates`)."""
     return layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, y_axis, size,
                              position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height),
-                             first_complete=first_complete, nearly=nearly, size_range=sizes,
-                             turns=turns)
+                             first_complete=first_complete, nearly=nearly, size_range=sizes, turns=turns)
 
 
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
@@ -387,8 +385,7 @@ def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_
         yield first
         if _ended_nearly(first):
             taken = set(first.matched) - {None}
-            yield from [m for m in _layouts(source, features, f, fid_mm, y_axis, size, nearly=False,
-                                            turns=turns)
+            yield from [m for m in _layouts(source, features, f, fid_mm, y_axis, size, nearly=False, turns=turns)
                         if set(m.matched) - {None} != taken][:1]
         return
     yield from layouts[:ALTERNATIVES]

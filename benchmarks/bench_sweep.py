@@ -2,14 +2,14 @@
 
     python benchmarks/bench_sweep.py [--n 40] [--seed 1000] [--workers 2]
 
-Frame ``i`` (seeds ``seed`` .. ``seed + n - 1``) is bench_frames.py's synthetic Wild RC10-like frame
-(:func:`aerofid.synth_frame.frame_spec`) at a pixel size drawn from 70-100 um (2300-3300 px a side), lying in one of
-the 8 ways, degraded one of 4 ways (clean, noisy, faded, JPEG blocks), its film turned by up to 10 degrees either way
-in the scanner (a film laid askew on a flatbed; bench_frames.py's turn at most 0.5), given to
-:func:`aerofid.orient_frame` as an array (no resolution tags) with its pixel size, or without it, half the time each.
-Per frame: the status, the marks found, their largest error against the truth and whether the lie is the true one; a
-frame is *wrong* when it is ok with a mark more than 0.5 px off or another lie. Prints a Markdown table per
-degradation and the frames that are not ok.
+Frame ``i`` (seeds ``seed`` .. ``seed + n - 1``, :func:`aerofid.synth_frame.random_frame`) is bench_frames.py's
+synthetic Wild RC10-like frame at a pixel size drawn from 70-100 um (2300-3300 px a side), lying in one of the 8 ways,
+degraded one of 4 ways (clean, noisy, faded, JPEG blocks), its film turned by up to 10 degrees either way in the
+scanner (a film laid askew on a flatbed; bench_frames.py's turn at most 0.5), given to :func:`aerofid.orient_frame` as
+an array (no resolution tags) with its pixel size, or without it, half the time each. Per frame: the status, the marks
+found, their largest error against the truth and whether the lie is the true one; a frame is *wrong* when it is ok
+with a mark more than 0.5 px off or another lie. Prints a Markdown table per degradation and the frames that are not
+ok.
 """
 
 from __future__ import annotations
@@ -18,17 +18,21 @@ import argparse
 import math
 import multiprocessing
 import os
-from dataclasses import replace
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
 import aerofid  # noqa: E402
-from aerofid.synth_frame import DEGRADATIONS, frame_spec, frame_truth, render_frame, wild_rc10_camera  # noqa: E402
+from aerofid.synth_frame import (  # noqa: E402
+    ASKEW_TURN_DEG,
+    DEGRADATIONS,
+    frame_truth,
+    random_frame,
+    render_frame,
+    wild_rc10_camera,
+)
 
-MAX_TURN_DEG = 10.0
-"""The film's largest turn in the scanner beyond its lie, drawn uniformly either way."""
 WRONG_PX = 0.5
 """A mark of an ok frame further than this from its true centre is a wrong answer."""
 
@@ -36,20 +40,15 @@ WRONG_PX = 0.5
 def one_frame(seed: int) -> dict:
     """The frame of ``seed``, oriented, and what it answered against its truth."""
     cam = wild_rc10_camera()
-    rng = np.random.default_rng(seed)
-    rot, mirrored = int(rng.choice([0, 90, 180, 270])), bool(rng.integers(2))
-    degradation = str(rng.choice(list(DEGRADATIONS)))
-    spec = frame_spec(cam, float(rng.uniform(0.07, 0.1)), rng, rotation_deg=rot, mirrored=mirrored,
-                      degradation=degradation)
-    spec = replace(spec, tilt_deg=float(rng.uniform(-MAX_TURN_DEG, MAX_TURN_DEG)))
-    given = bool(rng.integers(2))
+    spec, given = random_frame(cam, seed)
     image, truth = render_frame(spec), frame_truth(spec)
     res = aerofid.orient_frame(image, cam, pixel_size_mm=spec.pixel_size_mm if given else None)
     errors = [math.hypot(f.x - truth.marks[f.name][0], f.y - truth.marks[f.name][1])
               for f in res.fiducials if f.status == "found" and f.x is not None and f.y is not None]
     lie_right = (res.rotation_deg, res.mirrored) == truth.lie
-    return {"seed": seed, "degradation": degradation, "turn": spec.tilt_deg, "given": given, "status": res.status,
-            "found": len(errors), "worst": max(errors) if errors else None, "errors": errors, "lie_right": lie_right,
+    return {"seed": seed, "degradation": spec.degradation, "turn": spec.tilt_deg, "given": given,
+            "status": res.status, "found": len(errors), "worst": max(errors) if errors else None, "errors": errors,
+            "lie_right": lie_right,
             "wrong": res.status == "ok" and (not lie_right or (bool(errors) and max(errors) > WRONG_PX)),
             "reason": res.reasons[0] if res.reasons else ""}
 
@@ -79,7 +78,7 @@ def main() -> None:
     with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
         rows = pool.map(one_frame, seeds, chunksize=1)
     print(f"`python benchmarks/bench_sweep.py --n {args.n} --seed {args.seed}` (frames turned up to "
-          f"{MAX_TURN_DEG:g} degrees, half without their pixel size):\n")
+          f"{ASKEW_TURN_DEG:g} degrees, half without their pixel size):\n")
     print("\n".join(table(rows)))
     print("\nFrames not ok (seed, degradation, turn, pixel size given, status, marks found, first reason):\n")
     for r in rows:

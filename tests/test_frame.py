@@ -40,7 +40,7 @@ from aerofid.orientation.correspondence import (
     lie_of,
     match_fiducials,
 )
-from aerofid.synth_frame import frame_spec, frame_truth, render_frame, wild_rc10_camera, write_frame
+from aerofid.synth_frame import frame_spec, frame_truth, random_frame, render_frame, wild_rc10_camera, write_frame
 
 CAMERA = wild_rc10_camera()
 COARSE_MM = 0.08
@@ -305,7 +305,7 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
     first = replace(complete, complete=not nearly, matched=(*range(7), None))
     whole = replace(complete, matched=tuple(range(10, 18)))
 
-    def layouts(*args, first_complete=False, nearly=True, sizes=None, turns=(0.0, 4.0)):
+    def layouts(*args, first_complete=False, nearly=True, size_range=None, turns=(0.0, 4.0)):
         return [first] if nearly else [whole]
 
     monkeypatch.setattr(orient_module, "_layouts", layouts)
@@ -325,13 +325,8 @@ def test_a_faded_frame_whose_true_layout_ranks_fourth_is_ok(monkeypatch):
     6 of its 8 marks are features, and three chance layouts of 6 matches at other pixel sizes rank before the true
     one. Its layouts are measured until one is ok, up to ALTERNATIVES (6): the frame is ok with every mark at its
     true centre and its lie; with three it failed."""
-    rng = np.random.default_rng(1010)
-    rot, mir = int(rng.choice([0, 90, 180, 270])), bool(rng.integers(2))
-    degradation = str(rng.choice(["clean", "noisy", "faded", "jpeg"]))
-    spec = frame_spec(CAMERA, float(rng.uniform(0.07, 0.1)), rng, rotation_deg=rot, mirrored=mir,
-                      degradation=degradation)
-    spec = replace(spec, tilt_deg=float(rng.uniform(-10, 10)))
-    assert (degradation, spec.size_px, abs(spec.tilt_deg) < 2) == ("faded", (2564, 2564), True)
+    spec, given = random_frame(CAMERA, 1010)
+    assert (spec.degradation, spec.size_px, abs(spec.tilt_deg) < 2, given) == ("faded", (2564, 2564), True, False)
     image, truth = render_frame(spec), frame_truth(spec)
     res = aerofid.orient_frame(image, CAMERA)
     assert res.ok and len(res.found) == 8, res.reasons
@@ -360,7 +355,7 @@ def test_a_frame_not_ok_on_the_first_complete_layout_tries_the_whole_searchs_oth
     other = replace(first, matched=(None,) * len(first.matched))
     calls = []
 
-    def whole(*args, first_complete=False, nearly=True, sizes=None, turns=(0.0, 4.0)):
+    def whole(*args, first_complete=False, nearly=True, size_range=None, turns=(0.0, 4.0)):
         calls.append(first_complete or nearly)                  # the whole search: neither ends it early
         return [first, other]
 

@@ -400,6 +400,29 @@ def with_lie(spec: FrameSpec, rotation_deg: int, mirrored: bool) -> FrameSpec:
     return replace(spec, rotation_deg=rotation_deg, mirrored=mirrored)
 
 
-__all__ = ["BLUR_PX", "DEGRADATIONS", "FrameSpec", "FrameTruth", "KINDS", "MarkStyle", "WILD_CORNER",
-           "WILD_MIDSIDE", "default_styles", "frame_bands", "frame_spec", "frame_truth", "render_frame",
-           "wild_rc10_camera", "with_lie", "write_frame"]
+ASKEW_TURN_DEG = 10.0
+"""The largest turn of a film laid askew in :func:`random_frame` (either way; :func:`frame_spec`'s at most
+:data:`TILT_DEG`)."""
+
+
+def random_frame(camera: Camera, seed: int) -> tuple[FrameSpec, bool]:
+    """The frame drawn from ``seed`` (``benchmarks/bench_sweep.py``): at a pixel size of 70-100 um, lying in one of the
+    8 ways, one of the :data:`DEGRADATIONS`, the film turned up to :data:`ASKEW_TURN_DEG` either way; and whether its
+    pixel size is given to the search (half the time).
+
+    >>> spec, given = random_frame(wild_rc10_camera(), 1010)
+    >>> spec.degradation, spec.size_px, frame_truth(spec).lie, given
+    ('faded', (2564, 2564), (180, False), False)
+    """
+    rng = np.random.default_rng(seed)
+    rotation, mirrored = int(rng.choice([0, 90, 180, 270])), bool(rng.integers(2))
+    degradation = str(rng.choice(list(DEGRADATIONS)))
+    spec = frame_spec(camera, float(rng.uniform(0.07, 0.1)), rng, rotation_deg=rotation, mirrored=mirrored,
+                      degradation=degradation)
+    spec = replace(spec, tilt_deg=float(rng.uniform(-ASKEW_TURN_DEG, ASKEW_TURN_DEG)))
+    return spec, bool(rng.integers(2))
+
+
+__all__ = ["ASKEW_TURN_DEG", "BLUR_PX", "DEGRADATIONS", "FrameSpec", "FrameTruth", "KINDS", "MarkStyle", "WILD_CORNER",
+           "WILD_MIDSIDE", "default_styles", "frame_bands", "frame_spec", "frame_truth", "random_frame",
+           "render_frame", "wild_rc10_camera", "with_lie", "write_frame"]

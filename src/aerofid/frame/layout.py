@@ -39,7 +39,10 @@ known pixel size: scanners' and films' scale errors are a few tenths of a per ce
 a few reduced pixels over a baseline of a hundred."""
 MAX_ROTATION_DEG = 4.0
 """Largest rotation of the frame in the scanner beyond the lie's multiple of 90 degrees that the search allows
-(``turns`` of :func:`layout_candidates`; a film laid by hand lies within a degree or two)."""
+(:data:`USUAL_TURNS`; a film laid by hand lies within a degree or two)."""
+USUAL_TURNS = (0.0, MAX_ROTATION_DEG)
+"""The frame's rotation beyond its lie's multiple of 90 degrees that the search allows by default (``turns`` of
+:func:`layout_candidates`): more than the first and at most the second (degrees)."""
 PIXEL_SIZE_RANGE_MM = (0.004, 0.2)
 """Pixel sizes considered when the scan says none: 4 um (6350 dpi) to 200 um (127 dpi)."""
 MIN_SPAN = 0.5
@@ -190,7 +193,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
                       tolerance_mm: float = 2.0, scan_size: tuple[int, int] | None = None,
                       first_complete: bool = False, nearly: bool = True,
                       size_range: tuple[float, float] | None = None,
-                      turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> list[LayoutMatch]:
+                      turns: tuple[float, float] = USUAL_TURNS) -> list[LayoutMatch]:
     """The layouts found (:func:`match_layout`'s parameters), best first, each with at least :data:`MIN_MATCHED`
     matches and a different set of them: one per pixel size tried. An unknown pixel size is tried on a
     geometric grid of step :data:`SCALE_STEP` over ``size_range`` (default: :func:`pixel_size_range`; each layout's
@@ -395,7 +398,7 @@ def _hypothesis_chunks(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> Ite
 
 def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarray, y_axis: str, s: float,
                      tol: float, position_error_px: float, nearly: bool,
-                     turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)
+                     turns: tuple[float, float] = USUAL_TURNS
                      ) -> tuple[tuple[float, float], LayoutMatch] | None:
     """The best hypothesis at pixel size ``s`` (module docstring, step 3). The :data:`SHORTLIST` hypotheses with
     the most fiducials on a feature within ``tol`` (then the least mean distance), one per set of matches, are
@@ -567,7 +570,7 @@ def support(distances: np.ndarray, tol: float) -> float:
 
 
 def _predict(features: np.ndarray, cp: np.ndarray, hyp: np.ndarray,
-             turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> tuple[np.ndarray | None, np.ndarray]:
+             turns: tuple[float, float] = USUAL_TURNS) -> tuple[np.ndarray | None, np.ndarray]:
     """Each hypothesis's prediction of every fiducial (h x n x 2 px): the similarity mapping fiducials j, l
     (``cp``: the layout turned by the lie, in px) onto features i, k; hypotheses that rotate the frame by no more
     than the first of ``turns`` or more than the second are dropped, and which were kept is the second answer (None
@@ -713,4 +716,4 @@ def _apply(A: np.ndarray, mm: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_at", "layout_candidates", "match_layout",
-           "nearest_first", "pixel_size_range", "can_end_early", "prior_order", "scale_grid"]
+           "USUAL_TURNS", "nearest_first", "pixel_size_range", "can_end_early", "prior_order", "scale_grid"]

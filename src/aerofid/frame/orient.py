@@ -46,7 +46,7 @@ from aerofid.find import (
     search,
 )
 from aerofid.formats.camera_file import read_camera
-from aerofid.frame.layout import MAX_ROTATION_DEG, LayoutMatch, can_end_early, layout_candidates
+from aerofid.frame.layout import MAX_ROTATION_DEG, USUAL_TURNS, LayoutMatch, can_end_early, layout_candidates
 from aerofid.frame.nominal import (
     DEFAULT_FORMAT,
     UNCALIBRATED,
@@ -209,9 +209,10 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         declared = scan_pixel_size(source, cam, pixel_size_mm, profile)
         # a nominal layout's scale is not the scan's: the layout search finds it, near a pixel size the scan declares
         size, size_source = (None, "estimated") if nominal is not None else declared
-        sizes = nominal_sizes(declared[0]) if nominal is not None and declared[0] is not None else None
+        size_range = nominal_sizes(declared[0]) if nominal is not None and declared[0] is not None else None
         measurer = Measurer(source, detector, polarities, colour)
-        frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None, sizes)
+        frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None,
+                       size_range)
         extras = {} if nominal is not None else extra_marks(cam)
         best = frame.in_roll_areas()
         if best is None or not _settled(best):
@@ -240,11 +241,11 @@ class _Frame:
     lie: tuple[int, bool] | None
     profile: RollProfile | None
     nominal: bool
-    sizes: tuple[float, float] | None = None
+    size_range: tuple[float, float] | None = None
     """The pixel sizes the layout is sought at when ``size`` is None (default: those the scan's size allows)."""
 
     def oriented(self, features: tuple[Candidate, ...], f: int, searched: str,
-                 extras: dict[str, tuple[float, float]], turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)
+                 extras: dict[str, tuple[float, float]], turns: tuple[float, float] = USUAL_TURNS
                  ) -> FrameOrientation | None:
         """Steps 2-4 on ``features`` screened at reduction ``f`` (``searched``: where), the film turned beyond its
         lie by more than the first of ``turns`` and at most the second, with the format's other marks ``extras`` to
@@ -253,7 +254,7 @@ class _Frame:
         fid_mm = cam.xy_mm
         head = self.head(len(features), f, searched)
         search = _Search(self.source, features, f, cam.y_axis, self.size, self.measurer, self.profile, self.nominal,
-                         self.sizes, turns)
+                         self.size_range, turns)
 
         def judged(layout: LayoutMatch, located: list[tuple[Located | None, str]]) -> FrameOrientation:
             return _judged(cam, layout, located, self.model, head, self.size, self.size_source, self.lie,
@@ -313,8 +314,8 @@ class _Search:
     measurer: Measurer
     profile: RollProfile | None
     nominal: bool
-    sizes: tuple[float, float] | None = None
-    turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)
+    size_range: tuple[float, float] | None = None
+    turns: tuple[float, float] = USUAL_TURNS
 
     def best(self, fid_mm: np.ndarray, judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]],
                                                          FrameOrientation]) -> FrameOrientation | None:
@@ -323,13 +324,13 @@ class _Search:
         ``fid_mm`` measured in turn (:func:`_attempts`) until one is ok (a nominal layout's: once half its marks are
         found), each judged by ``judged``; None when the features do not hold the layout."""
         layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True,
-                           sizes=self.sizes, turns=self.turns)
+                           size_range=self.size_range, turns=self.turns)
         if not layouts:
             return None
         best: FrameOrientation | None = None
         best_layout = layouts[0]
         for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts,
-                                self.sizes, self.turns):
+                                self.size_range, self.turns):
             located = measure_marks(self.measurer, layout, fid_mm, self.features, self.profile)
             res = _second_look(self.measurer, layout, located, judged(layout, located), judged)
             if best is None or _standing(res) > _standing(best) or (_standing(res) == _standing(best)
@@ -361,19 +362,19 @@ def _first(layout: LayoutMatch, n: int) -> LayoutMatch:
 
 def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
              size: float | None, first_complete: bool = False, nearly: bool = True,
-             sizes: tuple[float, float] | None = None,
-             turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> list[LayoutMatch]:
+             size_range: tuple[float, float] | None = None,
+             turns: tuple[float, float] = USUAL_TURNS) -> list[LayoutMatch]:
     """Step 2: the camera's layouts among the ``features`` screened at reduction ``f``, best first (with
-    ``first_complete``, ``nearly``, the pixel sizes ``sizes`` to try when ``size`` is None and the film's ``turns``:
-    :func:`aerofid.frame.layout.layout_candidates`)."""
+    ``first_complete``, ``nearly``, the pixel sizes ``size_range`` to try when ``size`` is None and the film's
+    ``turns``: :func:`aerofid.frame.layout.layout_candidates`)."""
     return layout_candidates(np.array([[c.x, c.y] for c in features]).reshape(-1, 2), fid_mm, y_axis, size,
                              position_error_px=POSITION_ERROR * f, scan_size=(source.width, source.height),
-                             first_complete=first_complete, nearly=nearly, size_range=sizes, turns=turns)
+                             first_complete=first_complete, nearly=nearly, size_range=size_range, turns=turns)
 
 
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
-              size: float | None, layouts: list[LayoutMatch], sizes: tuple[float, float] | None = None,
-              turns: tuple[float, float] = (0.0, MAX_ROTATION_DEG)) -> Iterator[LayoutMatch]:
+              size: float | None, layouts: list[LayoutMatch], size_range: tuple[float, float] | None = None,
+              turns: tuple[float, float] = USUAL_TURNS) -> Iterator[LayoutMatch]:
     """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known, and where
     its search ended at all fiducials but one on close features (:func:`_ended_nearly`: a chance layout can end it
     before the complete one is formed), the whole search's best where it lies on other features; else the first
@@ -391,7 +392,7 @@ def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_
     yield from layouts[:ALTERNATIVES]
     if len(layouts) == 1 and first.decisive and can_end_early(fid_mm, size):
         same = (first.matched, first.rotation_deg, first.mirrored)
-        others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None, nearly=False, sizes=sizes,
+        others = [m for m in _layouts(source, features, f, fid_mm, y_axis, None, nearly=False, size_range=size_range,
                                       turns=turns)
                   if (m.matched, m.rotation_deg, m.mirrored) != same]
         yield from others[:ALTERNATIVES - 1]
@@ -842,18 +843,17 @@ at most this share of each one's distance from the prediction: the prediction, n
 
 def _in_a_tighter_box(measurer: Measurer, refused: Located, at: tuple[float, float]) -> Located:
     """A mark that ``auto`` verified but refused for a second mark-like feature in its window
-    (:attr:`~aerofid.detect.auto.AutoResult.ambiguous_at`), measured again, as the refusal asks of a person, in
-    tighter boxes centred on it (the candidate's windows, :meth:`aerofid.find.Measurer.candidate`, from the one refused
-    down to the mark's extent, until one finds it), where the prediction ``at`` (the measurer's pixels) picks it: it
-    lies at most :data:`RIVAL_SHARE` of the distance of every rival feature
-    (:attr:`~aerofid.detect.auto.AutoResult.rivals`) from ``at``. Else, and when nothing was refused so, ``refused``
-    itself. Before :data:`MIN_REFIT` marks are
-    found the layout's tolerance can exceed the distance between a mark and a like feature beside it: a review's
-    frame with a copy of each mark 108-125 px beside it had a copy taken within the tolerance for a second fiducial
-    (its mark nearer the prediction), and the frame was doubtful instead of ok. The real RC20 frame in two of its 8
-    lies (turned three quarters, or flipped top to bottom): the strongest feature, a corner mark merged with its number
-    dots at the screening's scale, 46 px from the mark and 200-270 px from the dots, made a first window that held
-    both, and the fiducial's search at full resolution then took 0.25 s to fail (``tests/test_frame.py``)."""
+    (:attr:`~aerofid.detect.auto.AutoResult.ambiguous_at`), measured again, as the refusal asks of a person, in tighter
+    boxes centred on it (the candidate's windows, :meth:`aerofid.find.Measurer.candidate`, from the one refused down to
+    the mark's extent, until one finds it), where the prediction ``at`` (the measurer's pixels) picks it: it lies at
+    most :data:`RIVAL_SHARE` of the distance of every rival feature (:attr:`~aerofid.detect.auto.AutoResult.rivals`)
+    from ``at``. Else, and when nothing was refused so, ``refused`` itself. Before :data:`MIN_REFIT` marks are found the
+    layout's tolerance can exceed the distance between a mark and a like feature beside it: a review's frame with a copy
+    of each mark 108-125 px beside it had a copy taken within the tolerance for a second fiducial (its mark nearer the
+    prediction), and the frame was doubtful instead of ok. The real RC20 frame in two of its 8 lies (turned three
+    quarters, or flipped top to bottom): the strongest feature, a corner mark merged with its number dots at the
+    screening's scale, 46 px from the mark and 200-270 px from the dots, made a first window that held both, and the
+    fiducial's search at full resolution then took 0.25 s to fail (``tests/test_frame.py``)."""
     d = refused.detection
     if not isinstance(d, AutoResult) or d.ambiguous_at is None or not math.isfinite(d.mark_extent):
         return refused

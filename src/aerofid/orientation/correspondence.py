@@ -121,14 +121,13 @@ def match_fiducials(px: np.ndarray, mm: np.ndarray, model: str = "affine", *, y_
                     max_rotation_deg: float = FILM_TURN_DEG) -> Correspondence:
     """Assign unnamed measured points (m x 2 px) to calibrated fiducials (n x 2 mm), m <= n.
 
-    For each of the 8 arrangements (4 rotations x 2 sides) every pair of measured points is matched to
-    every pair of calibrated fiducials; the similarity they define (rotation within ``max_rotation_deg`` of the
-    arrangement, :data:`FILM_TURN_DEG`; at most 45, so each hypothesis belongs to one arrangement) maps all
-    fiducials onto the scan and the
-    measured points are assigned to them (Hungarian method). The best assignment of each arrangement is
-    then fitted with ``model`` (similarity when the model has no redundancy) and the arrangements are ranked
-    by ``v^T v``. The best is ``unique`` only if the runner-up is worse by the F test
-    ``v2^T v2 / v1^T v1 > F(r, r; 1 - alpha)``; otherwise the answer is ``ambiguous``.
+    For each of the 8 arrangements (4 rotations x 2 sides) every pair of measured points is matched to every pair of
+    calibrated fiducials; the similarity they define (rotation within ``max_rotation_deg`` of the arrangement,
+    :data:`FILM_TURN_DEG`; at most 45, so each hypothesis belongs to one arrangement) maps all fiducials onto the scan
+    and the measured points are assigned to them (Hungarian method). The best assignment of each arrangement is then
+    fitted with ``model`` (similarity when the model has no redundancy) and the arrangements are ranked by ``v^T v``.
+    The best is ``unique`` only if the runner-up is worse by the F test ``v2^T v2 / v1^T v1 > F(r, r; 1 - alpha)``;
+    otherwise the answer is ``ambiguous``.
     """
     px = np.asarray(px, dtype=float).reshape(-1, 2)
     mm = np.asarray(mm, dtype=float).reshape(-1, 2)

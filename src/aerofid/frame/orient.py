@@ -269,15 +269,20 @@ class _Frame:
         better one fails, the frame is screened again at half the reduction (a noisy frame's thin marks can vanish
         in it); where fewer than :data:`ASKEW_MARKS` of its fiducials are found, its layout is sought again with the
         film turned further (beyond :data:`~aerofid.frame.layout.MAX_ROTATION_DEG`, up to
-        :data:`~aerofid.orientation.correspondence.FILM_TURN_DEG`: the layouts measured so far are not met again)."""
-        features, f = frame_features(self.source)
-        best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras))
-        if (best is None or best.status == FAILED) and f > 1:
-            features, f = frame_features(self.source, f // 2)
-            best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras))
-        if best is None or len(best.found) < ASKEW_MARKS * len(self.cam.fiducials):
+        :data:`~aerofid.orientation.correspondence.FILM_TURN_DEG`: the layouts measured so far are not met again),
+        among the features of each screen, the last first (a noisy frame's marks can be among the first screen's
+        features and not the second's, where its noise is stronger)."""
+        screens = [frame_features(self.source)]
+        best = _better(best, self.oriented(*screens[0], WHOLE_FRAME, extras))
+        if (best is None or best.status == FAILED) and screens[0][1] > 1:
+            screens.append(frame_features(self.source, screens[0][1] // 2))
+            best = _better(best, self.oriented(*screens[1], WHOLE_FRAME, extras))
+        for features, f in reversed(screens):
+            if best is not None and len(best.found) >= ASKEW_MARKS * len(self.cam.fiducials):
+                break
             best = _better(best, self.oriented(features, f, WHOLE_FRAME, extras, (MAX_ROTATION_DEG, FILM_TURN_DEG)))
         _check_decoded(self.source)
+        features, f = screens[-1]
         return best, self.head(len(features), f, WHOLE_FRAME)
 
     def in_roll_areas(self) -> FrameOrientation | None:

@@ -660,13 +660,15 @@ def test_a_frame_failed_on_its_screened_features_is_screened_again_finer(monkeyp
 
 @pytest.mark.parametrize("areas_hold_marks", [True, False])
 def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch, areas_hold_marks):
-    """No fiducial is found at its feature (refused by the test). Where the areas hold the marks, every area is
-    searched and the frame is ok (one midside's area search misses its mark here, as before); where they hold none
-    either (a layout matched on features that are not the frame's marks), one area is searched before 3 marks are
-    found, as no fiducial's predicted place held a mark (on each screen of the frame, which fails, and on each once
-    more with the film sought turned further), and the other fiducials say why theirs were not."""
+    """No fiducial is found at its feature (refused by the test), and VAIN_STARTS is more than the fiducials (as
+    though the rule were not there; the next test has it). Where the areas hold the marks, every area is searched and
+    the frame is ok (one midside's area search misses its mark here, as before); where they hold none either (a layout
+    matched on features that are not the frame's marks), one area is searched before 3 marks are found, as no
+    fiducial's predicted place held a mark (on each screen of the frame, which fails, and on each once more with the
+    film sought turned further), and the other fiducials say why theirs were not."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
+    monkeypatch.setattr(orient_module, "VAIN_STARTS", len(CAMERA.names) + 1)
     monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
     monkeypatch.setattr(orient_module, "_by_method", lambda *a, **k: None)
     monkeypatch.setattr(orient_module, "_at_start", lambda *a: refused)
@@ -689,6 +691,38 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
     unsearched = [f for f in res.fiducials if "its area was not searched" in f.reason]
     assert len(unsearched) == len(CAMERA.names) - 1
     assert all("refused (test)" in f.reason for f in unsearched)
+
+
+def test_a_layout_is_left_once_vain_starts_held_no_mark(monkeypatch):
+    """No fiducial is found at its feature, nor anywhere (refused by the test): in each layout measured, VAIN_STARTS
+    fiducials are sought at their predicted places, then none and no area (the same frame searched every area it
+    could before, one per layout, and each sought fiducial's place); each fiducial says why it is not found."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    refused = (None, "refused (test)")
+    monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
+    monkeypatch.setattr(orient_module, "_by_method", lambda *a, **k: None)
+    sought: list[list[tuple[float, float]]] = []
+    areas: list[tuple[float, float]] = []
+    measure_marks = orient_module.measure_marks
+
+    def measured(*a, **k):
+        sought.append([])
+        return measure_marks(*a, **k)
+
+    def at_start(measurer, start, at, tolerance, other):
+        sought[-1].append(at)
+        return refused
+
+    monkeypatch.setattr(orient_module, "measure_marks", measured)
+    monkeypatch.setattr(orient_module, "_at_start", at_start)
+    monkeypatch.setattr(orient_module, "_in_area", lambda measurer, start, at, *a: areas.append(at) or refused)
+    res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
+    assert res.status == "failed" and not res.found and not areas
+    assert sought and all(len(s) == orient_module.VAIN_STARTS for s in sought)
+    assert all("its area was not searched" in f.reason for f in res.fiducials), [f.reason for f in res.fiducials]
+    assert sum("refused (test)" in f.reason for f in res.fiducials) == orient_module.VAIN_STARTS
+    assert sum("not sought at the predicted" in f.reason for f in res.fiducials) == \
+        len(CAMERA.names) - orient_module.VAIN_STARTS
 
 
 @pytest.mark.parametrize("starts_vain", [False, True])

@@ -8,8 +8,8 @@ degraded one of 4 ways (clean, noisy, faded, JPEG blocks), its film turned by up
 scanner (a film laid askew on a flatbed; bench_frames.py's turn at most 0.5), given to :func:`aerofid.orient_frame` as
 an array (no resolution tags) with its pixel size, or without it, half the time each. Per frame: the status, the marks
 found, their largest error against the truth and whether the lie is the true one; a frame is *wrong* when it is ok
-with a mark more than 0.5 px off or another lie. Prints a Markdown table per degradation and the frames that are not
-ok.
+with a mark more than 0.5 px off or another lie. Prints a Markdown table per degradation (with the median time of a
+frame's ``orient_frame``, its workers sharing the machine) and the frames that are not ok.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import argparse
 import math
 import multiprocessing
 import os
+import time
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -42,7 +43,9 @@ def one_frame(seed: int) -> dict:
     cam = wild_rc10_camera()
     spec, given = random_frame(cam, seed)
     image, truth = render_frame(spec), frame_truth(spec)
+    start = time.perf_counter()
     res = aerofid.orient_frame(image, cam, pixel_size_mm=spec.pixel_size_mm if given else None)
+    seconds = time.perf_counter() - start
     errors = [math.hypot(f.x - truth.marks[f.name][0], f.y - truth.marks[f.name][1])
               for f in res.fiducials if f.status == "found" and f.x is not None and f.y is not None]
     lie_right = (res.rotation_deg, res.mirrored) == truth.lie
@@ -50,12 +53,12 @@ def one_frame(seed: int) -> dict:
             "status": res.status, "found": len(errors), "worst": max(errors) if errors else None, "errors": errors,
             "lie_right": lie_right,
             "wrong": res.status == "ok" and (not lie_right or (bool(errors) and max(errors) > WRONG_PX)),
-            "reason": res.reasons[0] if res.reasons else ""}
+            "reason": res.reasons[0] if res.reasons else "", "seconds": seconds}
 
 
 def table(rows: list[dict]) -> list[str]:
     out = ["| degradation | frames | ok | doubtful | failed | ok with a wrong mark or lie | marks of ok frames: RMS "
-           "error (px) |", "|---|---|---|---|---|---|---|"]
+           "error (px) | median s per frame: ok, not ok |", "|---|---|---|---|---|---|---|---|"]
     for name in [*DEGRADATIONS, "all"]:
         rs = [r for r in rows if name in ("all", r["degradation"])]
         if not rs:
@@ -63,8 +66,11 @@ def table(rows: list[dict]) -> list[str]:
         ok = [e for r in rs if r["status"] == "ok" for e in r["errors"]]
         rms = f"{math.sqrt(float(np.mean(np.square(ok)))):.3f}" if ok else "-"
         count = {s: sum(r["status"] == s for r in rs) for s in ("ok", "doubtful", "failed")}
+        seconds = ["-" if not t else f"{float(np.median(t)):.1f}"
+                   for t in ([r["seconds"] for r in rs if r["status"] == "ok"],
+                             [r["seconds"] for r in rs if r["status"] != "ok"])]
         out.append(f"| {name} | {len(rs)} | {count['ok']} | {count['doubtful']} | {count['failed']} | "
-                   f"{sum(r['wrong'] for r in rs)} | {rms} |")
+                   f"{sum(r['wrong'] for r in rs)} | {rms} | {seconds[0]}, {seconds[1]} |")
     return out
 
 
@@ -84,7 +90,8 @@ def main() -> None:
     for r in rows:
         if r["status"] != "ok" or r["wrong"]:
             print(f"- {r['seed']}: {r['degradation']}, {r['turn']:+.1f} deg, {'given' if r['given'] else 'unknown'}, "
-                  f"{r['status']}{' (WRONG)' if r['wrong'] else ''}, {r['found']} found; {r['reason'][:110]}")
+                  f"{r['status']}{' (WRONG)' if r['wrong'] else ''}, {r['found']} found, {r['seconds']:.1f} s; "
+                  f"{r['reason'][:110]}")
 
 
 if __name__ == "__main__":

@@ -102,11 +102,12 @@ of the 140 areas searched before 3 marks were found held one, and the 15 frames 
 of it in those areas."""
 VAIN_STARTS = 4
 """Fiducials that held no mark at their predicted places, while none is found, after which a layout's other
-fiducials are not sought and no area is searched (:func:`measure_marks`; not on a roll's layout, whose film may have
-moved): its features are not the frame's marks. Of 92 layouts that found 3 marks or more (session 47: the 25
-benchmark frames, the RC20 frame and its 8 lies, 60 random frames turned up to 10 degrees), 90 found their first mark
-at the first fiducial sought and 2 (marks painted over) at the second; on the chance layouts of noisy frames that fail,
-every fiducial was sought at its place and one area searched, 2-6 s a layout (a failed frame took 147 s)."""
+fiducials are not sought there: the first one's area is searched next (:func:`measure_marks`; not on a roll's layout,
+whose film may have moved). Of 92 layouts that found 3 marks or more (session 47: the 25 benchmark frames, the RC20
+frame and its 8 lies, 60 random frames turned up to 10 degrees), 90 found their first mark at the first fiducial
+sought and 2 (marks painted over) at the second; the chance layouts of noisy frames that fail sought every fiducial
+at its place, 0.3 s each. Not fewer areas: the '+' marks of the demo frame (``orient_frame``'s example) are found in
+their areas only, not at their features."""
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
@@ -546,8 +547,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     prediction and tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until
     :data:`AREA_PROBES` of them held no mark; the others are then left unsearched (a layout matched on features that are
     not the frame's marks: its areas cost tens of seconds of failed searches); and while no mark is found, fiducials are
-    sought until :data:`VAIN_STARTS` held none at their predicted places, the others then not at all
-    (:func:`_not_sought`). The adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the
+    sought at their predicted places until :data:`VAIN_STARTS` held none, the others then only in their areas. The
+    adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the
     method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film may have moved: no
     features), the predictions before :data:`MIN_REFIT` marks are moved
     by the found marks' mean shift from theirs, and each is sought first where its learnt template correlates best
@@ -569,8 +570,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
         done = [j for j in range(n) if out[j][0] is not None]
         at, start, tolerance, alone_tolerance, name = _sought(k, out, done, layout, fiducials_mm, features, profile,
                                                               follow, radii)
-        if why_not := _not_sought(measurer, at, done, later.get(k), len(later), follow):
-            out[k] = (None, why_not)
+        if outside := _outside(measurer, at):
+            out[k] = (None, outside)
             continue
         if k in later and later[k][0] == len(done):  # no mark found since: the same measurements would fail again
             out[k] = _probed_area(measurer, later[k][1], at, tolerance, later[k][2], len(done), vain, k, follow)
@@ -588,10 +589,10 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                 order.append(k)
                 continue
             start = _fallback_start(start, k, done, layout, kinds, features)
-        if quick is None:
+        if quick is None and not (unsought := _vain_starts(k, done, later, follow)):
             quick = _coarse_first(measurer, start, at, tolerance)
         if quick is None:
-            quick, why = _at_start(measurer, start, at, tolerance, other)
+            quick, why = (None, unsought) if unsought else _at_start(measurer, start, at, tolerance, other)
             if quick is None and len(done) < MIN_REFIT and k not in later and k != order[-1]:
                 later[k] = (len(done), start, why)  # sought in its area after the others (:data:`MIN_REFIT`)
                 order.append(k)
@@ -1007,20 +1008,13 @@ def _probed_area(measurer: Measurer, start: Candidate, at: tuple[float, float], 
     return got
 
 
-def _not_sought(measurer: Measurer, at: tuple[float, float], done: list[int],
-                put_off: tuple[int, Candidate, str] | None, vain_starts: int, follow: bool) -> str:
-    """Why :func:`measure_marks` does not seek a fiducial predicted at ``at`` once the marks ``done`` are found: it lies
-    outside the scan; or none is found and ``vain_starts`` fiducials (at least :data:`VAIN_STARTS`) held none at their
-    predicted places (``put_off``: where this one was sought and why it held none, None if it was not), but on a roll's
-    layout (``follow``); "" when it is sought."""
-    if outside := _outside(measurer, at):
-        return outside
-    if done or follow or vain_starts < VAIN_STARTS:
+def _vain_starts(k: int, done: list[int], later: dict[int, tuple[int, Candidate, str]], follow: bool) -> str:
+    """Why :func:`measure_marks` does not seek fiducial ``k`` at its predicted place: none is found (``done``) and
+    :data:`VAIN_STARTS` fiducials held none at theirs (``later``: those put off), but on a roll's layout (``follow``);
+    "" when it seeks it there."""
+    if done or follow or k in later or len(later) < VAIN_STARTS:
         return ""
-    there = (f"no mark at the predicted ({at[0]:.0f}, {at[1]:.0f}) ({put_off[2]})" if put_off is not None
-             else f"not sought at the predicted ({at[0]:.0f}, {at[1]:.0f})")
-    return (f"{there}; its area was not searched: {vain_starts} fiducials held no mark at their predicted places and "
-            "none was found (the features the layout matched are probably not the frame's marks)")
+    return f"not sought there: {len(later)} fiducials held no mark at their predicted places"
 
 
 def _outside(measurer: Measurer, at: tuple[float, float]) -> str:

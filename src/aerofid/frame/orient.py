@@ -218,9 +218,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         # a nominal layout's scale is not the scan's: the layout search finds it, near a pixel size the scan declares
         size, size_source = (None, "estimated") if nominal is not None else declared
         size_range = nominal_sizes(declared[0]) if nominal is not None and declared[0] is not None else None
-        measurer = Measurer(source, detector, polarities, colour)
-        frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None,
-                       size_range)
+        frame = _Frame(source, cam, Measurer(source, detector, polarities, colour), model, size, size_source, lie,
+                       profile, nominal is not None, size_range)
         extras = {} if nominal is not None else extra_marks(cam)
         best = frame.in_roll_areas()
         if best is None or not _settled(best):
@@ -228,7 +227,7 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
             if best is None:
                 return _no_layout(screened, len(cam.fiducials), *declared)
         if extras and best.orientation is not None:
-            best = replace(best, extra_marks=measure_extra_marks(measurer, best, extras))
+            best = replace(best, extra_marks=measure_extra_marks(frame.measurer, best, extras))
     if nominal is not None:
         return _uncalibrated(best, str(fmt), *declared)
     if best.status != OK and size_source == "estimated":
@@ -546,13 +545,12 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     frames, and its area, searched in both polarities within the layout's tolerance, took seconds that the refined
     prediction and tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until
     :data:`AREA_PROBES` of them held no mark; the others are then left unsearched (a layout matched on features that are
-    not the frame's marks: its areas cost tens of seconds of failed searches); and while no mark is found, fiducials are
-    sought at their predicted places until :data:`VAIN_STARTS` held none, the others then only in their areas. The
-    adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the
-    method and the marks' size from the first mark on. With ``follow`` (a roll's layout, whose film may have moved: no
-    features), the predictions before :data:`MIN_REFIT` marks are moved
-    by the found marks' mean shift from theirs, and each is sought first where its learnt template correlates best
-    within the layout's tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per
+    not the frame's marks: its areas cost tens of seconds of failed searches); while none is found, fiducials are sought
+    at their places until :data:`VAIN_STARTS` held none, the others only in their areas. The adjustment's blunder tests
+    check them all. A roll ``profile`` gives the polarity, the method and the marks' size from the first mark on. With
+    ``follow`` (a roll's layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks
+    are moved by the found marks' mean shift from theirs, and each is sought first where its learnt template correlates
+    best within the layout's tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per
     fiducial: a roll's learnt sizes) size each mark's window."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
@@ -1014,7 +1012,7 @@ def _vain_starts(k: int, done: list[int], later: dict[int, tuple[int, Candidate,
     "" when it seeks it there."""
     if done or follow or k in later or len(later) < VAIN_STARTS:
         return ""
-    return f"not sought there: {len(later)} fiducials held no mark at their predicted places"
+    return f"not sought there: {VAIN_STARTS} fiducials held no mark at their predicted places"
 
 
 def _outside(measurer: Measurer, at: tuple[float, float]) -> str:

@@ -195,6 +195,22 @@ def test_a_second_panel_s_fit_ends_well_within_its_evaluations(monkeypatch):
     assert d.found and twin_passes() and all(cap == hd.LIKE_EVALUATIONS for cap, _, _ in twin_passes())
 
 
+@pytest.mark.parametrize("cx", [10.3, 15.3])
+def test_a_mark_cut_by_the_box_edge_is_refused_with_its_centre_and_extent(cx):
+    """A 40 px '+' whose centre lies 10-15 px from the box's left edge is refused as cut by the edge, and the refusal
+    says where the mark lies and how large it is (:attr:`AutoResult.cut_at`, :attr:`AutoResult.mark_extent`, from
+    :attr:`Check.cut`). The same mark in a box that holds it is found at its centre, and has none."""
+    img = synth.mark_scene("cross", size=40.0, window=60, centre=(cx, 30.6), rng=np.random.default_rng(0)).image
+    d = detect(np.ascontiguousarray(img, dtype=np.float32))
+    assert not d.found and "cut by the box edge" in d.reason and d.check is not None and d.check.cut
+    assert d.cut_at is not None and np.hypot(d.cut_at[0] - cx, d.cut_at[1] - 30.6) < 0.05
+    assert 20.0 < d.mark_extent < 24.0
+    whole = synth.mark_scene("cross", size=40.0, window=64, centre=(31.5 + cx % 1, 30.6), rng=np.random.default_rng(0))
+    again = detect(np.ascontiguousarray(whole.image, dtype=np.float32))
+    assert again.found and again.cut_at is None and again.check is not None and not again.check.cut
+    assert np.hypot(again.x - 31.5 - cx % 1, again.y - 30.6) < 0.05
+
+
 def test_a_mark_beside_mark_like_dots_is_refused_with_its_centre():
     """A ring, X and dot with a second mark-like dot in the box is refused as ambiguous, and the refusal says where
     the mark it verified lies (:attr:`AutoResult.ambiguous_at`): on a box centred there without the dot it is found

@@ -693,6 +693,35 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
     assert all("refused (test)" in f.reason for f in unsearched)
 
 
+def test_a_mark_cut_by_its_features_window_is_measured_on_a_window_sized_by_its_extent(monkeypatch):
+    """A thin 40 px '+' screened as a feature of radius 3 px beside its crossing (as synth.demo_frame's marks are):
+    ``auto`` on the feature's window refuses the mark as cut by the window's edge; the fiducial is then measured on
+    a window centred where the refusal puts it and sized by its extent (:func:`orient._in_a_larger_box`), to its true
+    centre, without its area's search (refused by the test). Not so where that centre lies beyond the tolerance, nor
+    for a mark the scan's edge cuts."""
+    rng = np.random.default_rng(5)
+    img = synth.film_border((300, 300), rng, level=0.05)
+    truth = (151.3, 148.6)
+    edge = (12.4, 230.3)                                  # a mark the scan's edge cuts: not measured again
+    for c in (truth, edge):
+        img = synth.paint(img, synth.coverage((300, 300), c, synth.cross_shape(40.0, 2.0, 0.3), 8, extent=22), 0.9)
+    img = synth.add_grain(synth.blur(img, 0.7), 0.012, rng).astype(np.float32)
+    monkeypatch.setattr(orient_module, "_in_area", lambda *a: (None, "refused (test)"))
+    start = Candidate(truth[0] + 5.0, truth[1] - 5.0, 3.0, 0.0)
+    with open_image(img) as source:
+        measurer = Measurer(source, make_detector("auto", "external", {}), ("bright",))
+        refused = measurer.candidate(start)
+        assert not refused.found and "cut by the box edge" in refused.detection.reason
+        got, why = orient_module.measure_fiducial(measurer, start, truth, 20.0)
+        assert got is not None and why == "", why
+        assert math.hypot(got.x - truth[0], got.y - truth[1]) < 0.05
+        far = orient_module.measure_fiducial(measurer, start, (truth[0] + 30.0, truth[1]), 20.0)
+        cut = measurer.candidate(Candidate(edge[0] + 5.0, edge[1] - 5.0, 3.0, 0.0))
+        assert cut.detection.cut_at is not None
+        assert orient_module._in_a_larger_box(measurer, cut, edge, 20.0) is cut
+    assert far == (None, "refused (test)")
+
+
 def test_a_layouts_fiducials_are_sought_in_their_areas_once_vain_starts_held_no_mark(monkeypatch):
     """No fiducial is found at its feature, nor anywhere (refused by the test): in each layout measured, VAIN_STARTS
     fiducials are sought at their predicted places, then the first one's area (the same frame sought every fiducial

@@ -229,12 +229,14 @@ class AutoParams(MethodParams):
 
 @dataclass(frozen=True)
 class Check:
-    """Outcome of :func:`verify_centre`: passed or not, why not, the disc's asymmetry and the mark's extent."""
+    """Outcome of :func:`verify_centre`: passed or not, why not, the disc's asymmetry and the mark's extent, and
+    whether it failed because the mark reaches the box edge (``cut``: its asymmetry is then not measured)."""
 
     ok: bool
     reason: str
     asymmetry: float
     extent: float
+    cut: bool = False
 
 
 @dataclass(frozen=True)
@@ -273,6 +275,11 @@ class AutoResult(Detection):
         feature beside it (step 3, uniqueness): where the tighter box that the refusal asks for would lie (the search
         of a whole frame, whose geometry judges which feature is the fiducial, draws it: :mod:`aerofid.frame.orient`).
         None when no mark was refused so.
+    cut_at : (x, y) or None
+        The centre (in the window ``auto`` saw) of the mark its verification refused as cut by the window's edge
+        (:attr:`Check.cut`): where the larger box that the refusal asks for would be centred, of radius
+        :attr:`mark_extent` (:mod:`aerofid.frame.orient` draws it where the frame's geometry expects a mark). None
+        when no mark was refused so.
     """
 
     answers: Mapping[str, Detection] = field(default_factory=dict, compare=False, repr=False)
@@ -290,6 +297,7 @@ class AutoResult(Detection):
     mark_like: tuple[Blob, ...] = field(default=(), compare=False, repr=False)
     second_marks: tuple[Detection, ...] = field(default=(), compare=False, repr=False)
     ambiguous_at: tuple[float, float] | None = field(default=None, compare=False, repr=False)
+    cut_at: tuple[float, float] | None = field(default=None, compare=False, repr=False)
 
     @property
     def extent(self) -> float | None:
@@ -353,6 +361,7 @@ class _Trace:
     mark_like: list[Blob] = field(default_factory=list)
     second_marks: list[Detection] = field(default_factory=list)
     ambiguous_at: tuple[float, float] | None = None
+    cut_at: tuple[float, float] | None = None
 
     def fields(self) -> dict[str, Any]:
         return {"answers": dict(self.answers), "windows": dict(self.windows),
@@ -360,7 +369,8 @@ class _Trace:
                 "mark_extent": self.mark_extent, "noise": self.noise, "plain_ground": self.plain_ground,
                 "ground_level": self.ground_level, "core_snr": self.core_snr,
                 "structure_left": self.structure_left, "mark_like": tuple(self.mark_like),
-                "second_marks": tuple(self.second_marks), "ambiguous_at": self.ambiguous_at}
+                "second_marks": tuple(self.second_marks), "ambiguous_at": self.ambiguous_at,
+                "cut_at": self.cut_at}
 
     def not_found(self, reason: str) -> AutoResult:
         return AutoResult.not_found(METHOD, reason, **self.fields())
@@ -618,6 +628,7 @@ def conclude(ctx: _Context, trace: _Trace, group: list[Detection], extent: float
     chk = verify_centre(ctx.img, best.x, best.y, extent, ctx.noise, ctx.params)
     trace.check, trace.rule, trace.mark_extent = chk, rule, extent
     if not chk.ok:
+        trace.cut_at = (float(best.x), float(best.y)) if chk.cut else None
         return trace.not_found(chk.reason)
     why = uniqueness(ctx, trace, group, best, extent, dot)
     if why is not None:
@@ -664,7 +675,7 @@ def verify_centre(img: np.ndarray, x: float, y: float, extent: float, noise: flo
     room = min(x, y, w - 1 - x, h - 1 - y)
     if room < r:
         return Check(False, f"the mark (radius {extent:.1f} px) at ({x:.1f}, {y:.1f}) is cut by the box edge "
-                            f"(only {room:.1f} px of room): enlarge or move the box", float("nan"), extent)
+                            f"(only {room:.1f} px of room): enlarge or move the box", float("nan"), extent, cut=True)
     asym = point_asymmetry(img, x, y, r, noise)
     if not asym <= params.max_disc_asymmetry:
         return Check(False, f"the mark at ({x:.1f}, {y:.1f}) is not centrally symmetric ({asym:.2f} of its "

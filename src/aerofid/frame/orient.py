@@ -962,14 +962,33 @@ def _at_start(measurer: Measurer, start: Candidate, at: tuple[float, float], tol
               other_polarity: Polarity | None) -> tuple[Located | None, str]:
     """:func:`measure_fiducial`'s measurements from ``start`` (in the measurer's polarities, then in
     ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there."""
-    got = measurer.candidate(start)
+    got = _in_a_larger_box(measurer, measurer.candidate(start), at, tolerance)
     if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
         return got, ""
     if other_polarity is not None:
-        again = replace(measurer, polarities=(other_polarity,)).candidate(start)
+        other = replace(measurer, polarities=(other_polarity,))
+        again = _in_a_larger_box(other, other.candidate(start), at, tolerance)
         if again.found and math.hypot(again.x - at[0], again.y - at[1]) <= tolerance:
             return again, ""
     return None, got.detection.reason or "no mark"
+
+
+def _in_a_larger_box(measurer: Measurer, refused: Located, at: tuple[float, float], tolerance: float) -> Located:
+    """A mark that ``auto`` found but refused as cut by its window's edge
+    (:attr:`~aerofid.detect.auto.AutoResult.cut_at`), measured again, as the refusal asks of a person, on windows
+    centred on it and sized by its extent (:meth:`aerofid.find.Measurer.candidate`), where it lies within
+    ``tolerance`` px of the prediction ``at`` and the scan holds its extent about it (not a mark cut by the scan's
+    edge); else ``refused`` itself. The screening gives a thin '+' the radius of its crossing (3 px on the 40 px '+'
+    marks of ``synth.demo_frame``, the doctest of :func:`orient_frame`): its first window holds the crossing, and
+    the mark (radius 21 px) was refused there and found only by its area's search."""
+    d = refused.detection
+    if not isinstance(d, AutoResult) or d.cut_at is None or not math.isfinite(d.mark_extent):
+        return refused
+    x, y = d.origin[0] + d.cut_at[0], d.origin[1] + d.cut_at[1]
+    room = min(x, y, measurer.source.width - 1 - x, measurer.source.height - 1 - y)   # a mark cut by the scan's edge
+    if math.hypot(x - at[0], y - at[1]) > tolerance or room < d.mark_extent:
+        return refused
+    return measurer.candidate(Candidate(x, y, d.mark_extent, 0.0))
 
 
 def _in_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,

@@ -722,10 +722,10 @@ def test_a_mark_cut_by_its_features_window_is_measured_on_a_window_sized_by_its_
     assert far == (None, "refused (test)")
 
 
-def test_a_layouts_fiducials_are_sought_in_their_areas_once_vain_starts_held_no_mark(monkeypatch):
+def test_a_layout_is_left_once_vain_starts_held_no_mark(monkeypatch):
     """No fiducial is found at its feature, nor anywhere (refused by the test): in each layout measured, VAIN_STARTS
-    fiducials are sought at their predicted places, then the first one's area (the same frame sought every fiducial
-    at its place before), and the other areas not; each fiducial says why it is not found."""
+    fiducials are sought at their predicted places, and no area (the same frame sought every fiducial at its place
+    before session 47, then the first one's area before session 48); each fiducial says why it is not found."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
     monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
@@ -753,18 +753,21 @@ def test_a_layouts_fiducials_are_sought_in_their_areas_once_vain_starts_held_no_
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     assert res.status == "failed" and not res.found
     assert sought and all(len(s) == orient_module.VAIN_STARTS for s in sought)
-    assert all(a == s[:1] for a, s in zip(areas, sought))
+    assert not any(areas)
     reasons = [f.reason for f in res.fiducials]
-    assert sum("its area was not searched" in r for r in reasons) == len(CAMERA.names) - 1, reasons
-    assert sum("not sought there" in r for r in reasons) == len(CAMERA.names) - orient_module.VAIN_STARTS, reasons
+    vain = f"{orient_module.VAIN_STARTS} fiducials held no mark at their predicted places and none was found"
+    assert all(vain in r for r in reasons), reasons
+    assert sum("refused (test)); its area was not searched" in r for r in reasons) == orient_module.VAIN_STARTS, reasons
+    assert sum("not sought at the predicted" in r and "nor in its area" in r for r in reasons) == (
+        len(CAMERA.names) - orient_module.VAIN_STARTS), reasons
 
 
 @pytest.mark.parametrize("starts_vain", [False, True])
 def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
     """Before 3 marks are found, fiducials' areas are searched until :data:`~aerofid.frame.orient.AREA_PROBES` of
     them held no mark (a roll's layout, whose film may have moved), or one while no mark is found (no fiducial's
-    predicted place held one); then no more, and the fiducial says why; an area that holds a mark does not count, and
-    from 3 marks found on every area is searched."""
+    predicted place held one), none once VAIN_STARTS fiducials held none there; then no more, and the fiducial says
+    why; an area that holds a mark does not count, and from 3 marks found on every area is searched."""
     searched: list[int] = []
 
     def in_area(measurer, start, at, tolerance, why):
@@ -776,12 +779,18 @@ def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
     vain: list[int] = []
     probe = orient_module._probed_area
     start = Candidate(0.0, 0.0, 5.0, 0.0)
-    got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, vain, k, follow=not starts_vain) for k in range(5)]
+    few = orient_module.VAIN_STARTS - 1            # fiducials put off (a camera of 3)
+    got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, vain, k, not starts_vain, few) for k in range(5)]
     assert searched == ([0] if starts_vain else [0, 1, 2])
     assert vain == ([0] if starts_vain else [0, 2])
     assert all("its area was not searched" in why for _, why in got[len(searched):])
+    searched.clear()
+    many, fresh = orient_module.VAIN_STARTS, []
+    got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, fresh, k, not starts_vain, many) for k in range(5)]
+    assert searched == ([] if starts_vain else [0, 1, 2])
+    assert all("its area was not searched" in why for _, why in got[len(searched):])
     refit = orient_module.MIN_REFIT                 # from 3 marks found on, every area is searched
-    assert probe(None, start, (9.0, 0.0), 10.0, "why", refit, vain, 9, not starts_vain)[1] == "no mark (test)"
+    assert probe(None, start, (9.0, 0.0), 10.0, "why", refit, vain, 9, not starts_vain, many)[1] == "no mark (test)"
 
 
 @pytest.mark.parametrize("lie", [(0, False), (90, True), (270, True), (180, False)])

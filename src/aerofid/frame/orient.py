@@ -102,12 +102,13 @@ of the 140 areas searched before 3 marks were found held one, and the 15 frames 
 of it in those areas."""
 VAIN_STARTS = 4
 """Fiducials that held no mark at their predicted places, while none is found, after which a layout's other
-fiducials are not sought there: the first one's area is searched next (:func:`measure_marks`; not on a roll's layout,
-whose film may have moved). Of 92 layouts that found 3 marks or more (session 47: the 25 benchmark frames, the RC20
-frame and its 8 lies, 60 random frames turned up to 10 degrees), 90 found their first mark at the first fiducial
-sought and 2 (marks painted over) at the second; the chance layouts of noisy frames that fail sought every fiducial
-at its place, 0.3 s each. Not fewer areas: the '+' marks of the demo frame (``orient_frame``'s example) are found in
-their areas only, not at their features."""
+fiducials are not sought there and no area is searched (:func:`measure_marks`; not on a roll's layout, whose film may
+have moved): its features are not the frame's marks. Of 92 layouts that found 3 marks or more (session 47: the 25
+benchmark frames, the RC20 frame and its 8 lies, 60 random frames turned up to 10 degrees), 90 found their first mark
+at the first fiducial sought and 2 (marks painted over) at the second; the chance layouts of noisy frames that fail
+sought every fiducial at its place, 0.3 s each, and one area, 2.2 s. The '+' marks of the demo frame
+(``orient_frame``'s example), once found in their areas only, are found at their features since their refusal as cut
+by a feature's window is measured again (:func:`_in_a_larger_box`, session 48)."""
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
@@ -546,7 +547,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     prediction and tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until
     :data:`AREA_PROBES` of them held no mark; the others are then left unsearched (a layout matched on features that are
     not the frame's marks: its areas cost tens of seconds of failed searches); while none is found, fiducials are sought
-    at their places until :data:`VAIN_STARTS` held none, the others only in their areas. The adjustment's blunder tests
+    at their places until :data:`VAIN_STARTS` held none, the others not, and no area. The adjustment's blunder tests
     check them all. A roll ``profile`` gives the polarity, the method and the marks' size from the first mark on. With
     ``follow`` (a roll's layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks
     are moved by the found marks' mean shift from theirs, and each is sought first where its learnt template correlates
@@ -572,7 +573,8 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
             out[k] = (None, outside)
             continue
         if k in later and later[k][0] == len(done):  # no mark found since: the same measurements would fail again
-            out[k] = _probed_area(measurer, later[k][1], at, tolerance, later[k][2], len(done), vain, k, follow)
+            out[k] = _probed_area(measurer, later[k][1], at, tolerance, later[k][2], len(done), vain, k, follow,
+                                  len(later))
             continue
         reach = tolerance if follow and len(done) < MIN_REFIT else 0.0          # a roll's film may have moved
         quick, why = None, ""
@@ -596,7 +598,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
                 order.append(k)
                 continue
         out[k] = (quick, "") if quick is not None else _probed_area(measurer, start, at, tolerance, why, len(done),
-                                                                     vain, k, follow)
+                                                                     vain, k, follow, len(later))
         if out[k][0] is not None and len(measurer.polarities) > 1:
             polarity = out[k][0].polarity  # type: ignore[union-attr]
             measurer = replace(measurer, polarities=(polarity,))
@@ -1006,15 +1008,24 @@ def _in_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tole
 
 
 def _probed_area(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float, why: str,
-                 found: int, vain: list[int], k: int, follow: bool) -> tuple[Located | None, str]:
+                 found: int, vain: list[int], k: int, follow: bool, put_off: int) -> tuple[Located | None, str]:
     """:func:`_in_area` for fiducial ``k`` of :func:`measure_marks` once ``found`` marks are found: before
     :data:`MIN_REFIT`, only until :data:`AREA_PROBES` fiducials' areas have held no mark (``vain``: ``k`` is appended
-    when its area holds none), or one while no mark is found (with no mark found, a fiducial reaches its area only
-    once every other was sought at its predicted place, and none held one: a scan with no fiducials in it, or a
-    camera file that is not the scan's, spent 1.2-1.7 s of each layout it tried in two areas; not so for a roll's
-    layout, ``follow``, whose film may have moved); then not searched, and why."""
+    when its area holds none); while no mark is found, one, and none once :data:`VAIN_STARTS` fiducials held no mark at
+    their predicted places (``put_off``: the fiducials put off so far); not so on a roll's layout (``follow``), whose
+    film may have moved. Then not searched, and why. With no mark found, a fiducial reaches its area only once the
+    others were sought at their places (or :data:`VAIN_STARTS` of them) and none held one: a scan with no fiducials in
+    it, or a camera file that is not the scan's, spent 1.2-1.7 s of each layout it tried in two areas; a noisy frame
+    that fails (seed 5009 of ``benchmarks/bench_sweep.py``) 2.2 s of each of its 24 chance layouts in one (118 s in
+    all, 62 s without them)."""
     if found >= MIN_REFIT:
         return _in_area(measurer, start, at, tolerance, why)
+    if not found and not follow and put_off >= VAIN_STARTS:
+        place = f"the predicted ({at[0]:.0f}, {at[1]:.0f})"
+        there = (f"{UNSOUGHT} at {place} nor in its area" if why.startswith(UNSOUGHT)
+                 else f"no mark at {place} ({why}); its area was not searched")
+        return None, (f"{there}: {VAIN_STARTS} fiducials held no mark at their predicted places and none was found "
+                      "(the features the layout matched are probably not the frame's marks)")
     if len(vain) >= (1 if found == 0 and not follow else AREA_PROBES):
         return None, (f"no mark at the predicted ({at[0]:.0f}, {at[1]:.0f}) ({why}); its area was not searched: "
                       f"the areas of {len(vain)} fiducials held none and {found} marks were found, too few to "
@@ -1031,7 +1042,11 @@ def _vain_starts(k: int, done: list[int], later: dict[int, tuple[int, Candidate,
     "" when it seeks it there."""
     if done or follow or k in later or len(later) < VAIN_STARTS:
         return ""
-    return f"not sought there: {VAIN_STARTS} fiducials held no mark at their predicted places"
+    return f"{UNSOUGHT}: {VAIN_STARTS} fiducials held no mark at their predicted places"
+
+
+UNSOUGHT = "not sought"
+"""How the reason of a fiducial that :func:`measure_marks` did not seek at its predicted place begins."""
 
 
 def _outside(measurer: Measurer, at: tuple[float, float]) -> str:

@@ -311,8 +311,10 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
     monkeypatch.setattr(orient_module, "_layouts", layouts)
     monkeypatch.setattr(orient_module, "measure_marks", lambda *args: [])
     monkeypatch.setattr(orient_module, "_second_look", lambda measurer, layout, located, res, judged: res)
-    judged = {id(first): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="first"),
-              id(whole): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="whole")}
+    judged = {id(first): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="first",
+                                               fiducials=(), reasons=("doubt",)),
+              id(whole): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="whole",
+                                               fiducials=(), reasons=("doubt",))}
     source = types.SimpleNamespace(width=11000, height=11000)
     search = orient_module._Search(source, tuple(Candidate(x, y, 6.0, 1.0) for x, y in features), 16, "up", 0.0227,
                                    None, None, False)
@@ -829,6 +831,28 @@ def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():
     given = aerofid.orient_frame(image, nominal, pixel_size_mm=COARSE_MM, lie=(0, False))
     assert given.status == "ok", given.reasons
     assert (given.rotation_deg, given.mirrored) == (0, False)
+
+
+def test_a_symmetric_layout_found_whole_without_its_pixel_size_ends_the_search_of_layouts(monkeypatch):
+    """A camera file of nominal (symmetric) coordinates and no pixel size: the first layout measured finds every mark,
+    and the frame is doubtful for its lie alone; no other layout is measured (they can tell the lie no better: all 6
+    were, 7-15 s, before session 48)."""
+    nominal = Camera.from_dict({"name": "nominal", "fiducials": {
+        f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}})
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    measured = []
+    measure_marks = orient_module.measure_marks
+
+    def counted(*a, **k):
+        measured.append(1)
+        return measure_marks(*a, **k)
+
+    monkeypatch.setattr(orient_module, "measure_marks", counted)
+    res = aerofid.orient_frame(render_frame(spec), nominal)
+    assert res.status == "doubtful" and res.reasons[0].startswith("the film's lie cannot be told"), res.reasons
+    assert len(res.found) == len(CAMERA.names) and len(measured) == 1
+    truth = frame_truth(spec).marks.values()
+    assert all(min(math.hypot(f.x - x, f.y - y) for x, y in truth) < 0.1 for f in res.found)
 
 
 def test_a_camera_whose_layout_is_not_on_the_scan_fails_with_the_reason():

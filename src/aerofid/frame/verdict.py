@@ -70,6 +70,8 @@ def verdict(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | 
                             mirrored=lie_fit.mirrored)
 
 
+LIE_UNTOLD = "the film's lie cannot be told from the fiducials"
+"""How the reason of a frame whose marks fit several lies equally (a symmetric layout) begins."""
 NOMINAL_LIE = (0, False)
 """The lie assumed when the fiducials cannot tell (a symmetric layout): the film as the camera file draws it."""
 
@@ -96,7 +98,7 @@ def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int,
     if chosen is None or lie is None:
         chosen = chosen or corr.best
         lies = ", ".join(f"rotation {f.rotation_deg} deg{_m(f.mirrored)}" for f in corr.tied)
-        reasons.append(f"the film's lie cannot be told from the fiducials ({lies} fit equally well): assumed "
+        reasons.append(f"{LIE_UNTOLD} ({lies} fit equally well): assumed "
                        f"rotation {chosen.rotation_deg} deg{_m(chosen.mirrored)}; give the lie (--lie) if it is "
                        "not")
     return _oriented_as(cam, px, model, image, chosen), chosen
@@ -213,4 +215,4 @@ def _by_layout(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located
     return tuple(out)
 
 
-__all__ = ["MAX_RMS_PX", "adjusted_pixel_mm", "verdict"]
+__all__ = ["LIE_UNTOLD", "MAX_RMS_PX", "adjusted_pixel_mm", "verdict"]

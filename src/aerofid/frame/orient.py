@@ -146,12 +146,14 @@ ASKEW_MARKS = 0.5
 (:data:`aerofid.frame.layout.MAX_ROTATION_DEG`) is searched again with the film turned up to
 :data:`aerofid.orientation.correspondence.FILM_TURN_DEG` (:meth:`_Frame.on_whole_frame`): a film laid askew on a
 flatbed. The wider search costs more and finds more chance layouts, so only such frames pay for it."""
-ALTERNATIVES = 6
+ALTERNATIVES = 8
 """Layouts measured, best first, when the pixel size is not known (:func:`aerofid.frame.layout.layout_candidates`):
 the first whose frame is ok is taken. A noisy or faded frame with 4-6 of its 8 marks among the features can rank
 chance layouts of as many or more matches at other pixel sizes first: in sweeps of 70 synthetic frames (session 46,
 turned up to 10 degrees, half without a pixel size) the true layout was fourth twice and sixth once, and those frames
-failed with 3 (tests/test_frame.py; a frame that is ok stops at its layout, so only the others pay for the rest)."""
+failed with 3 (tests/test_frame.py; a frame that is ok stops at its layout, so only the others pay for the rest); 6
+until session 48, when a chance layout came to cost 4 places and no area (:data:`VAIN_STARTS`): seed 1021 of
+``benchmarks/bench_sweep.py`` (noisy), whose true layout ranks seventh, failed with 6."""
 
 
 def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,

@@ -277,7 +277,7 @@ class AutoResult(Detection):
         None when no mark was refused so.
     cut_at : (x, y) or None
         The centre (in the window ``auto`` saw) of the mark its verification refused as cut by the window's edge
-        (:attr:`Check.cut`): where the larger box that the refusal asks for would be centred, of radius
+        (:attr:`Check.cut`): where the larger box that the refusal asks for would be centred, for a mark of radius
         :attr:`mark_extent` (:mod:`aerofid.frame.orient` draws it where the frame's geometry expects a mark). None
         when no mark was refused so.
     """

@@ -106,9 +106,11 @@ fiducials are not sought there and no area is searched (:func:`measure_marks`; n
 have moved): its features are not the frame's marks. Of 92 layouts that found 3 marks or more (session 47: the 25
 benchmark frames, the RC20 frame and its 8 lies, 60 random frames turned up to 10 degrees), 90 found their first mark
 at the first fiducial sought and 2 (marks painted over) at the second; the chance layouts of noisy frames that fail
-sought every fiducial at its place, 0.3 s each, and one area, 2.2 s. The '+' marks of the demo frame
+sought every fiducial at its place, 0.3 s each, and (session 47) one area, 2.2 s. The '+' marks of the demo frame
 (``orient_frame``'s example), once found in their areas only, are found at their features since their refusal as cut
 by a feature's window is measured again (:func:`_in_a_larger_box`, session 48)."""
+UNSOUGHT = "not sought"
+"""How the reason of a fiducial that :func:`measure_marks` did not seek at its predicted place begins."""
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
@@ -336,8 +338,9 @@ class _Search:
                                                          FrameOrientation]) -> FrameOrientation | None:
         """The best frame (:func:`_standing`; of equals the first, but for a layout that its search ended on with all
         fiducials but one on features, :func:`_ended_nearly`, which gives way to the whole search's) of the layouts of
-        ``fid_mm`` measured in turn (:func:`_attempts`) until one is ok (a nominal layout's: once half its marks are
-        found), each judged by ``judged``; None when the features do not hold the layout."""
+        ``fid_mm`` measured in turn (:func:`_attempts`) until one is ok, or finds every fiducial with the film's lie its
+        one doubt (:func:`_complete_but_the_lie`), or (a nominal layout's) half its marks, each judged by ``judged``;
+        None when the features do not hold the layout."""
         layouts = _layouts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, first_complete=True,
                            size_range=self.size_range, turns=self.turns)
         if not layouts:
@@ -401,12 +404,12 @@ def _layouts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_m
 def _attempts(source: ImageSource, features: tuple[Candidate, ...], f: int, fid_mm: np.ndarray, y_axis: str,
               size: float | None, layouts: list[LayoutMatch], size_range: tuple[float, float] | None = None,
               turns: tuple[float, float] = USUAL_TURNS) -> Iterator[LayoutMatch]:
-    """The layouts measured in turn until one's frame is ok: the best one when the pixel size is known, and where
-    its search ended at all fiducials but one on close features (:func:`_ended_nearly`: a chance layout can end it
-    before the complete one is formed), the whole search's best where it lies on other features; else the first
-    :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
-    (:func:`aerofid.frame.layout.can_end_early`) at a decisive layout, the others of the whole search. The whole
-    search is made only if it is asked for."""
+    """The layouts measured in turn until one's frame is ok (:meth:`_Search.best`): the best one when the pixel size is
+    known, and where its search ended at all fiducials but one on close features (:func:`_ended_nearly`: a chance layout
+    can end it before the complete one is formed), the whole search's best where it lies on other features; else the
+    first :data:`ALTERNATIVES` of ``layouts``, and when that search may have ended early
+    (:func:`aerofid.frame.layout.can_end_early`) at a decisive layout, the others of the whole search. The whole search
+    is made only if it is asked for."""
     first = layouts[0]
     if size is not None:
         yield first
@@ -560,7 +563,7 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     prediction and tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until
     :data:`AREA_PROBES` of them held no mark; the others are then left unsearched (a layout matched on features that are
     not the frame's marks: its areas cost tens of seconds of failed searches); while none is found, fiducials are sought
-    at their places until :data:`VAIN_STARTS` held none, the others not, and no area. The adjustment's blunder tests
+    at their places until :data:`VAIN_STARTS` held none, the others not, nor areas. The adjustment's blunder tests
     check them all. A roll ``profile`` gives the polarity, the method and the marks' size from the first mark on. With
     ``follow`` (a roll's layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks
     are moved by the found marks' mean shift from theirs, and each is sought first where its learnt template correlates
@@ -1056,10 +1059,6 @@ def _vain_starts(k: int, done: list[int], later: dict[int, tuple[int, Candidate,
     if done or follow or k in later or len(later) < VAIN_STARTS:
         return ""
     return f"{UNSOUGHT}: {VAIN_STARTS} fiducials held no mark at their predicted places"
-
-
-UNSOUGHT = "not sought"
-"""How the reason of a fiducial that :func:`measure_marks` did not seek at its predicted place begins."""
 
 
 def _outside(measurer: Measurer, at: tuple[float, float]) -> str:

@@ -547,28 +547,26 @@ def measure_marks(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndar
     resolution, :func:`measure_fiducial`) and fixes the polarity tried first for the rest. Each later mark is measured
     first by the method that found most of the marks so far, alone (:func:`_by_method`; on its first window only while
     no mark of its kind is found), on a window sized by their extent, from its coarse answer (:func:`_coarse`) until
-    :data:`MIN_REFIT` marks are found, then from the refined prediction (within 3 px of the mark on the synthetic frames
-    of ``benchmarks/bench_frames.py``, from where the method settles at the cost of its stage 1: :func:`_alone`); if
-    that fails, like the first: within the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the
-    prediction of a transformation fitted to them (:meth:`LayoutMatch.predict_from`; to a few px,
-    :data:`REFINED_TOLERANCE_MM`), on a window sized by its own screening feature where it has one, or by the features
-    of the marks of its kind found where those are smaller, never below the marks' extent (:func:`_fallback_start`; one
-    of a kind none of whose marks is found yet, with a feature, waits once until the others of its kind have been
-    sought). A mark not found there either is sought in its area (:func:`measure_fiducial`), but before
-    :data:`MIN_REFIT` marks are found only after the fiducials that follow it have been measured (then sought again
-    first where the others put it, by ``auto`` as the first marks are, in their polarity first: not by the frame's
-    method alone, which lacks ``auto``'s checks and took a square of clutter left where a mark was erased; unless none
-    of them was found): a feature that is no mark (an erased or hidden corner's clutter) is the strongest one on some
-    frames, and its area, searched in both polarities within the layout's tolerance, took seconds that the refined
-    prediction and tolerance save. Before :data:`MIN_REFIT` marks are found, areas are searched until
-    :data:`AREA_PROBES` of them held no mark; the others are then left unsearched (a layout matched on features that are
-    not the frame's marks: its areas cost tens of seconds of failed searches); while none is found, fiducials are sought
-    at their places until :data:`VAIN_STARTS` held none, the others not, nor areas. The adjustment's blunder tests
-    check them all. A roll ``profile`` gives the polarity, the method and the marks' size from the first mark on. With
-    ``follow`` (a roll's layout, whose film may have moved: no features), the predictions before :data:`MIN_REFIT` marks
-    are moved by the found marks' mean shift from theirs, and each is sought first where its learnt template correlates
-    best within the layout's tolerance (``templates``, per fiducial: :mod:`aerofid.frame.templates`); ``radii`` (px, per
-    fiducial: a roll's learnt sizes) size each mark's window."""
+    :data:`MIN_REFIT` marks are found, then from the refined prediction (within 3 px of the mark on the benchmark's
+    synthetic frames, where the method's first window settles: :func:`_alone`); if that fails, like the first: within
+    the layout's tolerance until :data:`MIN_REFIT` marks are found, then at the prediction of a transformation fitted to
+    them (:meth:`LayoutMatch.predict_from`; to a few px, :data:`REFINED_TOLERANCE_MM`), on a window sized by its own
+    screening feature where it has one, or by the features of the marks of its kind found where those are smaller, never
+    below the marks' extent (:func:`_fallback_start`; one of a kind none of whose marks is found yet, with a feature,
+    waits once until the others of its kind have been sought). A mark not found there either is sought in its area
+    (:func:`measure_fiducial`), but before :data:`MIN_REFIT` marks are found only after the fiducials that follow it
+    have been measured (then sought again first where the others put it, by ``auto`` as the first marks are, in their
+    polarity first: not by the frame's method alone, which lacks ``auto``'s checks and took a square of clutter left
+    where a mark was erased; unless none of them was found): a feature that is no mark (an erased or hidden corner's
+    clutter) is the strongest one on some frames, and its area, searched in both polarities within the layout's
+    tolerance, took seconds that the refined prediction and tolerance save. Before :data:`MIN_REFIT` marks are found,
+    areas are searched until :data:`AREA_PROBES` of them held no mark, the others not; while none is found, fiducials
+    are sought at their places until :data:`VAIN_STARTS` held none, the others not, nor areas (:func:`_given_up`). The
+    adjustment's blunder tests check them all. A roll ``profile`` gives the polarity, the method and the marks' size
+    from the first mark on. With ``follow`` (a roll's layout, whose film may have moved: no features), the predictions
+    before :data:`MIN_REFIT` marks are moved by the found marks' mean shift from theirs, and each is sought first where
+    its learnt template correlates best within the layout's tolerance (``templates``, per fiducial:
+    :mod:`aerofid.frame.templates`); ``radii`` (px, per fiducial: a roll's learnt sizes) size each mark's window."""
     n = len(fiducials_mm)
     strength = [0.0 if m is None else features[m].strength for m in layout.matched]
     order = sorted(range(n), key=lambda k: (layout.matched[k] is None, -strength[k]))
@@ -980,15 +978,15 @@ def _at_start(measurer: Measurer, start: Candidate, at: tuple[float, float], tol
               other_polarity: Polarity | None) -> tuple[Located | None, str]:
     """:func:`measure_fiducial`'s measurements from ``start`` (in the measurer's polarities, then in
     ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there."""
-    got = _in_a_larger_box(measurer, measurer.candidate(start), at, tolerance)
-    if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
-        return got, ""
-    if other_polarity is not None:
-        other = replace(measurer, polarities=(other_polarity,))
-        again = _in_a_larger_box(other, other.candidate(start), at, tolerance)
-        if again.found and math.hypot(again.x - at[0], again.y - at[1]) <= tolerance:
-            return again, ""
-    return None, got.detection.reason or "no mark"
+    others = () if other_polarity is None else (replace(measurer, polarities=(other_polarity,)),)
+    first: Located | None = None
+    for m in (measurer, *others):
+        got = _in_a_larger_box(m, m.candidate(start), at, tolerance)
+        first = first or got
+        if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
+            return got, ""
+    assert first is not None
+    return None, first.detection.reason or "no mark"
 
 
 def _in_a_larger_box(measurer: Measurer, refused: Located, at: tuple[float, float], tolerance: float) -> Located:
@@ -1036,7 +1034,7 @@ def _probed_area(measurer: Measurer, start: Candidate, at: tuple[float, float], 
     all, 54 s without them, session 48)."""
     if found >= MIN_REFIT:
         return _in_area(measurer, start, at, tolerance, why)
-    if not found and not follow and put_off >= VAIN_STARTS:
+    if _given_up(found, put_off, follow):
         place = f"the predicted ({at[0]:.0f}, {at[1]:.0f})"
         there = (f"{UNSOUGHT} at {place} nor in its area" if why.startswith(UNSOUGHT)
                  else f"no mark at {place} ({why}); its area was not searched")
@@ -1056,9 +1054,16 @@ def _vain_starts(k: int, done: list[int], later: dict[int, tuple[int, Candidate,
     """Why :func:`measure_marks` does not seek fiducial ``k`` at its predicted place: none is found (``done``) and
     :data:`VAIN_STARTS` fiducials held none at theirs (``later``: those put off), but on a roll's layout (``follow``);
     "" when it seeks it there."""
-    if done or follow or k in later or len(later) < VAIN_STARTS:
+    if k in later or not _given_up(len(done), len(later), follow):
         return ""
     return f"{UNSOUGHT}: {VAIN_STARTS} fiducials held no mark at their predicted places"
+
+
+def _given_up(found: int, put_off: int, follow: bool) -> bool:
+    """Whether :func:`measure_marks` gives a layout up, seeking no more fiducials at their places nor in their areas:
+    none is ``found`` and :data:`VAIN_STARTS` fiducials held none at their places (``put_off``), but on a roll's
+    layout (``follow``)."""
+    return not found and not follow and put_off >= VAIN_STARTS
 
 
 def _outside(measurer: Measurer, at: tuple[float, float]) -> str:

@@ -81,6 +81,19 @@ def test_invalid_camera_files_are_clear_errors(tmp_path, text, match):
         read_camera(write(tmp_path, "c.json", text))
 
 
+@pytest.mark.parametrize("suffix", ["json", "yaml"])
+@pytest.mark.parametrize(("digits", "match"), [(400, "finite number, not 100000000000000000000[.][.][.][(]401"),
+                                               (5000, "thousands of digits")])
+def test_integers_too_large_for_a_float_or_for_python_are_clear_errors(tmp_path, suffix, digits, match):
+    """An integer beyond a float's range (400 digits) and one beyond what Python converts (5000 digits, its limit
+    4300) were an OverflowError and a ValueError; the first is shown by its first digits."""
+    big = "1" + "0" * digits
+    text = (f'{{"name": "c", "fiducials": {{"P1": [{big}, 0], "P2": [10, 0], "P3": [0, 10]}}}}' if suffix == "json"
+            else f"name: c\nfiducials:\n  P1: [{big}, 0]\n  P2: [10, 0]\n  P3: [0, 10]\n")
+    with pytest.raises(AerofidInputError, match=match):
+        read_camera(write(tmp_path, f"c.{suffix}", text))
+
+
 def test_duplicate_names_in_yaml(tmp_path):
     with pytest.raises(AerofidInputError, match="duplicate"):
         read_camera(write(tmp_path, "c.yml", "name: c\nfiducials:\n  P1: [0, 0]\n  P1: [1, 1]\n  P2: [0, 9]\n"))

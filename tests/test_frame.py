@@ -310,7 +310,7 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
 
     monkeypatch.setattr(orient_module, "_layouts", layouts)
     monkeypatch.setattr(orient_module, "measure_marks", lambda *args: [])
-    monkeypatch.setattr(orient_module, "_second_look", lambda measurer, layout, located, res, judged: res)
+    monkeypatch.setattr(orient_module, "_second_look", lambda measurer, layout, fid_mm, located, res, judged: res)
     judged = {id(first): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="first",
                                                fiducials=(), reasons=("doubt",)),
               id(whole): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="whole",
@@ -844,6 +844,21 @@ def test_one_blunder_does_not_hide_the_lie_that_the_other_marks_tell(lie):
     assert verdict_module._lie_without_a_blunder(CAMERA, px[:5], "affine", "", few) is None
 
 
+def test_marks_sought_off_a_wrong_lies_refit_are_sought_again_where_the_orientation_puts_them():
+    """A camera file with fiducial 3 written 2 mm off: the layout's lie (270 deg) is not the film's (0), its refit
+    to the first marks puts fiducials 6 and 7 11 and 19 px from their marks, and they are not found there; the
+    adjustment tells the lie, and its orientation puts them within 0.05 px of their marks, 3.6 and 4.3 px from the
+    layout's own predictions. They are sought there again and found (they were not: the second look compared the
+    orientation's places with the layout's predictions alone)."""
+    spec = frame_spec(CAMERA, 0.1, np.random.default_rng(3))
+    fiducials = list(CAMERA.fiducials)
+    fiducials[2] = replace(fiducials[2], x_mm=fiducials[2].x_mm + 2.0)
+    res = aerofid.orient_frame(render_frame(spec), Camera("blunder", tuple(fiducials)), pixel_size_mm=0.1)
+    errors = _errors(res, frame_truth(spec).marks)
+    assert res.status == "ok" and (res.rotation_deg, res.mirrored) == (0, False)
+    assert sorted(errors) == ["1", "2", "4", "5", "6", "7", "8"] and max(errors.values()) < 0.05
+
+
 def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():
     nominal = Camera.from_dict({"name": "nominal", "fiducials": {
         f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}})
@@ -898,12 +913,32 @@ def test_a_scan_without_the_layout_fails_with_the_reason_whatever_the_camera_fil
             assert res.status == "failed" and "were not found among" in res.reasons[0], res.reasons
 
 
-def test_bad_options_are_one_line_errors():
+@pytest.mark.parametrize(("options", "match"), [
+    ({"pixel_size_mm": -1}, "pixel size"), ({"pixel_size_mm": 1e-9}, "pixel size"),
+    ({"pixel_size_mm": True}, "pixel size"), ({"lie": (45, False)}, "lie"), ({"lie": 0}, "lie"),
+    ({"lie": (90, True, 1)}, "lie"), ({"camera": 5}, "give a Camera"), ({"profile": 5}, "give a RollProfile"),
+    ({"profile": "no_such_roll.json"}, "does not exist")])
+def test_bad_options_are_one_line_errors(options, match):
+    """A lie that is no pair, a camera or profile of another type, a pixel size no scan has: each one line, not
+    Python's own TypeError or AttributeError from deep in the search."""
     image = np.zeros((64, 64), np.uint8)
-    with pytest.raises(aerofid.AerofidInputError, match="pixel size"):
-        aerofid.orient_frame(image, CAMERA, pixel_size_mm=-1)
-    with pytest.raises(aerofid.AerofidInputError, match="lie"):
-        aerofid.orient_frame(image, CAMERA, lie=(45, False))
+    options = {"camera": CAMERA, **options}
+    with pytest.raises(aerofid.AerofidInputError, match=match):
+        aerofid.orient_frame(image, options.pop("camera"), **options)
+
+
+def test_a_camera_mapping_a_profiles_path_and_a_numpy_pixel_size_are_taken(tmp_path):
+    """The camera as the mapping a camera file holds, the roll's profile by its path (as ``aerofid orient --profile``
+    takes it) and the pixel size as a numpy scalar orient the frame as their usual forms do."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    image = render_frame(spec)
+    usual = aerofid.orient_frame(image, CAMERA, pixel_size_mm=COARSE_MM)
+    given = aerofid.orient_frame(image, CAMERA.to_dict(), pixel_size_mm=np.float32(COARSE_MM))
+    assert usual.ok and given.ok and given.pixel_size_mm == pytest.approx(usual.pixel_size_mm, rel=1e-7)
+    assert np.allclose([(f.x, f.y) for f in given.fiducials], [(f.x, f.y) for f in usual.fiducials], atol=1e-3)
+    path = tmp_path / "roll.json"
+    path.write_text(json.dumps(learn_profile(usual).to_dict()))
+    assert aerofid.orient_frame(image, CAMERA, profile=str(path)).ok
 
 
 @pytest.mark.parametrize(("rotation", "mirrored"), [(0, False), (90, False), (180, True), (270, True)])

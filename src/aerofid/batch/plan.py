@@ -18,6 +18,7 @@ from typing import Any
 
 from aerofid.errors import AerofidInputError
 from aerofid.frame.profile import read_profile
+from aerofid.io.resolution import checked_pixel_size
 from aerofid.orientation.camera import Camera
 from aerofid.resample.frame import MICMAC_PREFIX
 from aerofid.resample.warp import DEFAULT_KERNEL, KERNELS
@@ -79,8 +80,7 @@ def batch_settings(camera: Camera, camera_path: str | os.PathLike[str], outdir: 
     """
     if model not in MODELS:
         raise AerofidInputError(f"model {model!r}: choose {', '.join(MODELS)}")
-    if pixel_size_mm is not None and not 0 < pixel_size_mm < 1:
-        raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
+    pixel_size_mm = None if pixel_size_mm is None else checked_pixel_size(pixel_size_mm)
     profile = read_profile(profile_path) if profile_path is not None else None
     if profile is not None:
         profile.check_camera(camera.name)

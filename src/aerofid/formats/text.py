@@ -35,6 +35,12 @@ def too_deep(source: str) -> AerofidInputError:
                              "reads: check that it is the right file")
 
 
+def too_long(source: str) -> AerofidInputError:
+    """The error of a number with more digits than Python converts (4300: an integer of thousands of digits)."""
+    return AerofidInputError(f"{source} holds a number of thousands of digits; it is not a file aerofid writes or "
+                             "reads: check that it is the right file")
+
+
 def _json_depth(text: str) -> int:
     """Deepest nesting of ``[``/``{`` outside strings (a cheap scan before the recursive parser runs)."""
     codes = np.frombuffer(_JSON_STRING.sub('""', text).encode("utf-8", "replace"), np.uint8)
@@ -76,6 +82,10 @@ def load_json(text: str, source: str) -> Any:
         return json.loads(text, object_pairs_hook=_unique_pairs(source))
     except json.JSONDecodeError as e:
         raise AerofidInputError(f"{source} is not valid JSON: {e}") from None
+    except AerofidInputError:                       # the file's own refusals (a ValueError too)
+        raise
+    except ValueError:                              # an integer of more digits than Python converts
+        raise too_long(source) from None
     except RecursionError:
         raise too_deep(source) from None
 

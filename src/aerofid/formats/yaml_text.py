@@ -10,7 +10,7 @@ import functools
 from typing import Any
 
 from aerofid.errors import AerofidInputError
-from aerofid.formats.text import MAX_DEPTH, too_deep
+from aerofid.formats.text import MAX_DEPTH, too_deep, too_long
 
 __all__ = ["dump_yaml", "load_yaml"]
 
@@ -67,6 +67,10 @@ def load_yaml(text: str, source: str) -> Any:
     except yaml.YAMLError as e:
         msg = " ".join(str(e).split())
         raise AerofidInputError(f"{source} is not valid YAML: {msg}") from None
+    except AerofidInputError:                       # the file's own refusals (a ValueError too)
+        raise
+    except ValueError:                              # an integer of more digits than Python converts
+        raise too_long(source) from None
     except RecursionError:
         raise too_deep(source) from None
     finally:

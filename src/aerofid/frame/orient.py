@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
@@ -55,7 +55,7 @@ from aerofid.frame.nominal import (
     nominal_camera,
     nominal_sizes,
 )
-from aerofid.frame.profile import METHODS, RollProfile, disagreements
+from aerofid.frame.profile import METHODS, RollProfile, disagreements, read_profile
 from aerofid.frame.result import (
     DOUBTFUL,
     FAILED,
@@ -73,7 +73,7 @@ from aerofid.frame.verdict import LIE_UNTOLD, adjusted_pixel_mm, verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import ReducedView, read_reduced_levels
-from aerofid.io.resolution import pixel_size_from_tags
+from aerofid.io.resolution import checked_pixel_size, pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import ARRANGEMENTS, FILM_TURN_DEG
 from aerofid.robust import median
@@ -159,18 +159,20 @@ until session 48, when a chance layout came to cost 4 places and no area (:data:
 
 
 def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
-                 camera: Camera | str | os.PathLike[str] | None = None, *,
+                 camera: Camera | str | os.PathLike[str] | Mapping[str, Any] | None = None, *,
                  pixel_size_mm: float | None = None, mark: str = "auto", method: str = "auto",
                  polarity: str = "auto", colour: str = "auto", model: str = "affine",
-                 lie: tuple[int, bool] | None = None, profile: RollProfile | None = None) -> FrameOrientation:
+                 lie: tuple[int, bool] | None = None,
+                 profile: RollProfile | str | os.PathLike[str] | None = None) -> FrameOrientation:
     """The fiducials of a whole scanned frame and its interior orientation, from the camera file alone.
 
     Parameters
     ----------
     image : path, ndarray or open raster
         The scan (any size: it is read reduced for the search and by windows for the marks).
-    camera : Camera, path or format, optional
-        The calibration certificate (:func:`aerofid.read_camera` reads JSON, YAML or MicMac XML); or the film
+    camera : Camera, path, mapping or format, optional
+        The calibration certificate (:func:`aerofid.read_camera` reads JSON, YAML or MicMac XML; a mapping as
+        :meth:`~aerofid.orientation.camera.Camera.from_dict` reads it); or the film
         format alone (``"23cm"``, the default: :data:`~aerofid.frame.nominal.DEFAULT_FORMAT`): the marks are then
         found on its nominal layout (:mod:`aerofid.frame.nominal`), the frame is doubtful and flagged
         uncalibrated, the pixel size, fiducial centre (the orientation's ``mm_to_pixel`` of (0, 0)) and rotation
@@ -186,8 +188,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
     lie : (rotation_deg, mirrored), optional
         The film's lie in the scanner when the fiducials cannot tell it (a symmetric layout); default: the
         profile's, else as the camera file draws the frame (0, False), and the frame is then doubtful.
-    profile : RollProfile, optional
-        What the roll's marks look like (:mod:`aerofid.frame.profile`, ``aerofid learn``): its pixel size (unless
+    profile : RollProfile or path, optional
+        What the roll's marks look like (:mod:`aerofid.frame.profile`, ``aerofid learn``; a path is read by
+        :func:`~aerofid.frame.profile.read_profile`): its pixel size (unless
         given), lie, polarity, method and mark size are used, and a frame that disagrees with it is doubtful.
 
     Returns
@@ -215,8 +218,10 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
     camera = DEFAULT_FORMAT if camera is None else camera
     fmt = format_name(camera) if isinstance(camera, str) else None
     nominal = None if fmt is None else nominal_camera(fmt)
-    cam = nominal or (camera if isinstance(camera, Camera) else read_camera(os.fspath(camera)))
-    lie = _checked_options(cam, pixel_size_mm, lie, profile)
+    cam = nominal or _camera(camera)
+    profile = read_profile(profile) if isinstance(profile, str | os.PathLike) else profile
+    pixel_size_mm = None if pixel_size_mm is None else checked_pixel_size(pixel_size_mm)
+    lie = _checked_options(cam, lie, profile)
     detector, polarities = configure(method, mark, polarity, colour, {})
     with open_image(image) as source:
         declared = scan_pixel_size(source, cam, pixel_size_mm, profile)
@@ -350,7 +355,7 @@ class _Search:
         for layout in _attempts(self.source, self.features, self.f, fid_mm, self.y_axis, self.size, layouts,
                                 self.size_range, self.turns):
             located = measure_marks(self.measurer, layout, fid_mm, self.features, self.profile)
-            res = _second_look(self.measurer, layout, located, judged(layout, located), judged)
+            res = _second_look(self.measurer, layout, fid_mm, located, judged(layout, located), judged)
             if best is None or _standing(res) > _standing(best) or (_standing(res) == _standing(best)
                                                                      and _ended_nearly(best_layout)):
                 best, best_layout = res, layout
@@ -445,13 +450,28 @@ def _judged(cam: Camera, layout: LayoutMatch, located: list[tuple[Located | None
     return res
 
 
-def _checked_options(cam: Camera, pixel_size_mm: float | None, lie: tuple[int, bool] | None,
-                     profile: RollProfile | None) -> tuple[int, bool] | None:
+def _camera(camera: Any) -> Camera:
+    """``orient_frame``'s ``camera`` (not a format's name) as a :class:`Camera`: itself, read from its file, or made
+    from its mapping (:meth:`Camera.from_dict`)."""
+    if isinstance(camera, Camera):
+        return camera
+    if isinstance(camera, str | os.PathLike):
+        return read_camera(os.fspath(camera))
+    if isinstance(camera, Mapping):
+        return Camera.from_dict(camera)
+    raise AerofidInputError(f"camera {type(camera).__name__}: give a Camera, the path of a camera file, its mapping "
+                            "(name, fiducials) or a film format such as '23cm'")
+
+
+def _checked_options(cam: Camera, lie: tuple[int, bool] | None, profile: RollProfile | None
+                     ) -> tuple[int, bool] | None:
     """The options checked (one line each): the lie to assume, the given one or the profile's."""
-    if lie is not None and (tuple(lie) not in ARRANGEMENTS):
+    if lie is not None and not (isinstance(lie, Sequence) and len(lie) == 2 and tuple(lie) in ARRANGEMENTS):
         raise AerofidInputError(f"lie {lie!r}: give (rotation, mirrored) with rotation 0, 90, 180 or 270 degrees")
-    if pixel_size_mm is not None and not (isinstance(pixel_size_mm, int | float) and 0 < pixel_size_mm < 1):
-        raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021")
+    if profile is not None and not isinstance(profile, RollProfile):
+        raise AerofidInputError(f"profile {type(profile).__name__}: give a RollProfile or the path of a roll's profile "
+                                "(aerofid learn)")
+    lie = None if lie is None else (int(lie[0]), bool(lie[1]))
     if profile is None:
         return lie
     profile.check_camera(cam.name)
@@ -703,30 +723,34 @@ def _sought_where_oriented(measurer: Measurer, res: FrameOrientation, at: tuple[
     return (got, "") if got is not None else measure_fiducial(measurer, start, at, tolerance, other)
 
 
-def _second_look(measurer: Measurer, layout: LayoutMatch, located: list[tuple[Located | None, str]],
-                 res: FrameOrientation,
+def _second_look(measurer: Measurer, layout: LayoutMatch, fiducials_mm: np.ndarray,
+                 located: list[tuple[Located | None, str]], res: FrameOrientation,
                  judged: Callable[[LayoutMatch, list[tuple[Located | None, str]]], FrameOrientation]
                  ) -> FrameOrientation:
-    """``res`` (the frame judged on ``layout``'s marks ``located``) or the frame judged again with the fiducials it
-    left unfound sought where its orientation puts them (:func:`_sought_where_oriented`, within the refined
-    tolerance), wherever that is further than the refined tolerance from where the layout put them: the layout's lie
-    is a hypothesis that the adjustment's F test may overturn, and its fit to coarse features may put a fiducial beyond
-    the tolerance of its mark, which is then not found, although the orientation of the others puts it plainly
-    elsewhere. A new mark goes to the layout's fiducial nearest it (of the camera's: ``res``'s fiducials come first in
-    a layout with the format's other marks), whose prediction becomes the orientation's; the adjustment names the
-    marks again and its blunder tests check the new one with the others. The new frame is kept only where it stands
-    as well (:func:`_standing`) and has more marks found and used (a mark the blunder tests reject is not one)."""
+    """``res`` (the frame judged on ``layout``'s marks ``located`` of ``fiducials_mm``) or the frame judged again with
+    the fiducials it left unfound sought where its orientation puts them (:func:`_sought_where_oriented`, within the
+    refined tolerance), wherever that is further than the refined tolerance from where :func:`measure_marks` may have
+    sought them (:func:`_sought_places`): the layout's lie is a hypothesis that the adjustment's F test may overturn,
+    and its fit to coarse features, or the marks of a wrong lie refitted, may put a fiducial beyond the tolerance of
+    its mark, which is then not found, although the orientation of the others puts it plainly elsewhere (a camera file
+    with one fiducial 2 mm off: two marks 11 and 19 px from where they were sought, within 0.05 px of where the
+    orientation put them). A new mark goes to the layout's fiducial nearest it (of the camera's: ``res``'s fiducials
+    come first in a layout with the format's other marks), whose prediction becomes the orientation's; the adjustment
+    names the marks again and its blunder tests check the new one with the others. The new frame is kept only where
+    it stands as well (:func:`_standing`) and has more marks found and used (a mark the blunder tests reject is not
+    one)."""
     if res.orientation is None:
         return res
     tolerance = max(REFINED_TOLERANCE_MM / adjusted_pixel_mm(res.orientation), MIN_TOLERANCE_PX)
     marks, predicted, added = list(located), layout.predicted.copy(), False
+    places = _sought_places(layout, fiducials_mm, located)
     n = len(res.fiducials)
     for f in res.fiducials:
         if f.status != MISSING_MARK:
             continue
         at = (f.predicted_x, f.predicted_y)
         k = int(np.argmin(np.hypot(*(layout.predicted[:n] - at).T)))
-        if marks[k][0] is not None or math.hypot(*(layout.predicted[k] - at)) <= tolerance:
+        if marks[k][0] is not None or all(math.hypot(*(p[k] - at)) <= tolerance for p in places):
             continue                                            # sought there already, or its place is taken
         got, _ = _sought_where_oriented(measurer, res, at, tolerance)
         if got is not None:
@@ -736,6 +760,17 @@ def _second_look(measurer: Measurer, layout: LayoutMatch, located: list[tuple[Lo
     second = judged(replace(layout, predicted=predicted), marks)
     used = sum(f.status == FOUND_MARK for f in second.fiducials) > sum(f.status == FOUND_MARK for f in res.fiducials)
     return second if used and _standing(second) >= _standing(res) else res
+
+
+def _sought_places(layout: LayoutMatch, fiducials_mm: np.ndarray,
+                   located: list[tuple[Located | None, str]]) -> list[np.ndarray]:
+    """Where :func:`measure_marks` sought ``layout``'s fiducials (n x 2 px each): at the layout's predictions, and from
+    :data:`MIN_REFIT` marks found on, at those of the layout's lie refitted to the marks found then (here: to all the
+    marks ``located``, which the later fiducials' refits approach)."""
+    done = [j for j, (m, _) in enumerate(located) if m is not None]
+    if len(done) < MIN_REFIT:
+        return [layout.predicted]
+    return [layout.predicted, layout.predict_from(fiducials_mm, done, np.array([_xy(located[j][0]) for j in done]))]
 
 
 def _xy(m: Located | None) -> tuple[float, float]:

@@ -3,6 +3,7 @@ PNG pHYs), read from the header alone."""
 
 from __future__ import annotations
 
+import numbers
 import os
 import struct
 from pathlib import Path
@@ -10,6 +11,7 @@ from typing import BinaryIO
 
 import tifffile
 
+from aerofid.errors import AerofidInputError
 from aerofid.io.jpeg import header_segments
 
 MM_PER_INCH = 25.4
@@ -22,6 +24,27 @@ SCREEN_ROUNDING = 1.3
 """How far (dpi) a tag may lie from a screen default and still be one: PNG stores whole dots per metre (96 dpi is
 3779 or 3780, 95.99 or 96.01 dpi; the USGS browse frame of ``tma_browse`` declares 3779), JFIF and TIFF may store
 whole dots per centimetre (96 dpi as 38, 96.52 dpi; 72 as 28, 71.12 dpi). No film scanner scans near 72 or 96 dpi."""
+
+
+def checked_pixel_size(pixel_size_mm: object) -> float:
+    """A pixel size given for a scan (mm per px) as a float, refused in one line unless it is a number of a resolution
+    some scan has (:data:`MIN_DPI` to :data:`MAX_DPI`: 0.00127 to 0.508 mm).
+
+    >>> import numpy as np
+    >>> checked_pixel_size(0.021), checked_pixel_size(np.float32(0.5))
+    (0.021, 0.5)
+    >>> checked_pixel_size(21)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    aerofid.errors.AerofidInputError: pixel size 21 mm: give the scan's pixel size in mm, e.g. 0.021 (...)
+    """
+    lo, hi = MM_PER_INCH / MAX_DPI, MM_PER_INCH / MIN_DPI
+    if isinstance(pixel_size_mm, numbers.Real) and not isinstance(pixel_size_mm, bool):
+        size = float(pixel_size_mm)
+        if lo <= size <= hi:
+            return size
+    raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021 "
+                            f"({lo:g} to {hi:g} mm: {MAX_DPI:g} to {MIN_DPI:g} dpi)")
 
 
 def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:

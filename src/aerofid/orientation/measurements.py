@@ -87,15 +87,25 @@ class Measurements:
 
 
 def finite_number(v: Any, what: str, where: str) -> float:
-    """``v`` as a finite float, else an input error naming ``what`` and ``where``."""
+    """``v`` as a finite float, else an input error naming ``what`` and ``where`` (and ``v``, its first digits if it is
+    long).
+
+    >>> finite_number(10**400, "x", "")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    aerofid.errors.AerofidInputError: x must be a finite number, not 100000000000000000000...(401 characters)
+    """
+    shown = repr(v) if len(repr(v)) <= 40 else f"{repr(v)[:21]}...({len(repr(v))} characters)"
     if isinstance(v, bool):
-        raise AerofidInputError(f"{what} must be a number, not {v!r}{where}")
+        raise AerofidInputError(f"{what} must be a number, not {shown}{where}")
     try:
         x = float(v)
     except (TypeError, ValueError):
-        raise AerofidInputError(f"{what} must be a number, not {v!r}{where}") from None
+        raise AerofidInputError(f"{what} must be a number, not {shown}{where}") from None
+    except OverflowError:                           # an integer beyond a float's range
+        x = math.inf
     if not math.isfinite(x):
-        raise AerofidInputError(f"{what} must be a finite number, not {v!r}{where}")
+        raise AerofidInputError(f"{what} must be a finite number, not {shown}{where}")
     return x
 
 

@@ -1020,6 +1020,29 @@ def rc20_scan():
     return rgb, aerofid.orient_frame(rgb, RC20 / "MeasuresCamera.xml", lie=(0, False), pixel_size_mm=RC20_PX_MM)
 
 
+@pytest.mark.parametrize(("turns", "flipped"), [(0, False), (1, False), (2, False), (0, True)])
+def test_a_roll_frame_scanned_in_another_lie_than_its_symmetric_layouts_profile_is_flagged(rc20_scan, turns, flipped):
+    """The RC20's 4 corners fit every lie alike, so a frame oriented with the roll's profile takes the roll's lie; the
+    frame scanned turned or flipped was then ok with every corner named wrongly (a helper's audit). Its corners' number
+    dots (1-4 beside each) tell it: it is doubtful for review, naming the lie its turn makes; the frame as it was
+    learnt stays ok."""
+    rgb, base = rc20_scan
+    h, w = rgb.shape[:2]
+    turned = np.ascontiguousarray(np.rot90(rgb[:, ::-1] if flipped else rgb, turns))
+    flip = np.diag([-1.0, 1.0]) if flipped else np.eye(2)
+    quarter = np.array([[0.0, 1.0], [-1.0, 0.0]])                          # np.rot90's turn of pixel axes
+    assert base.orientation is not None
+    lie = lie_of(base.orientation.pixel_to_mm[:, :2] @ np.linalg.inv(np.linalg.matrix_power(quarter, turns) @ flip))
+    res = aerofid.orient_frame(turned, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM,
+                               profile=learn_profile(base))
+    if lie == (0, False):
+        assert res.status == "ok", res.reasons
+    else:
+        told = f"rotated {lie[0]} deg{' mirrored' if lie[1] else ''} (template correlation"
+        flagged = [r for r in res.reasons if r.startswith("review: ") and told in r]
+        assert res.status == "doubtful" and flagged, res.reasons
+
+
 @pytest.mark.parametrize(("turns", "flipped"), [(k, f) for f in (False, True) for k in range(4)])
 def test_the_real_rc20_frame_turned_and_flipped_in_the_scanner_gives_the_same_marks(rc20_scan, turns, flipped):
     """The real frame as a scanner could have taken it in each of the 8 lies (its pixels flipped left-right, then

@@ -55,7 +55,7 @@ from aerofid.frame.nominal import (
     nominal_camera,
     nominal_sizes,
 )
-from aerofid.frame.profile import METHODS, RollProfile, disagreements, read_profile
+from aerofid.frame.profile import METHODS, Patches, RollProfile, disagreements, lie_by_templates, read_profile
 from aerofid.frame.result import (
     DOUBTFUL,
     FAILED,
@@ -238,6 +238,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
                 return _no_layout(screened, len(cam.fiducials), *declared)
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(frame.measurer, best, extras))
+        if profile is not None and profile.mark_templates:
+            best = _reviewed(best, lie_by_templates(profile, best, cam.xy_mm, cam.names, cam.y_axis,
+                                                    _patches(frame.measurer, best, profile)))
     if nominal is not None:
         return _uncalibrated(best, str(fmt), *declared)
     if best.status != OK and size_source == "estimated":
@@ -476,6 +479,34 @@ def _checked_options(cam: Camera, lie: tuple[int, bool] | None, profile: RollPro
         return lie
     profile.check_camera(cam.name)
     return lie if lie is not None else (profile.rotation_deg, profile.mirrored)
+
+
+def _patches(measurer: Measurer, res: FrameOrientation, profile: RollProfile) -> Patches:
+    """Each found mark's pixels about it (:data:`aerofid.frame.profile.Patches`) at each reduction of the profile's
+    templates, wide enough for its largest template turned and :func:`~aerofid.frame.templates.agreement`'s reach:
+    the window it was measured on where that holds them (its grey levels are those of the mark the template was cut
+    from on the learnt frame: a colour scan's channel mix is chosen per window), else one read about it."""
+    sides: dict[int, int] = {}
+    for _, t in profile.mark_templates:
+        sides[t.factor] = max(sides.get(t.factor, 0), *t.shape)
+    out = {}
+    for fid in res.fiducials:
+        if fid.status != FOUND_MARK or fid.located is None:
+            continue
+        m = fid.located
+        for f, side in sides.items():
+            half = f * (side / 2 + PATCH_MARGIN)
+            held = min(m.x - m.box[0], m.y - m.box[1], m.box[2] - 1 - m.x, m.box[3] - 1 - m.y) >= half
+            box, grey = (m.box, m.window) if held else measurer.grey(m.x, m.y, half, m.polarity)
+            h, w = grey.shape[0] // f, grey.shape[1] // f
+            reduced = grey[:h * f, :w * f].reshape(h, f, w, f).mean(axis=(1, 3))
+            out[(fid.name, f)] = (reduced, ((m.x - box[0] - (f - 1) / 2) / f, (m.y - box[1] - (f - 1) / 2) / f))
+    return out
+
+
+PATCH_MARGIN = 8
+"""Reduced pixels read beyond half a template's side about a mark (:func:`_patches`): the template's centre may lie
+a pixel or two off its middle, and :func:`~aerofid.frame.templates.agreement` reaches 4 px about the mark."""
 
 
 def _uncalibrated(res: FrameOrientation, fmt: str, size: float | None, size_source: str) -> FrameOrientation:

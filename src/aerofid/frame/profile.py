@@ -11,7 +11,8 @@ stores them from one frame oriented ok (:func:`learn_profile`); ``aerofid orient
   :mod:`aerofid.frame.roll_areas`; the first marks where their learnt templates correlate best,
   :mod:`aerofid.frame.templates`), the whole frame too unless that finds every fiducial and an ok frame, and
 - flags a frame that disagrees with it for review (:func:`disagreements`): another lie, another pixel size,
-  marks of another size or polarity, or marks the learnt method did not find.
+  marks of another size or polarity, or marks the learnt method did not find; and, where the marks' own looks tell
+  the film's lie (the RC20's number dots) and it is not the frame's, that (:func:`lie_by_templates`).
 """
 
 from __future__ import annotations
@@ -29,10 +30,10 @@ from aerofid.conventions import POLARITIES, Polarity, opposite
 from aerofid.errors import AerofidInputError
 from aerofid.formats.text import load_json
 from aerofid.frame.result import FOUND_MARK, FrameOrientation
-from aerofid.frame.templates import MarkTemplate, cut_template
+from aerofid.frame.templates import MarkTemplate, agreement, cut_template
 from aerofid.frame.verdict import adjusted_pixel_mm
 from aerofid.io.files import read_text_input
-from aerofid.orientation.correspondence import ARRANGEMENTS
+from aerofid.orientation.correspondence import ARRANGEMENTS, arrangement_matrix
 from aerofid.robust import median
 
 PROFILE_FORMAT = "aerofid-roll-profile"
@@ -297,4 +298,64 @@ def disagreements(profile: RollProfile, res: FrameOrientation) -> list[str]:
     return out
 
 
-__all__ = ["PROFILE_FORMAT", "RollProfile", "disagreements", "learn_profile", "read_profile"]
+NAMING_MM = 3.0
+"""How far (film mm) a mark may lie from a fiducial under another lie (:func:`lie_by_templates`) and be named by it: a
+layout symmetric to the certificate's few hundredths of a mm names every mark under each of its lies; another lie
+of an asymmetric layout names some of them by no fiducial, and is not weighed."""
+LIE_MARGIN = 0.03
+"""How much more alike (mean normalised cross-correlation, :func:`lie_by_templates`) the marks must be to the
+roll's templates under another lie than under the frame's for the frame to be flagged: the real RC20 corners, each
+with its 1-4 number dots, correlate 0.99-1.00 with their own templates and 0.91-0.98 with any other or turned one;
+marks alike in every lie (a ring, a '+') differ by less than a hundredth."""
+MIN_TEMPLATES = 3
+"""Fewest found marks with a template for :func:`lie_by_templates` to weigh the lies."""
+
+Patches = Mapping[tuple[str, int], tuple[np.ndarray, tuple[float, float]]]
+"""Each found mark's pixels by (fiducial name, reduction): the grey levels about it (the mark bright) reduced by that
+factor, and its centre (x, y) in them."""
+
+
+def lie_by_templates(profile: RollProfile, res: FrameOrientation, fiducials_mm: np.ndarray, names: Sequence[str],
+                     y_axis: str, patches: Patches) -> list[str]:
+    """Why a frame oriented with ``profile`` should be reviewed for its lie: its found marks look more like the roll's
+    templates (``profile.mark_templates``) named and turned as another lie of the film would name and turn them than
+    as its own lie does (none: they do not, or cannot tell). A layout symmetric under the lies (the RC20's 4
+    corners) cannot tell the film's lie, so the roll's is taken (issue 12's promise: a frame that lies otherwise is
+    flagged); a frame scanned turned or mirrored is then named wrongly, and only its marks' own looks (the RC20's
+    number dots) can tell. ``patches``: each found mark's pixels (:data:`Patches`) at every reduction the templates
+    use. Each lie names each mark by the fiducial nearest its film position under that lie (within
+    :data:`NAMING_MM`) and turns each template by the lie's arrangement relative to the roll's; its score is the
+    marks' mean correlation (:func:`~aerofid.frame.templates.agreement`)."""
+    own = dict(profile.mark_templates)
+    io = res.orientation
+    found = [f for f in res.fiducials if f.status == FOUND_MARK and f.located is not None]
+    if io is None or res.rotation_deg is None or len(found) < MIN_TEMPLATES or not own:
+        return []
+    frame_lie = (res.rotation_deg, bool(res.mirrored))
+    g_frame = arrangement_matrix(*frame_lie, y_axis)
+    g_roll = arrangement_matrix(profile.rotation_deg, profile.mirrored, y_axis)
+    at_mm = io.to_mm([(f.located.x, f.located.y) for f in found if f.located is not None])
+    scores: dict[tuple[int, bool], float] = {}
+    for lie in ARRANGEMENTS:
+        g = arrangement_matrix(*lie, y_axis)
+        film = at_mm @ (g @ g_frame.T).T                  # the marks' film mm had the film lain so
+        gap = np.hypot(*(film[:, None, :] - fiducials_mm[None, :, :]).transpose(2, 0, 1))
+        named = [names[j] if gap[i, j] <= NAMING_MM else None for i, j in enumerate(np.argmin(gap, axis=1))]
+        alike = [agreement(patches[(f.name, own[n].factor)][0], own[n], patches[(f.name, own[n].factor)][1],
+                           g.T @ g_roll)
+                 for f, n in zip(found, named, strict=True) if n in own and (f.name, own[n].factor) in patches]
+        alike = [a for a in alike if math.isfinite(a)]
+        if None not in named and len(alike) >= MIN_TEMPLATES:
+            scores[lie] = float(np.mean(alike))
+    if frame_lie not in scores:
+        return []
+    best = max(scores, key=lambda lie: scores[lie])
+    if scores[best] < scores[frame_lie] + LIE_MARGIN:
+        return []
+    return [f"the marks look like the roll's with the film lying rotated {best[0]} deg{' mirrored' if best[1] else ''} "
+            f"(template correlation {scores[best]:.2f} against {scores[frame_lie]:.2f}): check its lie, or give it "
+            "(--lie)"]
+
+
+__all__ = ["LIE_MARGIN", "PROFILE_FORMAT", "Patches", "RollProfile", "disagreements", "learn_profile",
+           "lie_by_templates", "read_profile"]

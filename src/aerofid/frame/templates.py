@@ -147,6 +147,38 @@ def match_template(area: np.ndarray, template: MarkTemplate) -> tuple[float, flo
     return i + dx + template.centre[0], j + dy + template.centre[1], best
 
 
+def turned(image: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """``image`` as a scan whose pixel axes are ``turn`` (2 x 2, a signed permutation of x and y) of its own shows it:
+    ``out[d] = image[turn^-1 d]`` for pixel offsets d = (x, y) from the centre.
+
+    >>> a = np.arange(6).reshape(2, 3)
+    >>> turned(a, np.array([[0, -1], [1, 0]])).tolist()     # x' = -y, y' = x: a quarter turn
+    [[3, 0], [4, 1], [5, 2]]
+    """
+    m = np.rint(turn).astype(int)
+    swapped = m[0, 0] == 0
+    out = image.T if swapped else image
+    sx, sy = (m[0, 1], m[1, 0]) if swapped else (m[0, 0], m[1, 1])
+    return out[::sy, ::sx]
+
+
+def agreement(patch: np.ndarray, template: MarkTemplate, centre: tuple[float, float], turn: np.ndarray,
+              reach: int = 4) -> float:
+    """How alike ``template``'s mark, turned by ``turn`` (:func:`turned`), and the mark at ``centre`` (x, y) of
+    ``patch`` (grey, the mark bright, reduced by the template's factor) are: the best normalised cross-correlation with
+    the template's centre within ``reach`` px of it; nan where ``patch`` does not hold the template there."""
+    img = turned(template.image, turn)
+    h0, w0 = template.shape
+    d = np.rint(turn).astype(int) @ np.array([template.centre[0] - (w0 - 1) / 2, template.centre[1] - (h0 - 1) / 2])
+    h, w = img.shape
+    x0 = int(round(centre[0] - (d[0] + (w - 1) / 2))) - reach
+    y0 = int(round(centre[1] - (d[1] + (h - 1) / 2))) - reach
+    if x0 < 0 or y0 < 0 or y0 + h + 2 * reach > patch.shape[0] or x0 + w + 2 * reach > patch.shape[1]:
+        return math.nan
+    part = np.ascontiguousarray(patch[y0:y0 + h + 2 * reach, x0:x0 + w + 2 * reach], np.float32)
+    return float(cv2.matchTemplate(part, np.ascontiguousarray(img), cv2.TM_CCOEFF_NORMED).max())
+
+
 def _vertex(three: np.ndarray) -> float:
     """The vertex of the parabola through three samples at -1, 0, 1 (within half a sample of the middle one)."""
     a, b, c = (float(v) for v in three)
@@ -154,5 +186,5 @@ def _vertex(three: np.ndarray) -> float:
     return float(np.clip(0.5 * (a - c) / den, -0.5, 0.5)) if den < 0 else 0.0
 
 
-__all__ = ["MIN_CORRELATION", "MarkTemplate", "TEMPLATE_RADIUS", "TEMPLATE_REACH", "cut_template", "match_template",
-           "reduction_keeping"]
+__all__ = ["MIN_CORRELATION", "MarkTemplate", "TEMPLATE_RADIUS", "TEMPLATE_REACH", "agreement", "cut_template",
+           "match_template", "reduction_keeping", "turned"]

@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import aerofid
-from aerofid.formats.micmac import affine_plane_xml
+from aerofid.formats.micmac import affine_plane_xml, measures_camera_xml
 from aerofid.formats.orientation import read_orientation
 from aerofid.frame.result import FAILED, OK, FrameOrientation
 from aerofid.io.array import ArrayRaster
@@ -122,6 +122,20 @@ def test_default_extent_is_the_fiducials_bounding_box_as_micmac(frame):
         assert res.width == int((xmax - xmin) // 0.5) + 1 and res.height == int((ymax - ymin) // 0.5) + 1
 
 
+def test_the_output_has_the_permissions_of_a_file_made_in_place(frame, tmp_path):
+    """The resampled TIFF is streamed into a temporary file (mkstemp's: the owner's alone) and renamed: it was left
+    readable by its owner only, its sidecar not (a helper's audit); both now as the umask gives any new file."""
+    folder, _, _ = frame
+    umask = os.umask(0o022)
+    try:
+        assert run(folder / "scan.tif", "--orientation", folder / "io.json", "--pixel-size", 0.5, "-o",
+                   tmp_path / "out.tif").returncode == 0
+    finally:
+        os.umask(umask)
+    assert {p.name: p.stat().st_mode & 0o777 for p in tmp_path.iterdir()} == {"out.tif": 0o644,
+                                                                                "out.px2mm.json": 0o644}
+
+
 def test_the_micmac_name(frame, tmp_path):
     folder, _, _ = frame
     r = run(folder / "scan.tif", "--orientation", folder / "io.json", "--pixel-size", 0.5, "--micmac-name",
@@ -156,6 +170,24 @@ def test_an_affine_plane_gives_the_same_frame(frame, tmp_path):
     xml = tmp_path / "scan-AffinePlane-px2mm.xml"
     xml.write_text(affine_plane_xml(H))                                   # as 'aerofid orient --micmac' writes it
     common = ("--pixel-size", 0.5, "--extent", *EXTENT, "--y-axis", "up")
+    assert run(folder / "scan.tif", "--orientation", xml, *common, "-o", tmp_path / "a.tif").returncode == 0
+    assert run(folder / "scan.tif", "--orientation", folder / "io.json", *common, "-o", tmp_path / "b.tif"
+               ).returncode == 0
+    assert np.array_equal(tifffile.imread(tmp_path / "a.tif"), tifffile.imread(tmp_path / "b.tif"))
+
+
+def test_an_affine_plane_takes_the_y_axis_of_the_measures_camera_beside_it(frame, tmp_path):
+    """``aerofid orient --micmac`` writes the AffinePlane beside the camera's MeasuresCamera.xml: the plane's mm are
+    that camera's, whose certificate y points up; read without it (MicMac's y down) the frame came out upside down
+    (a helper's audit). Beside it, no ``--y-axis`` is needed; without it, down as before."""
+    folder, cam, _ = frame
+    H = np.array(json.loads((folder / "io.json").read_text())["pixel_to_mm"])
+    xml = tmp_path / "scan-AffinePlane-px2mm.xml"
+    xml.write_text(affine_plane_xml(H))
+    assert read_orientation(xml).y_axis is None
+    (tmp_path / "MeasuresCamera.xml").write_text(measures_camera_xml(cam))
+    assert cam.y_axis == "up" and read_orientation(xml).y_axis == "up"
+    common = ("--pixel-size", 0.5, "--extent", *EXTENT)
     assert run(folder / "scan.tif", "--orientation", xml, *common, "-o", tmp_path / "a.tif").returncode == 0
     assert run(folder / "scan.tif", "--orientation", folder / "io.json", *common, "-o", tmp_path / "b.tif"
                ).returncode == 0

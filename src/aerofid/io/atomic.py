@@ -47,6 +47,20 @@ def _folder(path: Path) -> Path:
     return path.parent if str(path.parent) else Path(".")
 
 
+def temporary_beside(path: Path) -> tuple[int, str]:
+    """A new temporary file beside ``path`` (open descriptor, name), named so that :func:`sweep_stale` knows it, with
+    the permissions a file created in place would have (``mkstemp``'s are the owner's alone, and a rename keeps
+    them); an input error where it cannot be made."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}{TEMP_TAG}{os.getpid()}-", suffix=".tmp", dir=_folder(path))
+    except OSError as e:
+        raise AerofidInputError(f"cannot write {str(path)!r}: {e.strerror}") from None
+    umask = os.umask(0)
+    os.umask(umask)
+    os.fchmod(fd, 0o666 & ~umask)
+    return fd, tmp
+
+
 def check_output(path: str | os.PathLike[str], what: str = "output", inputs: Iterable[str | os.PathLike[str]] = ()
                  ) -> Path:
     """``path`` as a Path once it is safe to replace: an input error otherwise.
@@ -191,15 +205,9 @@ class Staging:
             self.plan(p)
         sweep_stale(p)
         payload = data.encode("utf-8") if isinstance(data, str) else data
-        try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{p.name}{TEMP_TAG}{os.getpid()}-", suffix=".tmp", dir=_folder(p))
-        except OSError as e:
-            raise AerofidInputError(f"cannot write {str(p)!r}: {e.strerror}") from None
+        fd, tmp = temporary_beside(p)
         self._staged[p] = tmp
         try:
-            umask = os.umask(0)
-            os.umask(umask)
-            os.fchmod(fd, 0o666 & ~umask)
             with os.fdopen(fd, "wb") as f:
                 f.write(payload)
                 f.flush()

@@ -6,13 +6,12 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from aerofid.errors import AerofidInputError
 from aerofid.formats.orientation import StoredOrientation
-from aerofid.io.atomic import TEMP_TAG, Staging, check_output, sweep_stale
+from aerofid.io.atomic import Staging, check_output, sweep_stale, temporary_beside
 from aerofid.io.raster import open_raster
 from aerofid.orientation.grid import ResampleGrid, bounding_extent
 from aerofid.resample.frame import Resampled, resample_scan, sidecar_path
@@ -28,11 +27,7 @@ class StreamedOutput:
         self.path = check_output(path, what, inputs)
         self._what, self._inputs = what, list(inputs)
         sweep_stale(self.path)
-        try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}{TEMP_TAG}{os.getpid()}-", suffix=".tmp",
-                                       dir=self.path.parent)
-        except OSError as e:
-            raise AerofidInputError(f"cannot write {str(self.path)!r}: {e.strerror}") from None
+        fd, tmp = temporary_beside(self.path)
         os.close(fd)
         self.tmp: Path | None = Path(tmp)
 

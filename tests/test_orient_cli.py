@@ -154,6 +154,15 @@ def test_ambiguous_correspondence_exit_1_with_json(files, tmp_path):
     assert d["status"] == "ambiguous" and len(d["correspondence"]["candidates"]) >= 2
 
 
+def test_named_points_that_cannot_tell_the_correspondence_are_told_to_use_their_names(files):
+    """Named points with ``--correspondence auto`` on a symmetric square: the ambiguity's advice is the option that
+    uses their names, not to name them (a helper's audit)."""
+    cam, meas = files
+    r = run("--camera", cam, "--measurements", meas, "--correspondence", "auto")
+    assert_one_line_error(r, status=1)
+    assert r.stderr.rstrip().endswith("the points are named as in the camera file: give --correspondence names")
+
+
 def test_python_api_mirrors_cli(files):
     cam, meas = files
     res = orient(read_camera(cam), read_measurements(meas))

@@ -23,7 +23,7 @@ from aerofid.formats.measurements import read_measurements_and_not_found
 from aerofid.frame.nominal import DEFAULT_FORMAT
 from aerofid.io.atomic import Staging
 from aerofid.orientation.camera import Camera
-from aerofid.orientation.correspondence import AmbiguousCorrespondenceError
+from aerofid.orientation.correspondence import NAME_THE_POINTS, AmbiguousCorrespondenceError
 from aerofid.orientation.interior import orient as run_orient
 from aerofid.orientation.measurements import Measurements
 from aerofid.orientation.report import to_html, to_text
@@ -96,7 +96,11 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
                 click.echo(json.dumps({"status": "ambiguous", "error": str(e),
                                        "correspondence": e.correspondence.to_dict()}))
             flush_stdout()
-            click.echo(f"error: {e}", err=True)
+            why = str(e)
+            if meas.names is not None and set(meas.names) <= set(cam.names) and why.endswith(NAME_THE_POINTS):
+                why = why[:-len(NAME_THE_POINTS)] + "the points are named as in the camera file: give " \
+                                                    "--correspondence names"
+            click.echo(f"error: {why}", err=True)
             return 1
         if not_found:
             click.echo(f"note: {', '.join(not_found)} not found in {meas_path!r}; oriented with the "

@@ -25,7 +25,8 @@ def check_outputs(output: str | None, micmac_dir: str | None, metashape: str | N
         raise AerofidInputError(f"--metashape {metashape!r} is a Python script for Metashape: give a name ending in "
                                 ".py")
     if micmac_dir is not None and not Path(micmac_dir).is_dir():
-        raise AerofidInputError(f"MicMac folder {micmac_dir!r} does not exist")
+        raise AerofidInputError(f"MicMac folder {micmac_dir!r} does not exist: make it first (mkdir), or give the "
+                                "folder of the MicMac project")
 
 
 def micmac_files(folder: Path, image: str, model: str, staging: Staging) -> list[Path]:

@@ -252,6 +252,10 @@ def _distinct(fits: list[ArrangementFit]) -> list[ArrangementFit]:
     return uniq
 
 
+NAME_THE_POINTS = "name the measured points"
+"""How an ambiguous correspondence's reason ends: what to do (the CLI says more where the points are named)."""
+
+
 def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) -> Correspondence:
     """Unique when the runner-up fits worse by the F test, else ambiguous with the reason."""
     best = uniq[0]
@@ -269,10 +273,10 @@ def _decide(uniq: list[ArrangementFit], alpha: float, names: tuple[str, ...]) ->
     reason = (f"arrangements rotation {best.rotation_deg} deg{' mirrored' if best.mirrored else ''} "
               f"(rms {best.rms_mm * 1000:.2f} um) and rotation {second.rotation_deg} deg"
               f"{' mirrored' if second.mirrored else ''} (rms {second.rms_mm * 1000:.2f} um) fit equally well "
-              f"(ratio {ratio:.3g} <= F({r}, {r}; {1 - alpha:g}) = {crit:.3g}): name the measured points")
+              f"(ratio {ratio:.3g} <= F({r}, {r}; {1 - alpha:g}) = {crit:.3g}): {NAME_THE_POINTS}")
     tied = tuple(f for f in uniq if f.sum_sq_mm2 / max(best.sum_sq_mm2, 1e-30) <= crit)
     return Correspondence("ambiguous", best, tuple(uniq), reason, names, tied)
 
 
-__all__ = ["ALPHA_ARRANGEMENT", "ARRANGEMENTS", "FILM_TURN_DEG", "AmbiguousCorrespondenceError", "ArrangementFit",
-           "Correspondence", "arrangement_matrix", "lie_of", "match_fiducials"]
+__all__ = ["ALPHA_ARRANGEMENT", "ARRANGEMENTS", "FILM_TURN_DEG", "NAME_THE_POINTS", "AmbiguousCorrespondenceError",
+           "ArrangementFit", "Correspondence", "arrangement_matrix", "lie_of", "match_fiducials"]

@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 
+import cv2
 import numpy as np
 import pytest
 
@@ -161,6 +162,25 @@ def test_named_points_that_cannot_tell_the_correspondence_are_told_to_use_their_
     r = run("--camera", cam, "--measurements", meas, "--correspondence", "auto")
     assert_one_line_error(r, status=1)
     assert r.stderr.rstrip().endswith("the points are named as in the camera file: give --correspondence names")
+
+
+def test_a_scan_given_with_measurements_of_another_is_refused(files, tmp_path):
+    """IMAGE with --measurements names the outputs; measurements of another scan (by the name they give, or points
+    outside IMAGE) were oriented under its name (a helper's audit)."""
+    cam, meas = files
+    scan = tmp_path / "small.png"
+    cv2.imwrite(str(scan), np.zeros((600, 800), np.uint8))
+    r = run(scan, "--camera", cam, "--measurements", meas)
+    assert_one_line_error(r)
+    assert "are of 'seed004.tif', not of 'small.png'" in r.stderr
+    points = tmp_path / "points.csv"
+    points.write_text("".join(f"{n},{x},{y}\n" for n, (x, y) in SEED_MEAS["points"].items()))
+    r = run(scan, "--camera", cam, "--measurements", points)
+    assert_one_line_error(r)
+    assert "point UR of" in r.stderr and "lies outside 'small.png' (800 x 600 px)" in r.stderr
+    big = tmp_path / "big.png"
+    cv2.imwrite(str(big), np.zeros((5400, 5300), np.uint8))
+    assert run(big, "--camera", cam, "--measurements", points).returncode == 0
 
 
 def test_python_api_mirrors_cli(files):

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import click
+import numpy as np
 
 from aerofid.cli.frame_cmd import run_frame
 from aerofid.cli.orient_outputs import check_outputs, metashape_text, micmac_files, micmac_texts
@@ -22,6 +23,7 @@ from aerofid.formats.camera_file import read_camera
 from aerofid.formats.measurements import read_measurements_and_not_found
 from aerofid.frame.nominal import DEFAULT_FORMAT
 from aerofid.io.atomic import Staging
+from aerofid.io.raster import open_raster
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import NAME_THE_POINTS, AmbiguousCorrespondenceError
 from aerofid.orientation.interior import orient as run_orient
@@ -86,6 +88,8 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
             staging.plan(metashape_path, "--metashape")
         cam = read_camera(camera_path)
         meas, not_found = read_measurements_and_not_found(meas_path)
+        if image:
+            _check_scan(image, meas, meas_path)
         image_name = meas.image or (Path(image).name if image else "") or Path(meas_path).stem
         micmac = micmac_files(Path(micmac_dir), image_name, model, staging) if micmac_dir is not None else None
         try:
@@ -110,6 +114,24 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
         flush_stdout()
         staging.commit()
     return 0
+
+
+def _check_scan(image: str, meas: Measurements, meas_path: str) -> None:
+    """The scan IMAGE given with ``--measurements`` (it names the outputs): refused where the measurements are of
+    another scan (by its file name) or hold points outside it (its size read from its header)."""
+    name = Path(image).name
+    if meas.image and Path(meas.image).name != name:
+        raise AerofidInputError(f"the measurements in {meas_path!r} are of {meas.image!r}, not of {name!r}: give "
+                                "that scan, or leave IMAGE out")
+    with open_raster(image, rows=0) as scan:
+        width, height = scan.width, scan.height
+    x, y = meas.xy[:, 0], meas.xy[:, 1]
+    outside = (x < -0.5) | (y < -0.5) | (x > width - 0.5) | (y > height - 0.5)
+    if outside.any():
+        k = int(np.argmax(outside))
+        raise AerofidInputError(f"point {meas.names[k] if meas.names else k + 1} of {meas_path!r} at ({x[k]:g}, "
+                                f"{y[k]:g}) lies outside {name!r} ({width} x {height} px): these are not its "
+                                "measurements; give their scan, or leave IMAGE out")
 
 
 def _run_orient(cam: Camera, meas: Measurements, not_found: tuple[str, ...], meas_path: str,

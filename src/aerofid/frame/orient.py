@@ -73,7 +73,7 @@ from aerofid.frame.verdict import LIE_UNTOLD, adjusted_pixel_mm, verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import ReducedView, read_reduced_levels
-from aerofid.io.resolution import checked_pixel_size, pixel_size_from_tags
+from aerofid.io.resolution import MM_PER_INCH, checked_pixel_size, pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import ARRANGEMENTS, FILM_TURN_DEG
 from aerofid.robust import median
@@ -117,6 +117,9 @@ the film's deformation)."""
 ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan declares none: no resolution tags, or a "
                   "screen's default 72 or 96 dpi): give it (--pixel-size, or pixel_size_um in the camera file)")
 """Appended to the reasons of a frame that is not ok when nothing declared the pixel size."""
+DECLARED_HINT = ("the layout was sought at the pixel size {size:.5f} mm ({source}), to within 3 %: if that is not the "
+                 "scan's, give it (--pixel-size)")
+"""Appended to the reasons of a frame that failed at a pixel size given or declared."""
 MIN_TOLERANCE_PX = 8.0
 """Least tolerance (px) of a prediction by the found marks."""
 FRAME_METHOD_TOLERANCE_MM = 0.3
@@ -231,11 +234,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         frame = _Frame(source, cam, Measurer(source, detector, polarities, colour), model, size, size_source, lie,
                        profile, nominal is not None, size_range)
         extras = {} if nominal is not None else extra_marks(cam)
-        best = frame.in_roll_areas()
-        if best is None or not _settled(best):
-            best, screened = frame.on_whole_frame(extras, best)
-            if best is None:
-                return _no_layout(screened, len(cam.fiducials), *declared)
+        best = frame.answer(extras, declared)
+        if best.status == FAILED and size_source == "tags":
+            best = _without_the_tags(frame, extras, best)
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(frame.measurer, best, extras))
         if profile is not None and profile.mark_templates:
@@ -245,7 +246,22 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         return _uncalibrated(best, str(fmt), *declared)
     if best.status != OK and size_source == "estimated":
         best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
+    elif best.status == FAILED and size is not None:
+        best = replace(best, reasons=(*best.reasons, DECLARED_HINT.format(size=size, source=size_source)))
     return best
+
+
+def _without_the_tags(frame: _Frame, extras: dict[str, tuple[float, float]], failed: FrameOrientation
+                      ) -> FrameOrientation:
+    """``failed`` (the frame sought at the pixel size its resolution tags declare), or where it stands better, the frame
+    sought with the pixel size unknown (estimated from the marks), doubtful: a scan's tags can be wrong (software that
+    rewrote the file, a scanner's default), and the layout is sought within 3 % of a declared size."""
+    again = replace(frame, size=None, size_source="estimated").answer(extras, (None, "estimated"))
+    if _standing(again) <= _standing(failed) or frame.size is None:
+        return failed
+    why = (f"the scan's resolution tags declare {MM_PER_INCH / frame.size:.1f} dpi ({frame.size:.5f} mm), its marks "
+           f"{again.pixel_size_mm:.5f} mm: the tags are wrong; give the pixel size (--pixel-size)")
+    return replace(again, status=DOUBTFUL if again.ok else again.status, reasons=(*again.reasons, why))
 
 
 @dataclass(frozen=True)
@@ -304,6 +320,17 @@ class _Frame:
         _check_decoded(self.source)
         features, f = screens[-1]
         return best, self.head(len(features), f, WHOLE_FRAME)
+
+    def answer(self, extras: dict[str, tuple[float, float]], declared: tuple[float | None, str]) -> FrameOrientation:
+        """The frame measured in the roll's areas, else (or where that is not settled) searched whole
+        (:meth:`on_whole_frame`); failed where no layout is found (``declared``: the pixel size the scan declares,
+        and where from)."""
+        best = self.in_roll_areas()
+        if best is None or not _settled(best):
+            best, screened = self.on_whole_frame(extras, best)
+            if best is None:
+                return _no_layout(screened, len(self.cam.fiducials), *declared)
+        return best
 
     def in_roll_areas(self) -> FrameOrientation | None:
         """The frame measured on the roll profile's layout (:mod:`aerofid.frame.roll_areas`), nothing screened;

@@ -946,6 +946,19 @@ def test_a_scan_whose_resolution_tags_are_wrong_is_oriented_with_its_pixel_size_
     assert given.status == "failed" and given.reasons[-1].startswith(sought)
 
 
+def test_a_found_marks_prediction_is_the_orientations_and_its_residual_is_its_distance_from_it():
+    """``predicted_x, predicted_y`` of a found mark were the layout's (13-39 px from the marks of the RC20 frame),
+    beside the adjustment's residual (a helper's audit): they are where the orientation puts the fiducial, so that
+    the residual is the mark's distance from them."""
+    res = aerofid.orient_frame(render_frame(frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))), CAMERA,
+                               pixel_size_mm=COARSE_MM)
+    assert res.ok and res.orientation is not None
+    predicted = res.orientation.to_pixel(CAMERA.xy_mm)
+    for f, p in zip(res.fiducials, predicted, strict=True):
+        assert (f.predicted_x, f.predicted_y) == pytest.approx(tuple(p), abs=1e-9)
+        assert f.residual_px == pytest.approx(math.hypot(f.x - p[0], f.y - p[1]), abs=1e-6)
+
+
 def test_a_camera_mapping_a_profiles_path_and_a_numpy_pixel_size_are_taken(tmp_path):
     """The camera as the mapping a camera file holds, the roll's profile by its path (as ``aerofid orient --profile``
     takes it) and the pixel size as a numpy scalar orient the frame as their usual forms do."""

@@ -237,6 +237,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         best = frame.answer(extras, declared)
         if best.status == FAILED and size_source == "tags":
             best = _without_the_tags(frame, extras, best)
+        if not best.fiducials:                  # no layout among the features: its reasons say all (_no_layout)
+            return best
         if extras and best.orientation is not None:
             best = replace(best, extra_marks=measure_extra_marks(frame.measurer, best, extras))
         if profile is not None and profile.mark_templates:

@@ -25,7 +25,10 @@ OK, DOUBTFUL, FAILED = "ok", "doubtful", "failed"
 
 @dataclass(frozen=True)
 class FiducialFinding:
-    """One calibrated fiducial on the scan (pixels: x = column, y = row, centre of the top-left pixel (0, 0))."""
+    """One calibrated fiducial on the scan (pixels: x = column, y = row, centre of the top-left pixel (0, 0)): its
+    mark's centre (None where none was found) and where the frame puts it (``predicted_x, predicted_y``: the
+    orientation's prediction, the layout's where the frame has no orientation), with ``residual_px`` the adjustment's
+    residual of a mark used or rejected."""
 
     name: str
     status: str

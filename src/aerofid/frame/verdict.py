@@ -176,13 +176,13 @@ def adjusted_pixel_mm(io: InteriorOrientation) -> float:
 
 def _by_orientation(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | None, str]],
                     found: Sequence[int], io: InteriorOrientation) -> tuple[FiducialFinding, ...]:
-    """A finding per camera fiducial, named by the adjustment: its measured point (used or rejected with the
-    residual) or, if none, its position predicted by the orientation and why no mark was found there."""
+    """A finding per camera fiducial, named by the adjustment: its position predicted by the orientation, and its
+    measured point (used or rejected with the residual) or, if none, why no mark was found there."""
     by_name = {r.name: (k, r) for k, r in zip(found, io.fiducials, strict=True)}  # one row per point, in order
     out = []
     for fid in cam.fiducials:
+        p = io.to_pixel([[fid.x_mm, fid.y_mm]])[0]
         if fid.name not in by_name:
-            p = io.to_pixel([[fid.x_mm, fid.y_mm]])[0]
             k = int(np.argmin(np.hypot(*(layout.predicted - p).T)))
             out.append(FiducialFinding(fid.name, MISSING_MARK, None, None, None, None, float(p[0]), float(p[1]),
                                        reason=located[k][1] or "not found"))
@@ -193,7 +193,7 @@ def _by_orientation(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Lo
         d = m.detection
         out.append(FiducialFinding(
             fid.name, REJECTED_MARK if r.status == REJECTED else FOUND_MARK, m.x, m.y, d.sigma_x, d.sigma_y,
-            float(layout.predicted[k][0]), float(layout.predicted[k][1]),
+            float(p[0]), float(p[1]),
             residual_px=float(math.hypot(r.residual_x_px, r.residual_y_px)), reason=r.reason, method=d.method,
             located=m))
     return tuple(out)

@@ -27,8 +27,8 @@ whole dots per centimetre (96 dpi as 38, 96.52 dpi; 72 as 28, 71.12 dpi). No fil
 
 
 def checked_pixel_size(pixel_size_mm: object) -> float:
-    """A pixel size given for a scan (mm per px) as a float, refused in one line unless it is a number of a resolution
-    some scan has (:data:`MIN_DPI` to :data:`MAX_DPI`: 0.00127 to 0.508 mm).
+    """A pixel size given for a scan (mm per px) as a float, refused in one line unless it is a number from that of
+    :data:`MAX_DPI` (0.00127 mm) up to :data:`MAX_GIVEN_MM`.
 
     >>> import numpy as np
     >>> checked_pixel_size(0.021), checked_pixel_size(np.float32(0.5))
@@ -38,13 +38,18 @@ def checked_pixel_size(pixel_size_mm: object) -> float:
     ...
     aerofid.errors.AerofidInputError: pixel size 21 mm: give the scan's pixel size in mm, e.g. 0.021 (...)
     """
-    lo, hi = MM_PER_INCH / MAX_DPI, MM_PER_INCH / MIN_DPI
+    lo = MM_PER_INCH / MAX_DPI
     if isinstance(pixel_size_mm, numbers.Real) and not isinstance(pixel_size_mm, bool):
         size = float(pixel_size_mm)
-        if lo <= size <= hi:
+        if lo <= size < MAX_GIVEN_MM:
             return size
     raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021 "
-                            f"({lo:g} to {hi:g} mm: {MAX_DPI:g} to {MIN_DPI:g} dpi)")
+                            f"(at least {lo:g} mm, {MAX_DPI:g} dpi, and less than {MAX_GIVEN_MM:g} mm)")
+
+
+MAX_GIVEN_MM = 1.0
+"""A pixel size given for a scan is less than this (mm): a 23 cm frame of fewer than 230 px is no scan to measure
+(a browse image's 0.3 mm is the coarsest one seen)."""
 
 
 def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:

@@ -159,6 +159,16 @@ turned up to 10 degrees, half without a pixel size) the true layout was fourth t
 failed with 3 (tests/test_frame.py; a frame that is ok stops at its layout, so only the others pay for the rest); 6
 until session 48, when a chance layout came to cost 4 places and no area (:data:`VAIN_STARTS`): seed 1021 of
 ``benchmarks/bench_sweep.py`` (noisy), whose true layout ranks seventh, failed with 6."""
+HOUGH_REJECTIONS = 2
+"""``hough``'s ``max_rejections`` (8 for a box) wherever a frame measures a mark (with ``auto``, which runs it on a
+window where neither ``circles`` nor ``symmetry`` found a mark): a true '+' is the first candidate it verifies, and
+in a frame most such windows hold no mark (a chance layout's places, a noisy frame's misses), where each refusal
+costs a least-squares fit. Measured with ``hough``'s searches logged (scratch, session 49: seed 1021 of
+``benchmarks/bench_sweep.py``, 3 demo frames, 4 frames of 4-fiducial cameras with thin '+' marks): 86 found a mark,
+each with no refusal before it, 96 of the others stopped at 8 refusals. Seeds 1000-1059 and 5000-5059, 36 frames of
+4-fiducial cameras, the RC20 frame in its 9 readings and 3 demo frames, oriented with 8 and with 2: every status, lie
+and position the same; only the reasons of marks not found say 2 refusals for 8 (docs/benchmarks_frames.md, session
+49). With 8, seed 1021 (noisy, ok) spent 12.2 of its 17.1 s in 132 such searches and 922 refusals."""
 
 
 def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
@@ -225,7 +235,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
     profile = read_profile(profile) if isinstance(profile, str | os.PathLike) else profile
     pixel_size_mm = None if pixel_size_mm is None else checked_pixel_size(pixel_size_mm)
     lie = _checked_options(cam, lie, profile)
-    detector, polarities = configure(method, mark, polarity, colour, {})
+    detector, polarities = configure(method, mark, polarity, colour,
+                                     {"max_rejections": HOUGH_REJECTIONS} if method in ("auto", "hough") else {})
     with open_image(image) as source:
         declared = scan_pixel_size(source, cam, pixel_size_mm, profile)
         # a nominal layout's scale is not the scan's: the layout search finds it, near a pixel size the scan declares

@@ -80,7 +80,8 @@ def test_any_parameter_value_is_a_result_or_one_input_error(case):
 
 
 @FAST
-@given(dtype=st.sampled_from([np.int8, np.int16, np.int32, np.int64, np.float16, np.float32, np.float64]),
+@given(dtype=st.sampled_from([np.int8, np.int16, np.int32, np.int64, np.uint32, np.uint64, np.float16, np.float32,
+                              np.float64]),
        scale=st.sampled_from([1.0, 255.0, 65535.0, 1e12, -1.0, math.nan, math.inf]))
 def test_any_image_array_is_on_a_known_scale_or_one_input_error(dtype, scale):
     image = SCENE / 255.0 * scale
@@ -102,7 +103,7 @@ def test_any_image_array_is_on_a_known_scale_or_one_input_error(dtype, scale):
 def test_integer_and_float_arrays_of_0_255_find_the_mark_as_uint8_does():
     truth = locate(SCENE, (30, 30, 66, 66), mark="external")
     assert truth.found
-    for kind in (np.int16, np.int64, np.float32, np.float64):
+    for kind in (np.int16, np.int64, np.uint32, np.uint64, np.float32, np.float64):
         r = locate(SCENE.astype(kind), (30, 30, 66, 66), mark="external")
         assert r.found and math.hypot(r.x - truth.x, r.y - truth.y) < 1e-3, kind
 

@@ -19,23 +19,24 @@ __all__ = ["ArrayRaster", "RasterLike", "as_image_array", "open_image"]
 
 
 INTEGER_RANGES = (np.uint8, np.uint16, np.uint32)
-"""Signed integers are read as the smallest of these whose range holds them: an ``int64`` array of 0-255 is an
-8-bit image, not 0.000000003 % of the ``int64`` range."""
+"""Signed integers, and unsigned ones wider than 16 bits, are read as the smallest of these whose range holds them:
+an ``int64`` or ``uint32`` array of 0-255 is an 8-bit image, not 0.000000003 % of its type's range (a ``uint32``
+array was divided by its type's maximum, and its marks lost: a helper's audit)."""
 FLOAT_SCALES = (1.0, 255.0, 65535.0)
 """Float samples are grey levels on [0, 1], or on 0-255 or 0-65535 (then divided by it): the first scale at least
 half the largest sample is taken (noise may carry a [0, 1] image a little beyond 1 or below 0)."""
 
 
 def _sample_range(a: np.ndarray) -> np.ndarray:
-    """``a`` with samples on aerofid's scale: unsigned integers as they are, signed integers as the smallest
-    unsigned type that holds them, floats by :data:`FLOAT_SCALES`. Negative integers, non-finite floats and
-    samples beyond every scale are an input error."""
-    if a.dtype.kind == "u" or a.size == 0:
+    """``a`` with samples on aerofid's scale: 8- and 16-bit unsigned integers as they are, other integers as the
+    smallest unsigned type that holds them (:data:`INTEGER_RANGES`), floats by :data:`FLOAT_SCALES`. Negative
+    integers, non-finite floats and samples beyond every scale are an input error."""
+    if (a.dtype.kind == "u" and a.dtype.itemsize <= 2) or a.size == 0:
         return a
     lo, hi = float(np.min(a)), float(np.max(a))
     if not (np.isfinite(lo) and np.isfinite(hi)):
         raise AerofidInputError("image array holds NaN or infinite samples; give finite grey levels")
-    if a.dtype.kind == "i":
+    if a.dtype.kind in "ui":
         if lo < 0:
             raise AerofidInputError(f"image array holds negative integers (down to {lo:g}); give grey levels >= 0 "
                                     "(unsigned integers, or floats on [0, 1])")

@@ -959,6 +959,16 @@ def test_a_found_marks_prediction_is_the_orientations_and_its_residual_is_its_di
         assert f.residual_px == pytest.approx(math.hypot(f.x - p[0], f.y - p[1]), abs=1e-6)
 
 
+def test_marks_of_a_frame_without_an_orientation_say_their_names_are_unconfirmed():
+    """The frame scaled down 4 times (0.4 mm, marks of a few px): 2 marks found, too few to adjust; their names are
+    the layout's guess (both were other fiducials' marks in a helper's audit), and each says so."""
+    image = render_frame(frame_spec(CAMERA, 0.1, np.random.default_rng(3)))
+    res = aerofid.orient_frame(cv2.resize(image, (625, 625), interpolation=cv2.INTER_AREA), CAMERA, pixel_size_mm=0.4)
+    found = [f for f in res.fiducials if f.status == "found"]
+    assert res.status == "failed" and res.orientation is None and found
+    assert all(f.reason == verdict_module.UNCONFIRMED for f in found)
+
+
 def test_a_camera_mapping_a_profiles_path_and_a_numpy_pixel_size_are_taken(tmp_path):
     """The camera as the mapping a camera file holds, the roll's profile by its path (as ``aerofid orient --profile``
     takes it) and the pixel size as a numpy scalar orient the frame as their usual forms do."""

@@ -211,8 +211,13 @@ def _by_layout(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located
         else:
             d = m.detection
             out.append(FiducialFinding(fid.name, FOUND_MARK, m.x, m.y, d.sigma_x, d.sigma_y, px, py,
-                                       method=d.method, located=m))
+                                       reason=UNCONFIRMED, method=d.method, located=m))
     return tuple(out)
+
+
+UNCONFIRMED = "named by the layout's hypothesis alone: no adjustment confirmed which fiducial this mark is"
+"""The reason of a mark found in a frame without an orientation (:func:`_by_layout`): its name is the layout's guess
+(a frame scaled down 4 times had two marks found under other fiducials' names: a helper's audit)."""
 
 
 __all__ = ["LIE_UNTOLD", "MAX_RMS_PX", "adjusted_pixel_mm", "verdict"]

@@ -170,3 +170,17 @@ def test_a_compact_blob_beside_a_panel_is_not_taken_for_it():
         assert np.hypot(r.x - 28.459, r.y - 28.196) < 0.5, (r.x, r.y)
     else:
         assert "a blob, not a '+'" in r.reason
+
+
+def test_two_crosses_in_a_box_are_named_once_each():
+    """Two 16 px '+' 36 px apart in one box: ``symmetry`` alone answers one, and the other, screened twice, was
+    confirmed as a rival twice ("3 marks in the box", one listed twice: a helper's audit)."""
+    rng = np.random.default_rng(1)
+    for sep in (50, 36):                                    # the audit's scenes, in its order (one random stream)
+        img = synth.film_border((120, 160), rng)
+        for c in ((60.3, 60.7), (60.3 + sep, 60.7)):
+            img = synth.paint(img, synth.coverage(img.shape, c, synth.mark_shape("cross", 16, 0.0, None), 16,
+                                                  extent=16), 0.9)
+        img = np.clip(synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng), 0, 1).astype(np.float32)
+    r = aerofid.locate(img, (30, 30, 130, 90), mark="external", method="symmetry")
+    assert not r.found and r.reason.startswith("2 marks in the box, at (60.3, 60.7), (96.3, 60.7)"), r.reason

@@ -234,8 +234,8 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
     """Second marks that the found one spoils: candidates in the box, beyond its extent, screened at about its
     scale and strength (:data:`RIVAL_SCALE`, :data:`RIVAL_STRENGTH`) but refused, measured again with the found
     mark blanked out (:func:`aerofid.detect.auto.blank_disc`); those found then are marks too (two dots side by
-    side: each one's window holds the other). A notch corner or an arm's end refused for what it is stays
-    refused."""
+    side: each one's window holds the other), one per mark (a second '+' screened twice was listed twice: a helper's
+    audit). A notch corner or an arm's end refused for what it is stays refused."""
     own = found.candidate
     if own is None or own.strength <= 0:
         return []
@@ -245,10 +245,11 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
         if a.found or c is None or c is own or c.strength < RIVAL_STRENGTH * own.strength:
             continue
         inside = in_box(c.x, c.y, region)
-        apart = float(np.hypot(c.x - found.x, c.y - found.y)) > found.extent
+        apart = all(float(np.hypot(c.x - m.x, c.y - m.y)) > m.extent for m in (found, *rivals))
         if inside and apart and 1 / RIVAL_SCALE <= c.radius / own.radius <= RIVAL_SCALE:
             again = measurer.candidate(c, blank=(found.x, found.y, found.extent + 2.0))
-            if again.found and float(np.hypot(again.x - found.x, again.y - found.y)) > found.extent:
+            if again.found and all(float(np.hypot(again.x - m.x, again.y - m.y)) > max(m.extent, again.extent)
+                                   for m in (found, *rivals)):
                 rivals.append(again)
     return rivals
 

@@ -239,7 +239,7 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
     own = found.candidate
     if own is None or own.strength <= 0:
         return []
-    rivals = []
+    rivals: list[Located] = []
     for a in attempts:
         c = a.candidate
         if a.found or c is None or c is own or c.strength < RIVAL_STRENGTH * own.strength:

@@ -94,6 +94,18 @@ def test_integers_too_large_for_a_float_or_for_python_are_clear_errors(tmp_path,
         read_camera(write(tmp_path, f"c.{suffix}", text))
 
 
+@pytest.mark.parametrize(("text", "match"), [
+    ("name: c\nfiducials:\n  P1: [0x" + "f" * 4000 + ", 0]\n  P2: [10, 0]\n  P3: [0, 10]\n",
+     "an integer of 16000 bits"),
+    ("name: c\nmade: 2001-13-45\nfiducials:\n  P1: [0, 0]\n  P2: [10, 0]\n  P3: [0, 10]\n",
+     "is not valid YAML: month must be in 1..12")])
+def test_a_yaml_integer_python_will_not_write_and_a_bad_date_are_clear_errors(tmp_path, text, match):
+    """YAML reads a hexadecimal integer of any length, which Python will not write in decimal (repr raised), and a
+    date's own ValueError was taken for a number of thousands of digits (a helper's review)."""
+    with pytest.raises(AerofidInputError, match=match):
+        read_camera(write(tmp_path, "c.yaml", text))
+
+
 def test_duplicate_names_in_yaml(tmp_path):
     with pytest.raises(AerofidInputError, match="duplicate"):
         read_camera(write(tmp_path, "c.yml", "name: c\nfiducials:\n  P1: [0, 0]\n  P1: [1, 1]\n  P2: [0, 9]\n"))

@@ -22,7 +22,7 @@ import aerofid
 from aerofid import synth
 from aerofid.detect.screen import Candidate
 from aerofid.find import RECENTRED_WINDOW, Measurer, recentred_half
-from aerofid.formats.camera_file import write_camera
+from aerofid.formats.camera_file import read_camera, write_camera
 from aerofid.frame import orient as orient_module
 from aerofid.frame import verdict as verdict_module
 from aerofid.frame.layout import layout_candidates, match_layout
@@ -1062,21 +1062,29 @@ def rc20_scan():
     return rgb, aerofid.orient_frame(rgb, RC20 / "MeasuresCamera.xml", lie=(0, False), pixel_size_mm=RC20_PX_MM)
 
 
-@pytest.mark.parametrize(("turns", "flipped"), [(0, False), (1, False), (2, False), (0, True)])
-def test_a_roll_frame_scanned_in_another_lie_than_its_symmetric_layouts_profile_is_flagged(rc20_scan, turns, flipped):
+@pytest.mark.parametrize(("origin", "turns", "flipped"), [
+    ("centre", 0, False), ("centre", 1, False), ("centre", 2, False), ("centre", 0, True), ("corner", 0, False),
+    ("corner", 1, False), ("corner", 3, True)])
+def test_a_roll_frame_scanned_in_another_lie_than_its_symmetric_layouts_profile_is_flagged(rc20_scan, origin, turns,
+                                                                                            flipped):
     """The RC20's 4 corners fit every lie alike, so a frame oriented with the roll's profile takes the roll's lie; the
     frame scanned turned or flipped was then ok with every corner named wrongly (a helper's audit). Its corners' number
     dots (1-4 beside each) tell it: it is doubtful for review, naming the lie its turn makes; the frame as it was
-    learnt stays ok."""
+    learnt stays ok. The same with the camera file's coordinates from a corner, y down (MicMac's way): its lies turn
+    the layout about its centre, not about the origin of its coordinates."""
     rgb, base = rc20_scan
-    h, w = rgb.shape[:2]
+    cam = read_camera(RC20 / "MeasuresCamera.xml")
+    if origin == "corner":
+        cam = Camera("corner", tuple(replace(f, x_mm=f.x_mm + 115.0, y_mm=115.0 - f.y_mm) for f in cam.fiducials),
+                     y_axis="down")
+        base = aerofid.orient_frame(rgb, cam, lie=(0, False), pixel_size_mm=RC20_PX_MM)
     turned = np.ascontiguousarray(np.rot90(rgb[:, ::-1] if flipped else rgb, turns))
     flip = np.diag([-1.0, 1.0]) if flipped else np.eye(2)
     quarter = np.array([[0.0, 1.0], [-1.0, 0.0]])                          # np.rot90's turn of pixel axes
-    assert base.orientation is not None
-    lie = lie_of(base.orientation.pixel_to_mm[:, :2] @ np.linalg.inv(np.linalg.matrix_power(quarter, turns) @ flip))
-    res = aerofid.orient_frame(turned, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM,
-                               profile=learn_profile(base))
+    assert base.ok and base.orientation is not None
+    lie = lie_of(base.orientation.pixel_to_mm[:, :2] @ np.linalg.inv(np.linalg.matrix_power(quarter, turns) @ flip),
+                 cam.y_axis)
+    res = aerofid.orient_frame(turned, cam, pixel_size_mm=RC20_PX_MM, profile=learn_profile(base))
     if lie == (0, False):
         assert res.status == "ok", res.reasons
     else:

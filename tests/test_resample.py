@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import aerofid
-from aerofid.formats.micmac import affine_plane_xml, measures_camera_xml
+from aerofid.formats.micmac import affine_plane_xml, micmac_texts
 from aerofid.formats.orientation import read_orientation
 from aerofid.frame.result import FAILED, OK, FrameOrientation
 from aerofid.io.array import ArrayRaster
@@ -176,19 +176,23 @@ def test_an_affine_plane_gives_the_same_frame(frame, tmp_path):
     assert np.array_equal(tifffile.imread(tmp_path / "a.tif"), tifffile.imread(tmp_path / "b.tif"))
 
 
-def test_an_affine_plane_takes_the_y_axis_of_the_measures_camera_beside_it(frame, tmp_path):
-    """``aerofid orient --micmac`` writes the AffinePlane beside the camera's MeasuresCamera.xml: the plane's mm are
-    that camera's, whose certificate y points up; read without it (MicMac's y down) the frame came out upside down
-    (a helper's audit). Beside it, no ``--y-axis`` is needed; without it, down as before."""
+def test_an_affine_plane_aerofid_writes_carries_its_film_y_axis(frame, tmp_path):
+    """``aerofid orient --micmac`` writes the AffinePlane in the camera file's mm, whose certificate y points up; read
+    as MicMac's (y down) the frame came out upside down (a helper's audit). The plane aerofid writes notes its y axis
+    in a comment MicMac ignores: no ``--y-axis`` is needed; a plane without the note is MicMac's, down."""
     folder, cam, _ = frame
-    H = np.array(json.loads((folder / "io.json").read_text())["pixel_to_mm"])
-    xml = tmp_path / "scan-AffinePlane-px2mm.xml"
-    xml.write_text(affine_plane_xml(H))
-    assert read_orientation(xml).y_axis is None
-    (tmp_path / "MeasuresCamera.xml").write_text(measures_camera_xml(cam))
-    assert cam.y_axis == "up" and read_orientation(xml).y_axis == "up"
+    io = read_orientation(folder / "io.json")
+    assert io.y_axis == cam.y_axis == "up"
+    plain = tmp_path / "plain-AffinePlane-px2mm.xml"
+    plain.write_text(affine_plane_xml(io.transform.matrix[:2]))
+    assert read_orientation(plain).y_axis is None
+    noted = tmp_path / "scan-AffinePlane-px2mm.xml"
+    measured = Measurements(np.array([[f.x_px, f.y_px] for f in io.fiducials]), tuple(f.name for f in io.fiducials),
+                            "scan.tif")
+    noted.write_text(micmac_texts(cam, orient(cam, measured, image="scan.tif"))[-1])    # as orient --micmac does
+    assert read_orientation(noted).y_axis == "up"
     common = ("--pixel-size", 0.5, "--extent", *EXTENT)
-    assert run(folder / "scan.tif", "--orientation", xml, *common, "-o", tmp_path / "a.tif").returncode == 0
+    assert run(folder / "scan.tif", "--orientation", noted, *common, "-o", tmp_path / "a.tif").returncode == 0
     assert run(folder / "scan.tif", "--orientation", folder / "io.json", *common, "-o", tmp_path / "b.tif"
                ).returncode == 0
     assert np.array_equal(tifffile.imread(tmp_path / "a.tif"), tifffile.imread(tmp_path / "b.tif"))

@@ -248,8 +248,9 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
         apart = all(float(np.hypot(c.x - m.x, c.y - m.y)) > m.extent for m in (found, *rivals))
         if inside and apart and 1 / RIVAL_SCALE <= c.radius / own.radius <= RIVAL_SCALE:
             again = measurer.candidate(c, blank=(found.x, found.y, found.extent + 2.0))
-            if again.found and all(float(np.hypot(again.x - m.x, again.y - m.y)) > max(m.extent, again.extent)
-                                   for m in (found, *rivals)):
+            beyond = again.found and float(np.hypot(again.x - found.x, again.y - found.y)) > found.extent
+            if beyond and all(float(np.hypot(again.x - m.x, again.y - m.y)) > max(m.extent, again.extent)
+                              for m in rivals):
                 rivals.append(again)
     return rivals
 

@@ -23,7 +23,7 @@ from aerofid.formats.camera_file import read_camera
 from aerofid.formats.measurements import read_measurements_and_not_found
 from aerofid.frame.nominal import DEFAULT_FORMAT
 from aerofid.io.atomic import Staging
-from aerofid.io.raster import open_raster
+from aerofid.io.raster import image_size
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import NAME_THE_POINTS, AmbiguousCorrespondenceError
 from aerofid.orientation.interior import orient as run_orient
@@ -117,14 +117,14 @@ def orient(image, camera_path, meas_path, model, correspondence, no_reject, as_j
 
 
 def _check_scan(image: str, meas: Measurements, meas_path: str) -> None:
-    """The scan IMAGE given with ``--measurements`` (it names the outputs): refused where the measurements are of
-    another scan (by its file name) or hold points outside it (its size read from its header)."""
+    """The scan IMAGE given with ``--measurements`` (it names the outputs; it must be a scan aerofid reads): refused
+    where the measurements are of another scan (by its file name) or hold points outside it (its size read from its
+    header, no pixel decoded)."""
     name = Path(image).name
     if meas.image and Path(meas.image).name != name:
         raise AerofidInputError(f"the measurements in {meas_path!r} are of {meas.image!r}, not of {name!r}: give "
                                 "that scan, or leave IMAGE out")
-    with open_raster(image, rows=0) as scan:
-        width, height = scan.width, scan.height
+    width, height = image_size(image)
     x, y = meas.xy[:, 0], meas.xy[:, 1]
     outside = (x < -0.5) | (y < -0.5) | (x > width - 0.5) | (y > height - 0.5)
     if outside.any():

@@ -31,8 +31,8 @@ from aerofid.resample import DEFAULT_KERNEL, KERNELS, Resampled, output_name, re
 @click.option("--kernel", type=click.Choice(list(KERNELS)), default=DEFAULT_KERNEL, show_default=True,
               help="interpolation kernel")
 @click.option("--y-axis", type=click.Choice(["up", "down"]), default=None,
-              help="the camera's film y axis (default: from the orientation; for an AffinePlane that of the "
-                   "MeasuresCamera.xml beside it, else down, MicMac's): "
+              help="the camera's film y axis (default: from the orientation; for an AffinePlane the one aerofid "
+                   "notes in it, else down, MicMac's): "
                    "rows run along -y for up, +y for down, so the output is never mirrored")
 @click.option("--micmac-name", is_flag=True, help="name the output OIS-Reech_<IMAGE's file name> in the folder -o")
 @click.option("--export", "exports", multiple=True, metavar="FORMAT=PATH",

@@ -24,6 +24,7 @@ i.e. for ``X = a x + b y + c, Y = d x + e y + f``: I00 = (c, f), V10 = (a, d), V
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -155,15 +156,22 @@ def write_measures_camera(path: str | Path, camera: Camera, name_im: str = "Glob
     write_text_atomic(path, measures_camera_xml(camera, name_im))
 
 
-def affine_plane_xml(H) -> str:
-    """MicMac ``<AffinitePlane>`` for the affine map ``[[a, b, c], [d, e, f]]``."""
+Y_AXIS_NOTE = re.compile(r"<!--\s*aerofid: film y axis (up|down)\s*-->")
+"""The comment an AffinitePlane aerofid writes carries its film y axis in (:func:`affine_plane_xml`): the plane's mm
+are the camera file's, and MicMac's own files, which have no such note, run y down."""
+
+
+def affine_plane_xml(H, y_axis: str | None = None) -> str:
+    """MicMac ``<AffinitePlane>`` for the affine map ``[[a, b, c], [d, e, f]]``, with a comment giving the film's
+    ``y_axis`` where it is known (:data:`Y_AXIS_NOTE`: MicMac ignores it; ``aerofid resample`` reads it)."""
     H = np.asarray(H, dtype=float)
     if H.shape == (3, 3):
         if not np.allclose(H[2], [0, 0, 1]):
             raise AerofidInputError("a projective transformation has no MicMac AffinitePlane form")
         H = H[:2]
     (a, b, c), (d, e, f) = H
-    return "\n".join(['<?xml version="1.0" ?>', "<AffinitePlane>",
+    note = [] if y_axis is None else [f"<!-- aerofid: film y axis {y_axis} -->"]
+    return "\n".join(['<?xml version="1.0" ?>', *note, "<AffinitePlane>",
                       f"     <I00>{number_text(c)} {number_text(f)}</I00>",
                       f"     <V10>{number_text(a)} {number_text(d)}</V10>",
                       f"     <V01>{number_text(b)} {number_text(e)}</V01>",
@@ -204,5 +212,5 @@ def micmac_texts(cam: Camera, res: InteriorOrientation) -> list[str]:
     m = Measurements(np.array([[f.x_px, f.y_px] for f in used]), tuple(f.name for f in used), res.image or "image")
     texts = [measures_im_xml(m), measures_camera_xml(cam)]
     if res.model != "projective":
-        texts.append(affine_plane_xml(res.pixel_to_mm))
+        texts.append(affine_plane_xml(res.pixel_to_mm, cam.y_axis))
     return texts

@@ -10,8 +10,8 @@ Accepted files (recognised from their content, not their names):
   (:meth:`aerofid.orientation.result.InteriorOrientation.to_dict`), and the sidecar ``aerofid resample`` writes
   beside a resampled frame (the same keys);
 * MicMac's ``<AffinitePlane>`` pixel -> mm (``<image>-AffinePlane-px2mm.xml`` as ``aerofid orient --micmac``
-  writes it; :func:`aerofid.formats.micmac.read_affine_plane`), which has no fiducials, nor a y axis but that of
-  the ``MeasuresCamera.xml`` beside it, if any.
+  writes it; :func:`aerofid.formats.micmac.read_affine_plane`), which has no fiducials, nor a y axis but the one
+  aerofid notes in the files it writes (:data:`aerofid.formats.micmac.Y_AXIS_NOTE`).
 
 Every refusal is one :class:`~aerofid.errors.AerofidInputError` line naming the file.
 """
@@ -21,13 +21,12 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from aerofid.errors import AerofidInputError
-from aerofid.formats.micmac import read_affine_plane, read_measures_camera
+from aerofid.formats.micmac import Y_AXIS_NOTE, read_affine_plane
 from aerofid.formats.text import load_json
 from aerofid.io.files import read_text_input
 from aerofid.orientation.result import InteriorOrientation
@@ -96,7 +95,8 @@ def read_orientation(path: str | os.PathLike[str]) -> StoredOrientation:
     where = repr(str(p))
     if text.lstrip().startswith("<"):
         H = read_affine_plane(p)
-        return StoredOrientation(AffineTransform(H), (), _camera_beside(p), "", "", str(p))
+        note = Y_AXIS_NOTE.search(text)
+        return StoredOrientation(AffineTransform(H), (), note.group(1) if note else None, "", "", str(p))
     data = load_json(text, f"orientation file {where}")
     if isinstance(data, dict) and "orientation" in data and "pixel_to_mm" not in data:
         if data["orientation"] is None:
@@ -109,19 +109,6 @@ def read_orientation(path: str | os.PathLike[str]) -> StoredOrientation:
         raise AerofidInputError(f"{where} holds no interior orientation (no \"pixel_to_mm\"): give the JSON that "
                                 "'aerofid orient ... -o FILE.json' writes, or a MicMac AffinePlane px2mm XML")
     return _from_dict(data, where, str(p))
-
-
-def _camera_beside(path: Path) -> str | None:
-    """The film y axis of the ``MeasuresCamera.xml`` beside an AffinitePlane file (as ``aerofid orient --micmac``
-    writes them, in one folder: the plane's mm are that camera's), by its coordinates
-    (:func:`aerofid.formats.micmac.read_measures_camera`); None where there is none, or none that reads."""
-    beside = path.parent / "MeasuresCamera.xml"
-    if not beside.is_file():
-        return None
-    try:
-        return read_measures_camera(beside).y_axis
-    except AerofidInputError:
-        return None
 
 
 def from_result(result: InteriorOrientation) -> StoredOrientation:

@@ -69,8 +69,9 @@ def load_yaml(text: str, source: str) -> Any:
         raise AerofidInputError(f"{source} is not valid YAML: {msg}") from None
     except AerofidInputError:                       # the file's own refusals (a ValueError too)
         raise
-    except ValueError:                              # an integer of more digits than Python converts
-        raise too_long(source) from None
+    except ValueError as e:                         # an integer of more digits than Python converts, or a bad value
+        raise (too_long(source) if "digits" in str(e) else AerofidInputError(f"{source} is not valid YAML: {e}")
+               ) from None
     except RecursionError:
         raise too_deep(source) from None
     finally:

@@ -46,7 +46,14 @@ from aerofid.find import (
     search,
 )
 from aerofid.formats.camera_file import read_camera
-from aerofid.frame.layout import MAX_ROTATION_DEG, USUAL_TURNS, LayoutMatch, can_end_early, layout_candidates
+from aerofid.frame.layout import (
+    MAX_ROTATION_DEG,
+    MIN_MATCHED,
+    USUAL_TURNS,
+    LayoutMatch,
+    can_end_early,
+    layout_candidates,
+)
 from aerofid.frame.nominal import (
     DEFAULT_FORMAT,
     UNCALIBRATED,
@@ -168,7 +175,8 @@ costs a least-squares fit. Measured with ``hough``'s searches logged (scratch, s
 each with no refusal before it, 96 of the others stopped at 8 refusals. Seeds 1000-1059 and 5000-5059, 36 frames of
 4-fiducial cameras, the RC20 frame in its 9 readings and 3 demo frames, oriented with 8 and with 2: every status, lie
 and position the same; only the reasons of marks not found say 2 refusals for 8 (docs/benchmarks_frames.md, session
-49). With 8, seed 1021 (noisy, ok) spent 12.2 of its 17.1 s in 132 such searches and 922 refusals."""
+49). With 8, seed 1021 (noisy, ok) spent 12.2 of its 17.1 s (under the profiler) in 132 such searches and 922
+refusals; seeds 5000-5059 took 635 -> 478 s, the failing 5009 76 -> 30 s."""
 
 
 def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
@@ -266,11 +274,22 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
 
 def _without_the_tags(frame: _Frame, extras: dict[str, tuple[float, float]], failed: FrameOrientation
                       ) -> FrameOrientation:
-    """``failed`` (the frame sought at the pixel size its resolution tags declare), or where it stands better, the frame
-    sought with the pixel size unknown (estimated from the marks), doubtful: a scan's tags can be wrong (software that
-    rewrote the file, a scanner's default), and the layout is sought within 3 % of a declared size."""
+    """``failed`` (the frame sought at the pixel size its resolution tags declare), or, where it found too few marks to
+    orient (:data:`~aerofid.frame.layout.MIN_MATCHED`) and the frame sought with the pixel size unknown (estimated
+    from the marks) is oriented and stands better, that one, doubtful: a scan's tags can be wrong (software that
+    rewrote the file, a scanner's default), and the layout is sought within 3 % of a declared size. A frame that
+    fails with three or more marks found at the tags' size was sought at its size, and one whose features hold no
+    layout whole (:attr:`~aerofid.frame.layout.LayoutMatch.decisive`) at any size is no frame whose tags are wrong:
+    neither is sought again (a tagged frame without marks, a leader or a blank, pays for the layout search only)."""
+    if frame.size is None or len(failed.found) >= MIN_MATCHED:
+        return failed
+    features, f = frame_features(frame.source)
+    cam = frame.cam
+    layouts = _layouts(frame.source, features, f, cam.xy_mm, cam.y_axis, None, first_complete=True)
+    if not (layouts and layouts[0].decisive):
+        return failed                                   # no layout the features hold whole at another size
     again = replace(frame, size=None, size_source="estimated").answer(extras, (None, "estimated"))
-    if _standing(again) <= _standing(failed) or frame.size is None:
+    if again.orientation is None or _standing(again) <= _standing(failed):
         return failed
     why = (f"the scan's resolution tags declare {MM_PER_INCH / frame.size:.1f} dpi ({frame.size:.5f} mm), its marks "
            f"{again.pixel_size_mm:.5f} mm: the tags are wrong; give the pixel size (--pixel-size)")
@@ -524,8 +543,9 @@ def _checked_options(cam: Camera, lie: tuple[int, bool] | None, profile: RollPro
 def _patches(measurer: Measurer, res: FrameOrientation, profile: RollProfile) -> Patches:
     """Each found mark's pixels about it (:data:`aerofid.frame.profile.Patches`) at each reduction of the profile's
     templates, wide enough for its largest template turned and :func:`~aerofid.frame.templates.agreement`'s reach:
-    the window it was measured on where that holds them (its grey levels are those of the mark the template was cut
-    from on the learnt frame: a colour scan's channel mix is chosen per window), else one read about it."""
+    the window it was measured on where that holds them in the roll's polarity (its grey levels are those of the mark
+    the template was cut from on the learnt frame: a colour scan's channel mix is chosen per window), else one read
+    about it in that polarity (the templates' own)."""
     sides: dict[int, int] = {}
     for _, t in profile.mark_templates:
         sides[t.factor] = max(sides.get(t.factor, 0), *t.shape)
@@ -536,8 +556,9 @@ def _patches(measurer: Measurer, res: FrameOrientation, profile: RollProfile) ->
         m = fid.located
         for f, side in sides.items():
             half = f * (side / 2 + PATCH_MARGIN)
-            held = min(m.x - m.box[0], m.y - m.box[1], m.box[2] - 1 - m.x, m.box[3] - 1 - m.y) >= half
-            box, grey = (m.box, m.window) if held else measurer.grey(m.x, m.y, half, m.polarity)
+            held = (min(m.x - m.box[0], m.y - m.box[1], m.box[2] - 1 - m.x, m.box[3] - 1 - m.y) >= half
+                    and m.polarity == profile.polarity)
+            box, grey = (m.box, m.window) if held else measurer.grey(m.x, m.y, half, profile.polarity)
             h, w = grey.shape[0] // f, grey.shape[1] // f
             reduced = grey[:h * f, :w * f].reshape(h, f, w, f).mean(axis=(1, 3))
             out[(fid.name, f)] = (reduced, ((m.x - box[0] - (f - 1) / 2) / f, (m.y - box[1] - (f - 1) / 2) / f))

@@ -58,7 +58,8 @@ def as_image_array(a: Any) -> np.ndarray:
     a : array_like
         ``(h, w)`` grey or ``(h, w, 3)`` RGB (``(h, w, 4)`` RGBA: alpha dropped), integers or floats. Floats are
         grey levels on [0, 1], or on 0-255 / 0-65535 (then divided by 255 / 65535: :data:`FLOAT_SCALES`); signed
-        integers are read as 8-, 16- or 32-bit unsigned by their largest sample (:data:`INTEGER_RANGES`).
+        integers, and unsigned ones wider than 16 bits, are read as 8-, 16- or 32-bit unsigned by their largest
+        sample (:data:`INTEGER_RANGES`).
 
     Returns
     -------

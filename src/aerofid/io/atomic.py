@@ -55,10 +55,14 @@ def temporary_beside(path: Path) -> tuple[int, str]:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}{TEMP_TAG}{os.getpid()}-", suffix=".tmp", dir=_folder(path))
     except OSError as e:
         raise AerofidInputError(f"cannot write {str(path)!r}: {e.strerror}") from None
-    umask = os.umask(0)
-    os.umask(umask)
-    os.fchmod(fd, 0o666 & ~umask)
+    with contextlib.suppress(OSError):                  # a file system without modes (FAT, some shares) keeps its own
+        os.fchmod(fd, 0o666 & ~_UMASK)
     return fd, tmp
+
+
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+"""The process's umask, read once as the module loads (reading it sets it, which threads must not race)."""
 
 
 def check_output(path: str | os.PathLike[str], what: str = "output", inputs: Iterable[str | os.PathLike[str]] = ()

@@ -60,6 +60,7 @@ __all__ = [
     "WINDOW_LIMIT_BYTES",
     "Raster",
     "check_window_size",
+    "image_size",
     "clip_box",
     "open_raster",
     "segment_indices",
@@ -677,6 +678,18 @@ class Raster:
             f"<Raster {str(self.path)!r} {self.format} {self.width}x{self.height} bands={self.bands} "
             f"dtype={self.dtype} tiled={self.tiled} {state}>"
         )
+
+
+def image_size(path: str | os.PathLike[str]) -> tuple[int, int]:
+    """A scan's (width, height) from its header, no pixel decoded (a TIFF's first page, a JPEG's or PNG's header);
+    the errors of :func:`open_raster`."""
+    p = Path(os.fspath(path))
+    kind = _file_format(p)
+    if kind == "tiff":
+        with Raster(p) as scan:
+            return scan.width, scan.height
+    header = jpeg.read_header(p, kind)
+    return header.width, header.height
 
 
 def open_raster(path: str | os.PathLike[str], rows: int | None = None) -> Raster:

@@ -28,7 +28,7 @@ whole dots per centimetre (96 dpi as 38, 96.52 dpi; 72 as 28, 71.12 dpi). No fil
 
 def checked_pixel_size(pixel_size_mm: object) -> float:
     """A pixel size given for a scan (mm per px) as a float, refused in one line unless it is a number from that of
-    :data:`MAX_DPI` (0.00127 mm) up to :data:`MAX_GIVEN_MM`.
+    :data:`MAX_DPI` (0.00127 mm) to less than :data:`MAX_GIVEN_MM`.
 
     >>> import numpy as np
     >>> checked_pixel_size(0.021), checked_pixel_size(np.float32(0.5))

@@ -95,7 +95,7 @@ def finite_number(v: Any, what: str, where: str) -> float:
     ...
     aerofid.errors.AerofidInputError: x must be a finite number, not 100000000000000000000...(401 characters)
     """
-    shown = repr(v) if len(repr(v)) <= 40 else f"{repr(v)[:21]}...({len(repr(v))} characters)"
+    shown = _shown(v)
     if isinstance(v, bool):
         raise AerofidInputError(f"{what} must be a number, not {shown}{where}")
     try:
@@ -107,6 +107,16 @@ def finite_number(v: Any, what: str, where: str) -> float:
     if not math.isfinite(x):
         raise AerofidInputError(f"{what} must be a finite number, not {shown}{where}")
     return x
+
+
+def _shown(v: Any) -> str:
+    """``repr(v)``, its first digits where it is long, its size where Python will not write it (an integer of more
+    than 4300 digits: YAML reads hexadecimal ones of any length)."""
+    try:
+        text = repr(v)
+    except ValueError:
+        return f"an integer of {v.bit_length()} bits"
+    return text if len(text) <= 40 else f"{text[:21]}...({len(text)} characters)"
 
 
 def _pair(v: Any, what: str, where: str) -> tuple[float, float]:

@@ -121,8 +121,9 @@ UNSOUGHT = "not sought"
 REFINED_TOLERANCE_MM = 1.0
 """How far (film mm) a mark may lie from its prediction by the found marks (a camera file's nominal values,
 the film's deformation)."""
-ESTIMATED_HINT = ("the pixel size was estimated from the marks (the scan declares none: no resolution tags, or a "
-                  "screen's default 72 or 96 dpi): give it (--pixel-size, or pixel_size_um in the camera file)")
+ESTIMATED_HINT = ("the scan declares no pixel size (no resolution tags, or a screen's default 72 or 96 dpi), so the "
+                  "layout was sought at every size it allows: give it (--pixel-size, or pixel_size_um in the camera "
+                  "file)")
 """Appended to the reasons of a frame that is not ok when nothing declared the pixel size."""
 DECLARED_HINT = ("the layout was sought at the pixel size {size:.5f} mm ({source}), to within 3 %: if that is not the "
                  "scan's, give it (--pixel-size)")

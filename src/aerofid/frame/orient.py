@@ -529,6 +529,7 @@ def _camera(camera: Any) -> Camera:
 def _checked_options(cam: Camera, lie: tuple[int, bool] | None, profile: RollProfile | None
                      ) -> tuple[int, bool] | None:
     """The options checked (one line each): the lie to assume, the given one or the profile's."""
+    lie = lie.tolist() if isinstance(lie, np.ndarray) else lie
     if lie is not None and not (isinstance(lie, Sequence) and len(lie) == 2 and tuple(lie) in ARRANGEMENTS):
         raise AerofidInputError(f"lie {lie!r}: give (rotation, mirrored) with rotation 0, 90, 180 or 270 degrees")
     if profile is not None and not isinstance(profile, RollProfile):

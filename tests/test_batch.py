@@ -16,9 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tifffile
 from click.testing import CliRunner
 
 from aerofid.batch import runners
+from aerofid.batch.driver import plan_batch
 from aerofid.batch.inputs import expand_inputs, frame_keys
 from aerofid.batch.job import run_frame_job
 from aerofid.batch.plan import batch_settings, frame_outputs, read_complete
@@ -210,11 +212,12 @@ def test_bad_input_is_one_line_and_exit_2_before_any_work(roll, tmp_path):
 
 def test_inputs_expand_to_sorted_unique_scans_and_outputs_never_collide(tmp_path):
     for rel in ("r1/x.TIF", "r1/y.jpeg", "r1/notes.txt", "r1/.x.tif.aerofid-1-a.tmp.tif", "r2/x.tif",
-                "r2/sub/z.png", "r2/out/crops/x.tif.png"):
+                "r2/sub/z.png", "r2/out/crops/x.tif.png", "r2/out/resampled/OIS-Reech_x.tif"):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(b"")
+    out = tmp_path / "r2" / "out"      # the batch's crops and resampled frames are no input (they were read back)
     paths = expand_inputs([str(tmp_path / "r1"), str(tmp_path / "r1" / "x.TIF"), str(tmp_path / "r2" / "**")],
-                          exclude=tmp_path / "r2" / "out" / "crops")    # the batch's crops are no input
+                          exclude=[out / "crops", out / "resampled"])
     assert [p.relative_to(tmp_path).as_posix() for p in paths] == ["r1/x.TIF", "r1/y.jpeg", "r2/sub/z.png",
                                                                    "r2/x.tif"]
     assert frame_keys(paths) == ("r1__x.TIF", "y.jpeg", "z.png", "r2__x.tif")
@@ -222,6 +225,39 @@ def test_inputs_expand_to_sorted_unique_scans_and_outputs_never_collide(tmp_path
     assert expand_inputs([str(tmp_path / "link.tif"), str(tmp_path / "r1" / "y.jpeg")]) == (tmp_path / "link.tif",)
     with pytest.raises(AerofidInputError, match="no scan .* 'nowhere/\\*.tif'"):
         expand_inputs([str(tmp_path / "r1"), "nowhere/*.tif"])
+
+
+def test_a_frame_done_again_leaves_none_of_its_earlier_outputs(roll, tmp_path):
+    """A frame done again (its scan replaced, other settings) had its earlier outputs that the new run does not write
+    left beside its new ones: an affine run's AffinePlane beside a projective run's JSON; a good scan's MicMac files
+    beside the failed frame of the blank one that replaced it (a helper's audit)."""
+    scans, cam, _ = roll
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "a.tif").write_bytes((scans / "a.tif").read_bytes())
+    out = tmp_path / "out"
+    plane = out / frame_outputs("a.tif", "affine").affine_plane
+    assert batch(tmp_path / "in", "--camera", cam, "-o", out).returncode == 0 and plane.exists()
+    assert batch(tmp_path / "in", "--camera", cam, "-o", out, "--model", "projective").returncode == 0
+    assert not plane.exists() and (out / frame_outputs("a.tif", "projective").measures_im).exists()
+    tifffile.imwrite(tmp_path / "in" / "a.tif", np.full((800, 800), 90, np.uint8))     # a blank frame
+    assert batch(tmp_path / "in", "--camera", cam, "-o", out, "--model", "projective").returncode == 1
+    assert json.loads((out / "a.tif.json").read_text())["status"] == "failed"
+    assert not (out / frame_outputs("a.tif", "projective").measures_im).exists()
+
+
+def test_scans_whose_resampled_frames_would_share_a_name_are_refused_before_any_work(tmp_path):
+    """ReSampFid's name drops the scan's ending: ``a.tif`` and ``a.TIFF`` were both resampled to
+    ``OIS-Reech_a.tif``, the second over the first (a helper's audit). Refused when resampling, in one line."""
+    cam = tmp_path / "cam.json"
+    write_camera(cam, CAMERA)
+    for name in ("a.tif", "a.TIFF", "b.jpg"):
+        (tmp_path / "roll" / name).parent.mkdir(exist_ok=True)
+        (tmp_path / "roll" / name).write_bytes(b"")
+    inputs = [str(tmp_path / "roll")]
+    assert len(plan_batch(inputs, cam, tmp_path / "out").frames) == 3            # not resampled: no clash
+    with pytest.raises(AerofidInputError, match="'a.TIFF' and 'a.tif' would share the resampled frame "
+                                                "'resampled/OIS-Reech_a.tif'"):
+        plan_batch(inputs, cam, tmp_path / "out", resample_mm=0.1)
 
 
 def test_a_job_never_raises_and_scheduler_without_dask_is_one_error(tmp_path, monkeypatch):

@@ -20,6 +20,7 @@ import tifffile
 
 import aerofid
 from aerofid import synth
+from aerofid.batch.gallery import crop_sheet_png
 from aerofid.detect.screen import Candidate
 from aerofid.find import RECENTRED_WINDOW, Measurer, recentred_half
 from aerofid.formats.camera_file import read_camera, write_camera
@@ -967,6 +968,19 @@ def test_marks_of_a_frame_without_an_orientation_say_their_names_are_unconfirmed
     found = [f for f in res.fiducials if f.status == "found"]
     assert res.status == "failed" and res.orientation is None and found
     assert all(f.reason == verdict_module.UNCONFIRMED for f in found)
+
+
+def test_a_frame_whose_fiducials_lie_off_the_scan_has_its_report_and_crop_sheet(tmp_path):
+    """A scan with its left 300 px cut off: the frame is ok without the 3 fiducials predicted off the scan, and its
+    HTML report and a batch's crop sheet draw them as empty (they refused the crop's box: the batch made the frame an
+    error, a helper's audit)."""
+    spec = frame_spec(CAMERA, 0.09, np.random.default_rng(3))
+    tifffile.imwrite(tmp_path / "cut.tif", render_frame(spec)[:, 300:], tile=(256, 256))
+    res = aerofid.orient_frame(tmp_path / "cut.tif", CAMERA, pixel_size_mm=0.09)
+    off = [f for f in res.fiducials if "lies outside the scan" in f.reason]
+    assert res.ok and len(off) == 3 and all(f.status == "not_found" for f in off)
+    assert "<html" in frame_html(res, tmp_path / "cut.tif")
+    assert cv2.imdecode(np.frombuffer(crop_sheet_png(tmp_path / "cut.tif", res), np.uint8), 1) is not None
 
 
 def test_a_camera_mapping_a_profiles_path_and_a_numpy_pixel_size_are_taken(tmp_path):

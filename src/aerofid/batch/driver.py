@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,13 +19,16 @@ from aerofid.batch.plan import (
     CROPS_FOLDER,
     MEASURES_CAMERA,
     MICMAC_FOLDER,
+    RESAMPLED_FOLDER,
     BatchSettings,
     batch_settings,
+    frame_outputs,
     prepare_outdir,
     read_complete,
 )
 from aerofid.batch.runners import Runner, Task
 from aerofid.batch.summary import write_summary
+from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import read_camera
 from aerofid.formats.micmac import write_measures_camera
 from aerofid.orientation.camera import Camera
@@ -78,14 +81,29 @@ def plan_batch(inputs: Iterable[str], camera_path: str | os.PathLike[str], outdi
     AerofidInputError
         Inputs that name no scan, a bad camera file, a bad option: before any work.
     """
-    paths = expand_inputs(inputs, exclude=Path(outdir) / CROPS_FOLDER)   # the crops are PNGs; scans may share OUTDIR
+    paths = expand_inputs(inputs, exclude=[Path(outdir) / CROPS_FOLDER, Path(outdir) / RESAMPLED_FOLDER])
     keys = frame_keys(paths)
     camera = read_camera(os.fspath(camera_path))
     settings = batch_settings(camera, camera_path, outdir, model=model, pixel_size_mm=pixel_size_mm, lie=lie,
                               profile_path=profile_path, resample_mm=resample_mm, kernel=kernel)
     frames = tuple((os.path.abspath(p), k) for p, k in zip(paths, keys, strict=True))
+    if resample_mm is not None:
+        _check_resampled_names(keys, settings.model)
     done = {k: r for p, k in frames if (r := _complete_record(p, k, settings)) is not None}
     return BatchPlan(camera, settings, frames, done)
+
+
+def _check_resampled_names(keys: Sequence[str], model: str) -> None:
+    """Refuse (one line, before any work) frames whose resampled frames would share a name (case-insensitively):
+    ReSampFid's name drops the scan's ending (``a.tif`` and ``a.jpg`` are both ``OIS-Reech_a.tif``), and one would
+    overwrite the other."""
+    named: dict[str, str] = {}
+    for key in keys:
+        other = named.setdefault(frame_outputs(key, model).resampled.lower(), key)
+        if other != key:
+            raise AerofidInputError(f"frames {other!r} and {key!r} would share the resampled frame "
+                                    f"{frame_outputs(key, model).resampled!r}: rename one of the scans, or "
+                                    "process them in separate batches")
 
 
 def start_batch(plan: BatchPlan) -> Path:

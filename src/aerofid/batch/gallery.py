@@ -16,7 +16,7 @@ import numpy as np
 
 from aerofid.frame.result import FOUND_MARK, MISSING_MARK, FiducialFinding, FrameOrientation
 from aerofid.io.array import open_image
-from aerofid.io.raster import clip_box
+from aerofid.io.raster import part_inside
 
 TILE_PX = 128
 """Side of one mark's tile (px of the PNG and of the summary page)."""
@@ -64,9 +64,9 @@ def _tile(source, fid: FiducialFinding, residual: tuple[float, float] | None) ->
     h = int(max(EXTENTS * extent, MIN_HALF_PX))
     x0, y0 = int(round(cx)) - h, int(round(cy)) - h
     tile = np.zeros((TILE_PX, TILE_PX, 3), np.uint8)
-    box, _ = clip_box((x0, y0, x0 + 2 * h + 1, y0 + 2 * h + 1), source.width, source.height)
+    box = part_inside((x0, y0, x0 + 2 * h + 1, y0 + 2 * h + 1), source.width, source.height)
     k = TILE_PX / (2 * h + 1)
-    if box[2] > box[0] and box[3] > box[1]:
+    if box is not None:                         # a mark predicted off the scan: a blank tile
         grey = _grey_u8(source.read_window(box))
         part = cv2.resize(grey, None, fx=k, fy=k, interpolation=cv2.INTER_AREA if k < 1 else cv2.INTER_NEAREST)
         r0, c0 = int(round((box[1] - y0) * k)), int(round((box[0] - x0) * k))

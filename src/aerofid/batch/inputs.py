@@ -46,10 +46,10 @@ def _inside(path: Path, folder: str) -> bool:
     return os.path.commonpath([os.path.realpath(path), folder]) == folder
 
 
-def expand_inputs(inputs: Iterable[str], exclude: str | os.PathLike[str] | None = None) -> tuple[Path, ...]:
+def expand_inputs(inputs: Iterable[str], exclude: Sequence[str | os.PathLike[str]] = ()) -> tuple[Path, ...]:
     """The scan files that ``inputs`` name, sorted and each once (the same file named twice, by another path
-    or a symbolic link, counts once), none of them inside the folder ``exclude`` (the batch's folder of mark
-    crops, which are PNG files).
+    or a symbolic link, counts once), none of them inside the folders ``exclude`` (the batch's own outputs: its mark
+    crops, which are PNG files, and its resampled frames, which are TIFFs, when the scans share its folder).
 
     A file named directly is taken whatever its ending (a corrupt or mis-named file is a frame that fails, not
     a reason to stop); folders and globs contribute only files ending in :data:`SCAN_SUFFIXES`.
@@ -78,9 +78,9 @@ def expand_inputs(inputs: Iterable[str], exclude: str | os.PathLike[str] | None 
         raise AerofidInputError("give the scans to process: files, folders or globs (e.g. 'roll1/*.tif')")
     seen: dict[str, Path] = {}
     empty: list[str] = []
-    skip = None if exclude is None else os.path.realpath(exclude)
+    skip = [os.path.realpath(folder) for folder in exclude]
     for item in items:
-        found = [p for p in _expand_one(item) if skip is None or not _inside(p, skip)]
+        found = [p for p in _expand_one(item) if not any(_inside(p, folder) for folder in skip)]
         if not found:
             empty.append(item)
         for p in found:

@@ -99,9 +99,24 @@ def run_frame_job(path: str, frame: str, settings: BatchSettings) -> FrameRecord
     MeasuresIm and AffinePlane) all together, the JSON last, and return its record. Never raises."""
     t0 = time.perf_counter()
     try:
+        _forget_earlier(frame, settings)
         return record_from_document(frame, path, _orient_and_write(path, frame, settings, t0))
     except Exception as e:  # every failure is the frame's record (module docstring)
         return FrameRecord(frame, path, ERROR, seconds=time.perf_counter() - t0, error=error_text(e))
+
+
+def _forget_earlier(frame: str, settings: BatchSettings) -> None:
+    """Remove what an earlier run wrote for ``frame``, its JSON first: a frame is done again only when its scan, the
+    batch's settings or its outputs changed, so they describe another scan or other settings, and a run that writes
+    fewer of them (a frame now failed, another model, no resampling) left them beside its own (a helper's audit:
+    MicMac files and a resampled frame of a scan since replaced by a blank one)."""
+    out = Path(settings.outdir)
+    names = [frame_outputs(frame, model) for model in ("affine", "projective")]
+    resampled = out / names[0].resampled
+    for path in (out / names[0].json, out / names[0].html, out / names[0].crops, out / names[0].measures_im,
+                 *(out / n.affine_plane for n in names if n.affine_plane is not None), resampled,
+                 sidecar_path(resampled)):
+        path.unlink(missing_ok=True)
 
 
 def _resampled(path: str, res: FrameOrientation, output: Path, settings: BatchSettings) -> list[str]:

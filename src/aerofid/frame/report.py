@@ -15,7 +15,7 @@ import numpy as np
 from aerofid.find import reduction_for
 from aerofid.frame.result import FOUND_MARK, MISSING_MARK, ROLL_AREAS, FiducialFinding, FrameOrientation
 from aerofid.io.array import open_image
-from aerofid.io.raster import clip_box
+from aerofid.io.raster import part_inside
 from aerofid.orientation.report import residual_plot_svg, to_text
 
 THUMBNAIL_PIXELS = 600_000
@@ -126,9 +126,9 @@ def _crop(source: Any, fid: FiducialFinding, res: FrameOrientation) -> str:
     y = fid.y if fid.y is not None else fid.predicted_y
     extent = fid.located.extent if fid.located is not None else 20.0
     h = int(max(CROP_HALF * extent, MIN_CROP_HALF))
-    box, _ = clip_box((int(round(x)) - h, int(round(y)) - h, int(round(x)) + h + 1, int(round(y)) + h + 1),
+    box = part_inside((int(round(x)) - h, int(round(y)) - h, int(round(x)) + h + 1, int(round(y)) + h + 1),
                       source.width, source.height)
-    if box[2] <= box[0] or box[3] <= box[1]:
+    if box is None:                             # a mark predicted off the scan
         return ""
     img = _bgr(source.read_window(box))
     k = CROP_SIDE / max(img.shape[:2])

@@ -165,8 +165,14 @@ def _doubts(io: InteriorOrientation, findings: Sequence[FiducialFinding], size: 
     if size is not None and size_source != "estimated":
         fitted = adjusted_pixel_mm(io)
         if abs(fitted / size - 1) > SCALE_AGREEMENT:
-            out.append(f"the adjusted pixel size {fitted:.5f} mm differs from the {size_source}' {size:.5f} mm")
+            whose = SIZE_SOURCES.get(size_source, size_source)
+            out.append(f"the adjusted pixel size {fitted:.5f} mm differs from {whose} {size:.5f} mm")
     return out
+
+
+SIZE_SOURCES = {"given": "the given", "tags": "the resolution tags'", "camera": "the camera file's",
+                "profile": "the roll profile's"}
+"""Where a declared pixel size came from, as a reason names it."""
 
 
 def adjusted_pixel_mm(io: InteriorOrientation) -> float:

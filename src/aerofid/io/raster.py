@@ -61,6 +61,7 @@ __all__ = [
     "Raster",
     "check_window_size",
     "image_size",
+    "part_inside",
     "clip_box",
     "open_raster",
     "segment_indices",
@@ -99,6 +100,13 @@ def _box_numbers(box: Sequence[float]) -> tuple[float, float, float, float]:
     return numbers
 
 
+def part_inside(box: Sequence[int], width: int, height: int) -> tuple[int, int, int, int] | None:
+    """The part of a box of whole pixels inside an image of ``width`` x ``height`` pixels, None where it has none (a
+    drawing of a mark predicted off the scan draws no pixel; :func:`clip_box` refuses such a box)."""
+    inside = (max(box[0], 0), max(box[1], 0), min(box[2], width), min(box[3], height))
+    return inside if inside[2] > inside[0] and inside[3] > inside[1] else None
+
+
 def clip_box(
     box: Sequence[float], width: int, height: int
 ) -> tuple[tuple[int, int, int, int], bool]:
@@ -118,8 +126,8 @@ def clip_box(
             f"box {tuple(box)} is empty; give (x0, y0, x1, y1) with x1 > x0 and y1 > y0"
         )
     rounded = (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))
-    clipped = (max(rounded[0], 0), max(rounded[1], 0), min(rounded[2], width), min(rounded[3], height))
-    if clipped[2] <= clipped[0] or clipped[3] <= clipped[1]:
+    clipped = part_inside(rounded, width, height)
+    if clipped is None:
         raise AerofidInputError(
             f"box {tuple(box)} lies outside the {width} x {height} image; "
             "give a box that overlaps the image"

@@ -24,7 +24,7 @@ from aerofid.batch.driver import plan_batch
 from aerofid.batch.inputs import expand_inputs, frame_keys
 from aerofid.batch.job import run_frame_job
 from aerofid.batch.plan import batch_settings, frame_outputs, read_complete
-from aerofid.cli import main
+from aerofid.cli import batch_cmd, main
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import write_camera
 from aerofid.synth_frame import frame_spec, wild_rc10_camera, write_frame
@@ -243,6 +243,21 @@ def test_a_frame_done_again_leaves_none_of_its_earlier_outputs(roll, tmp_path):
     assert batch(tmp_path / "in", "--camera", cam, "-o", out, "--model", "projective").returncode == 1
     assert json.loads((out / "a.tif.json").read_text())["status"] == "failed"
     assert not (out / frame_outputs("a.tif", "projective").measures_im).exists()
+
+
+def test_an_interrupted_command_says_to_run_it_again(roll, tmp_path, monkeypatch):
+    """Ctrl-C: one line that says what it means for the outputs and what to do ("error: aborted" said neither: a
+    helper's audit), status 2."""
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    scans, cam, _ = roll
+    monkeypatch.setattr(batch_cmd, "plan_batch", interrupted)
+    r = CliRunner().invoke(main, ["batch", str(scans / "a.tif"), "--camera", str(cam), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 2 and r.stderr.strip().endswith(
+        "error: interrupted: what was not finished is not written; run the command again (a batch resumes, its "
+        "complete frames kept)"), r.stderr
 
 
 def test_scans_whose_resampled_frames_would_share_a_name_are_refused_before_any_work(tmp_path):

@@ -62,8 +62,9 @@ class _Group(click.Group):
             flush_stdout()
         except click.exceptions.Exit as e:  # --help, --version
             return e.exit_code
-        except click.exceptions.Abort:
-            echo_error("error: aborted")
+        except click.exceptions.Abort:  # Ctrl-C
+            echo_error("error: interrupted: what was not finished is not written; run the command again (a batch "
+                       "resumes, its complete frames kept)")
             return EXIT_BAD_INPUT
         except click.ClickException as e:
             echo_error(f"error: {e.format_message()} (see 'aerofid --help')")

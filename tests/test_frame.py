@@ -983,6 +983,22 @@ def test_a_frame_whose_fiducials_lie_off_the_scan_has_its_report_and_crop_sheet(
     assert cv2.imdecode(np.frombuffer(crop_sheet_png(tmp_path / "cut.tif", res), np.uint8), 1) is not None
 
 
+def test_a_roll_frame_scanned_at_another_resolution_is_sought_at_the_size_its_tags_declare(tmp_path):
+    """A roll's profile learnt at 0.09 mm; a frame of it scanned at 0.07 mm, tagged so: sought at the profile's size
+    it failed, told to give --pixel-size, which a batch gives every frame (a helper's audit). It is sought at its
+    tags' size: every mark at its centre, doubtful for review (its pixel size is not the roll's)."""
+    base = aerofid.orient_frame(render_frame(frame_spec(CAMERA, 0.09, np.random.default_rng(11))), CAMERA,
+                                pixel_size_mm=0.09)
+    spec = frame_spec(CAMERA, 0.07, np.random.default_rng(12))
+    tifffile.imwrite(tmp_path / "g07.tif", render_frame(spec), tile=(256, 256), resolution=(25.4 / 0.07, 25.4 / 0.07),
+                     resolutionunit="INCH")
+    res = aerofid.orient_frame(tmp_path / "g07.tif", CAMERA, profile=learn_profile(base))
+    errors = _errors(res, frame_truth(spec).marks)
+    assert res.status == "doubtful" and res.pixel_size_source == "tags" and len(errors) == 8
+    assert max(errors.values()) < 0.05
+    assert res.reasons == ("review: the adjusted pixel size 0.07000 mm differs from the roll profile's 0.09000 mm",)
+
+
 def test_a_camera_mapping_a_profiles_path_and_a_numpy_pixel_size_are_taken(tmp_path):
     """The camera as the mapping a camera file holds, the roll's profile by its path (as ``aerofid orient --profile``
     takes it) and the pixel size as a numpy scalar orient the frame as their usual forms do."""

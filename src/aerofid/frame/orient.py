@@ -257,6 +257,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         best = frame.answer(extras, declared)
         if best.status == FAILED and size_source == "tags":
             best = _without_the_tags(frame, extras, best)
+        elif best.status == FAILED and size_source == "profile":
+            best = _at_the_tags_size(frame, extras, best)
         if not best.fiducials:                  # no layout among the features: its reasons say all (_no_layout)
             return best
         if extras and best.orientation is not None:
@@ -295,6 +297,21 @@ def _without_the_tags(frame: _Frame, extras: dict[str, tuple[float, float]], fai
     why = (f"the scan's resolution tags declare {MM_PER_INCH / frame.size:.1f} dpi ({frame.size:.5f} mm), its marks "
            f"{again.pixel_size_mm:.5f} mm: the tags are wrong; give the pixel size (--pixel-size)")
     return replace(again, status=DOUBTFUL if again.ok else again.status, reasons=(*again.reasons, why))
+
+
+def _at_the_tags_size(frame: _Frame, extras: dict[str, tuple[float, float]], failed: FrameOrientation
+                      ) -> FrameOrientation:
+    """``failed`` (the frame sought at its roll profile's pixel size), or, where it found too few marks to orient and
+    the scan's resolution tags declare another size, the frame sought at that one where it is oriented and stands
+    better (doubtful for review: its pixel size is not the roll's): a frame of the roll scanned at another resolution
+    failed, told to give ``--pixel-size``, which a batch gives every frame (a helper's audit)."""
+    path = frame.source.path
+    tagged = pixel_size_from_tags(path) if isinstance(path, str | os.PathLike) else None
+    if tagged is None or frame.size is None or len(failed.found) >= MIN_MATCHED or math.isclose(tagged, frame.size,
+                                                                                                 rel_tol=0.03):
+        return failed
+    again = replace(frame, size=tagged, size_source="tags").answer(extras, (tagged, "tags"))
+    return again if again.orientation is not None and _standing(again) > _standing(failed) else failed
 
 
 @dataclass(frozen=True)

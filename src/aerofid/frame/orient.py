@@ -194,11 +194,10 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         The scan (any size: it is read reduced for the search and by windows for the marks).
     camera : Camera, path, mapping or format, optional
         The calibration certificate (:func:`aerofid.read_camera` reads JSON, YAML or MicMac XML; a mapping as
-        :meth:`~aerofid.orientation.camera.Camera.from_dict` reads it); or the film
-        format alone (``"23cm"``, the default: :data:`~aerofid.frame.nominal.DEFAULT_FORMAT`): the marks are then
-        found on its nominal layout (:mod:`aerofid.frame.nominal`), the frame is doubtful and flagged
-        uncalibrated, the pixel size, fiducial centre (the orientation's ``mm_to_pixel`` of (0, 0)) and rotation
-        are estimates.
+        :meth:`~aerofid.orientation.camera.Camera.from_dict` reads it); or the film format alone (``"23cm"``, the
+        default: :data:`~aerofid.frame.nominal.DEFAULT_FORMAT`): the marks are then found on its nominal layout
+        (:mod:`aerofid.frame.nominal`), the frame is doubtful and flagged uncalibrated, the pixel size, fiducial
+        centre (the orientation's ``mm_to_pixel`` of (0, 0)) and rotation are estimates.
     pixel_size_mm : float, optional
         The scan's pixel size; default: the file's resolution tags, else the camera file's ``pixel_size_um``,
         else estimated from the marks' layout. On a format's nominal layout the layout is sought within
@@ -212,8 +211,8 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         profile's, else as the camera file draws the frame (0, False), and the frame is then doubtful.
     profile : RollProfile or path, optional
         What the roll's marks look like (:mod:`aerofid.frame.profile`, ``aerofid learn``; a path is read by
-        :func:`~aerofid.frame.profile.read_profile`): its pixel size (unless
-        given), lie, polarity, method and mark size are used, and a frame that disagrees with it is doubtful.
+        :func:`~aerofid.frame.profile.read_profile`): its pixel size (unless given), lie, polarity, method and mark
+        size are used, and a frame that disagrees with it is doubtful.
 
     Returns
     -------
@@ -254,25 +253,23 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         frame = _Frame(source, cam, Measurer(source, detector, polarities, colour), model, size, size_source, lie,
                        profile, nominal is not None, size_range)
         extras = {} if nominal is not None else extra_marks(cam)
-        best = frame.answer(extras, declared)
-        if best.status == FAILED and size_source == "tags":
-            best = _without_the_tags(frame, extras, best)
-        elif best.status == FAILED and size_source == "profile":
-            best = _at_the_tags_size(frame, extras, best)
+        best = frame.search(extras, declared)
         if not best.fiducials:                  # no layout among the features: its reasons say all (_no_layout)
             return best
-        if extras and best.orientation is not None:
-            best = replace(best, extra_marks=measure_extra_marks(frame.measurer, best, extras))
-        if profile is not None and profile.mark_templates:
-            best = _reviewed(best, lie_by_templates(profile, best, cam.xy_mm, cam.names, cam.y_axis,
-                                                    _patches(frame.measurer, best, profile)))
+        best = frame.finished(best, extras)
     if nominal is not None:
         return _uncalibrated(best, str(fmt), *declared)
-    if best.status != OK and size_source == "estimated":
-        best = replace(best, reasons=(*best.reasons, ESTIMATED_HINT))
-    elif best.status == FAILED and size is not None:
-        best = replace(best, reasons=(*best.reasons, DECLARED_HINT.format(size=size, source=size_source)))
-    return best
+    return _hinted(best, size, size_source)
+
+
+def _hinted(res: FrameOrientation, size: float | None, size_source: str) -> FrameOrientation:
+    """``res`` with what to do where its pixel size was searched (:data:`ESTIMATED_HINT`: the frame is not ok) or
+    declared as ``size`` from ``size_source`` (:data:`DECLARED_HINT`: the frame failed)."""
+    if res.status != OK and size_source == "estimated":
+        return replace(res, reasons=(*res.reasons, ESTIMATED_HINT))
+    if res.status == FAILED and size is not None:
+        return replace(res, reasons=(*res.reasons, DECLARED_HINT.format(size=size, source=size_source)))
+    return res
 
 
 def _without_the_tags(frame: _Frame, extras: dict[str, tuple[float, float]], failed: FrameOrientation
@@ -291,8 +288,8 @@ def _without_the_tags(frame: _Frame, extras: dict[str, tuple[float, float]], fai
     layouts = _layouts(frame.source, features, f, cam.xy_mm, cam.y_axis, None, first_complete=True)
     if not (layouts and layouts[0].decisive):
         return failed                                   # no layout the features hold whole at another size
-    again = replace(frame, size=None, size_source="estimated").answer(extras, (None, "estimated"))
-    if again.orientation is None or _standing(again) <= _standing(failed):
+    again = frame.better_at(None, "estimated", extras, failed)
+    if again is None:
         return failed
     why = (f"the scan's resolution tags declare {MM_PER_INCH / frame.size:.1f} dpi ({frame.size:.5f} mm), its marks "
            f"{again.pixel_size_mm:.5f} mm: the tags are wrong; give the pixel size (--pixel-size)")
@@ -305,13 +302,11 @@ def _at_the_tags_size(frame: _Frame, extras: dict[str, tuple[float, float]], fai
     the scan's resolution tags declare another size, the frame sought at that one where it is oriented and stands
     better (doubtful for review: its pixel size is not the roll's): a frame of the roll scanned at another resolution
     failed, told to give ``--pixel-size``, which a batch gives every frame (a helper's audit)."""
-    path = frame.source.path
-    tagged = pixel_size_from_tags(path) if isinstance(path, str | os.PathLike) else None
+    tagged = _tagged_size(frame.source)
     if tagged is None or frame.size is None or len(failed.found) >= MIN_MATCHED or math.isclose(tagged, frame.size,
                                                                                                  rel_tol=0.03):
         return failed
-    again = replace(frame, size=tagged, size_source="tags").answer(extras, (tagged, "tags"))
-    return again if again.orientation is not None and _standing(again) > _standing(failed) else failed
+    return frame.better_at(tagged, "tags", extras, failed) or failed
 
 
 @dataclass(frozen=True)
@@ -370,6 +365,35 @@ class _Frame:
         _check_decoded(self.source)
         features, f = screens[-1]
         return best, self.head(len(features), f, WHOLE_FRAME)
+
+    def search(self, extras: dict[str, tuple[float, float]], declared: tuple[float | None, str]) -> FrameOrientation:
+        """:meth:`answer`, and where that fails at a pixel size the scan's tags or the roll's profile declare, the
+        frame sought at another (:func:`_without_the_tags`, :func:`_at_the_tags_size`)."""
+        best = self.answer(extras, declared)
+        if best.status == FAILED and self.size_source == "tags":
+            return _without_the_tags(self, extras, best)
+        if best.status == FAILED and self.size_source == "profile":
+            return _at_the_tags_size(self, extras, best)
+        return best
+
+    def better_at(self, size: float | None, size_source: str, extras: dict[str, tuple[float, float]],
+                  failed: FrameOrientation) -> FrameOrientation | None:
+        """The frame sought again at pixel size ``size`` (None: unknown) from ``size_source``, where it is oriented and
+        stands better than ``failed`` (:func:`_standing`); else None."""
+        again = replace(self, size=size, size_source=size_source).answer(extras, (size, size_source))
+        return again if again.orientation is not None and _standing(again) > _standing(failed) else None
+
+    def finished(self, best: FrameOrientation, extras: dict[str, tuple[float, float]]) -> FrameOrientation:
+        """``best`` with the format's other marks ``extras`` measured where it is oriented, and, with a roll profile's
+        templates, flagged for review where its marks look like the roll's under another lie
+        (:func:`~aerofid.frame.profile.lie_by_templates`)."""
+        if extras and best.orientation is not None:
+            best = replace(best, extra_marks=measure_extra_marks(self.measurer, best, extras))
+        profile, cam = self.profile, self.cam
+        if profile is not None and profile.mark_templates:
+            best = _reviewed(best, lie_by_templates(profile, best, cam.xy_mm, cam.names, cam.y_axis,
+                                                    lambda: _patches(self.measurer, best, profile)))
+        return best
 
     def answer(self, extras: dict[str, tuple[float, float]], declared: tuple[float | None, str]) -> FrameOrientation:
         """The frame measured in the roll's areas, else (or where that is not settled) searched whole
@@ -642,12 +666,18 @@ def scan_pixel_size(source: ImageSource, cam: Camera, given: float | None,
         return float(given), "given"
     if profile is not None:
         return profile.pixel_size_mm, "profile"
-    tagged = pixel_size_from_tags(source.path) if isinstance(source.path, str | os.PathLike) else None
+    tagged = _tagged_size(source)
     if tagged is not None:
         return tagged, "tags"
     if cam.pixel_size_um is not None:
         return cam.pixel_size_um / 1000.0, "camera"
     return None, "estimated"
+
+
+def _tagged_size(source: ImageSource) -> float | None:
+    """The pixel size a scan's file declares in its resolution tags (:func:`aerofid.io.resolution.pixel_size_from_tags`;
+    None for an array, or a file that declares none)."""
+    return pixel_size_from_tags(source.path) if isinstance(source.path, str | os.PathLike) else None
 
 
 def _check_decoded(source: ImageSource) -> None:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import os
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -316,7 +316,7 @@ factor, and its centre (x, y) in them."""
 
 
 def lie_by_templates(profile: RollProfile, res: FrameOrientation, fiducials_mm: np.ndarray, names: Sequence[str],
-                     y_axis: str, patches: Patches) -> list[str]:
+                     y_axis: str, read_patches: Callable[[], Patches]) -> list[str]:
     """Why a frame oriented with ``profile`` should be reviewed for its lie: its found marks look more like the roll's
     templates (``profile.mark_templates``) named and turned as another lie of the film would name and turn them than
     as its own lie does (none: they do not, or cannot tell, or the fiducials told the lie: its correspondence is
@@ -325,11 +325,12 @@ def lie_by_templates(profile: RollProfile, res: FrameOrientation, fiducials_mm: 
     named wrongly, and only its marks' own looks (the RC20's number dots) can tell. Marks alike in every lie tell
     nothing, but the frames' small turns in the scanner do: the synthetic frames' rings with an X or a '+' correlated
     up to 0.02 better under another lie (a frame turned a few tenths of a degree the other way), below
-    :data:`LIE_MARGIN`; where the fiducials tell the lie they are not weighed. ``patches``: each found mark's pixels
-    (:data:`Patches`) at every reduction the templates use. Each lie names each mark by the fiducial nearest its film
-    position under that lie, turned about the layout's centre (within :data:`NAMING_MM`), and turns each template by
-    the lie's arrangement relative to the roll's; it is weighed against the frame's own lie by the marks' mean
-    correlation (:func:`~aerofid.frame.templates.agreement`) over the marks both can score."""
+    :data:`LIE_MARGIN`; where the fiducials tell the lie they are not weighed. ``read_patches``: each found mark's
+    pixels (:data:`Patches`) at every reduction the templates use, read only where the lies are weighed. Each lie
+    names each mark by the fiducial nearest its film position under that lie, turned about the layout's centre
+    (within :data:`NAMING_MM`), and turns each template by the lie's arrangement relative to the roll's; it is
+    weighed against the frame's own lie by the marks' mean correlation (:func:`~aerofid.frame.templates.agreement`)
+    over the marks both can score."""
     own = dict(profile.mark_templates)
     io = res.orientation
     found = [f for f in res.fiducials if f.status == FOUND_MARK and f.located is not None]
@@ -337,6 +338,7 @@ def lie_by_templates(profile: RollProfile, res: FrameOrientation, fiducials_mm: 
         return []
     if io.correspondence is not None and io.correspondence.status == "unique":
         return []                                         # the fiducials told the lie
+    patches = read_patches()
     frame_lie = (res.rotation_deg, bool(res.mirrored))
     g_frame = arrangement_matrix(*frame_lie, y_axis)
     g_roll = arrangement_matrix(profile.rotation_deg, profile.mirrored, y_axis)

@@ -22,7 +22,7 @@ from click.testing import CliRunner
 from aerofid.batch import runners
 from aerofid.batch.driver import plan_batch
 from aerofid.batch.inputs import expand_inputs, frame_keys
-from aerofid.batch.job import run_frame_job
+from aerofid.batch.job import FrameRecord, run_frame_job
 from aerofid.batch.plan import batch_settings, frame_outputs, read_complete
 from aerofid.cli import batch_cmd, main
 from aerofid.errors import AerofidInputError
@@ -123,6 +123,7 @@ def test_the_summary_gallery_shows_every_mark_worst_frames_first(sequential):
     page = (out / "summary.html").read_text()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["statistics"]["counts"] == {"error": 2, "failed": 0, "doubtful": 0, "ok": 3}
+    assert summary["planned"] == 5 and "<h1>5 frames: " in page            # all done
     assert summary["statistics"]["residual_px"]["n"] >= 18
     frames = summary["frames"]
     marks = sum(len(f["marks"]) for f in frames)
@@ -155,7 +156,9 @@ def test_a_batch_killed_part_way_resumes_and_redoes_only_what_is_incomplete(roll
     done = {n: (out / frame_outputs(n, "affine").json).stat().st_mtime_ns
             for n in GOOD if (out / frame_outputs(n, "affine").json).exists()}
     assert len(done) < len(GOOD)                                        # killed part-way
-    assert json.loads((out / "summary.json").read_text())["settings"]["model"] == "affine"   # a whole summary
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["settings"]["model"] == "affine" and summary["planned"] == 3          # a whole summary
+    assert f"{len(summary['frames'])} of 3 frames done" in (out / "summary.html").read_text()  # not the whole batch
     os.remove(out / frame_outputs("a.tif", "affine").html)             # one frame made incomplete
     (out / ".c.tif.json.aerofid-999999-x.tmp").write_text("{")         # a killed run's temporary file
     r = batch(good, "--camera", cam, "-o", out)
@@ -187,6 +190,28 @@ def test_local_processes_give_the_sequential_results(roll, sequential, tmp_path)
     r, out = batch(scans, "--camera", cam, "-o", tmp_path / "out", "--workers", "2"), tmp_path / "out"
     assert r.returncode == 1, r.stderr
     assert results(out) == results(sequential[1])
+
+
+def _dies(path, frame, settings):
+    """A frame job for the pool test: ``kill*`` frames end their worker every time, ``once*`` the first time only
+    (a file beside ``path`` remembers it); the others take a moment, so that they are in flight when one dies."""
+    if frame.startswith("kill") or (frame.startswith("once") and not os.path.exists(path + ".died")):
+        Path(path + ".died").touch()
+        time.sleep(0.3)
+        os.kill(os.getpid(), signal.SIGKILL)
+    time.sleep(0.2)
+    return FrameRecord(frame, path, "ok")
+
+
+def test_a_worker_killed_costs_only_the_frame_that_kills_it(tmp_path):
+    frames = ("a", "kill", "b", "once", "c", "d", "kill2", "e")
+    tasks = [(str(tmp_path / f), f) for f in frames]
+    settings = batch_settings(CAMERA, tmp_path / "camera.json", tmp_path / "out")
+    records = list(runners.process_runner(2, _dies)(tasks, settings))
+    assert sorted(r.frame for r in records) == sorted(frames)          # every frame once
+    bad = {r.frame: r.error for r in records if r.status != "ok"}
+    assert sorted(bad) == ["kill", "kill2"]                           # the frames caught with them are done again
+    assert all(runners.LOST_ALONE in e for e in bad.values())
 
 
 def test_bad_input_is_one_line_and_exit_2_before_any_work(roll, tmp_path):

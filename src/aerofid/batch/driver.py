@@ -122,7 +122,7 @@ def run_batch(plan: BatchPlan, runner: Runner, on_record: Callable[[FrameRecord]
     is written with the summary at the end."""
     start_batch(plan)
     records = dict(plan.done)
-    write_summary(plan.ordered(records), plan.settings)
+    write_summary(plan.ordered(records), plan.settings, len(plan.frames))
     last = time.monotonic()
     try:
         for rec in runner(plan.todo, plan.settings):
@@ -130,13 +130,13 @@ def run_batch(plan: BatchPlan, runner: Runner, on_record: Callable[[FrameRecord]
             if on_record is not None:
                 on_record(rec)
             if time.monotonic() - last >= refresh_s:
-                write_summary(plan.ordered(records), plan.settings)
+                write_summary(plan.ordered(records), plan.settings, len(plan.frames))
                 last = time.monotonic()
     finally:  # also when interrupted (Ctrl-C): the summary of what was done, frames finished meanwhile too
         records |= {k: r for p, k in plan.frames
                     if k not in records and (r := _complete_record(p, k, plan.settings)) is not None}
         final = plan.ordered(records)
-        write_summary(final, plan.settings)
+        write_summary(final, plan.settings, len(plan.frames))
         if metashape:
             write_metashape(final, plan.settings, plan.camera)
     return final

@@ -3,8 +3,9 @@
 Each runner takes the frames to do (scan path, frame key) and yields their
 :class:`~aerofid.batch.job.FrameRecord` as they complete. The work is always
 :func:`~aerofid.batch.job.run_frame_job`; a worker reads its frame and writes that frame's outputs itself, and
-only the small record comes back. A worker that dies (a local process killed, a lost Dask worker) makes its frame
-a record with status ``error`` rather than stopping the batch.
+only the small record comes back. A worker that dies (a local process killed, a lost Dask worker) does not stop
+the batch: the local runner does its frames again (:func:`process_runner`), Dask does so itself (its
+``allowed-failures``); a frame that still has no record is an ``error``.
 
 Dask is an optional extra (``pip install 'aerofid[cluster]'``), imported only when a scheduler is given.
 """
@@ -18,8 +19,9 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from collections import deque
+from collections.abc import Callable, Generator, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
@@ -54,30 +56,64 @@ def run_sequential(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[F
         yield run_frame_job(path, frame, settings)
 
 
-def _lost(path: str, frame: str, e: BaseException) -> FrameRecord:
+def _lost(path: str, frame: str, e: BaseException, why: str = "run the batch again") -> FrameRecord:
     """The record of a frame whose worker did not return (killed, out of memory, lost by the cluster)."""
     return FrameRecord(frame, path, ERROR, error=f"its worker was lost ({type(e).__name__}: "
-                                                 f"{' '.join(str(e).split()) or 'no message'}); run the batch again")
+                                                 f"{' '.join(str(e).split()) or 'no message'}); {why}")
 
 
-def process_runner(workers: int) -> Runner:
-    """A runner on ``workers`` local processes (``concurrent.futures.ProcessPoolExecutor``)."""
+LOST_ALONE = ("it was lost again running alone: the frame itself ends its worker (out of memory?); try it with "
+              "'aerofid orient'")
+"""What the record of a frame says whose worker died twice, the second time with no other frame running."""
 
-    def run(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
-        if not tasks:
-            return
-        ex = ProcessPoolExecutor(max_workers=min(workers, len(tasks)),
-                                 mp_context=multiprocessing.get_context(START_METHOD))
-        try:
-            futures: dict[Future[FrameRecord], Task] = {ex.submit(run_frame_job, p, k, settings): (p, k)
-                                                        for p, k in tasks}
-            for f in as_completed(futures):
+Job = Callable[[str, str, BatchSettings], FrameRecord]
+"""The work of one frame (:func:`~aerofid.batch.job.run_frame_job`; a test may give another)."""
+
+
+def _until_broken(queue: deque[Task], settings: BatchSettings, workers: int, job: Job
+                  ) -> Generator[FrameRecord, None, tuple[list[Task], BaseException | None]]:
+    """Run the frames of ``queue`` (taken from it) on a fresh pool of ``workers`` processes, ``workers`` frames at
+    a time, and yield their records; when a worker dies, the pool is broken: return the frames then in flight
+    (any of them may be the one that ended the worker) and the error; ``([], None)`` when the queue is done."""
+    ex = ProcessPoolExecutor(max_workers=min(workers, len(queue)),
+                             mp_context=multiprocessing.get_context(START_METHOD))
+    running: dict[Future[FrameRecord], Task] = {}
+    try:
+        while queue or running:
+            while queue and len(running) < workers:
+                task = queue.popleft()
+                running[ex.submit(job, *task, settings)] = task
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            if any(isinstance(f.exception(), BrokenExecutor) for f in done):
+                wait(running)  # a broken pool ends every future it holds: the finished ones keep their records
+                broken = next(e for f in running if isinstance(e := f.exception(), BrokenExecutor))
+                yield from (f.result() for f in running if f.exception() is None)
+                return [t for f, t in running.items() if f.exception() is not None], broken
+            for f in done:
+                task = running.pop(f)
                 try:
                     yield f.result()
-                except Exception as e:  # BrokenProcessPool: a worker died
-                    yield _lost(*futures[f], e)
-        finally:
-            ex.shutdown(wait=True, cancel_futures=True)
+                except Exception as e:  # the job's record could not come back (pickling)
+                    yield _lost(*task, e)
+        return [], None
+    finally:
+        ex.shutdown(wait=True, cancel_futures=True)
+
+
+def process_runner(workers: int, job: Job = run_frame_job) -> Runner:
+    """A runner on ``workers`` local processes (``concurrent.futures.ProcessPoolExecutor``), each given one frame
+    at a time. A worker that dies breaks the pool: the frames then in flight are done again, each alone on a
+    fresh pool, and the rest go on on another; a frame whose worker dies again alone is an ``error``
+    (:data:`LOST_ALONE`) - the others caught in its break are not."""
+
+    def run(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
+        queue = deque(tasks)
+        while queue:
+            suspects, _ = yield from _until_broken(queue, settings, workers, job)
+            for task in suspects:
+                again, broken = yield from _until_broken(deque([task]), settings, 1, job)
+                if broken is not None:
+                    yield _lost(*task, broken, LOST_ALONE)
 
     return run
 
@@ -169,5 +205,5 @@ def open_runner(workers: int = 1, scheduler: str | None = None) -> Iterator[Runn
         yield run_sequential if workers <= 1 else process_runner(workers)
 
 
-__all__ = ["CLUSTER_EXTRA", "Runner", "Task", "dask_runner", "local_cluster", "open_runner", "process_runner",
+__all__ = ["CLUSTER_EXTRA", "LOST_ALONE", "Job", "Runner", "Task", "dask_runner", "local_cluster", "open_runner", "process_runner",
            "run_sequential", "WORKER_ENVIRONMENT"]

@@ -92,10 +92,17 @@ def _num(v: float | None) -> str:
     return "" if v is None else f"{v:.4f}"
 
 
-def summary_json(records: Sequence[FrameRecord], settings: BatchSettings) -> str:
-    """The settings, :func:`statistics` and every record."""
-    return json.dumps({"settings": settings.options(), "statistics": statistics(records),
-                       "frames": [r.to_dict() for r in records]}, indent=1) + "\n"
+def summary_json(records: Sequence[FrameRecord], settings: BatchSettings, planned: int | None = None) -> str:
+    """The settings, the number of frames ``planned`` (the records' by default; more while the batch runs or
+    when it was interrupted), :func:`statistics` and every record."""
+    return json.dumps({"settings": settings.options(), "planned": len(records) if planned is None else planned,
+                       "statistics": statistics(records), "frames": [r.to_dict() for r in records]},
+                      indent=1) + "\n"
+
+
+def _heading(done: int, planned: int | None) -> str:
+    """``40 frames``, or ``12 of 40 frames done`` while a batch runs or after it was interrupted."""
+    return f"{done} frames" if planned is None or planned == done else f"{done} of {planned} frames done"
 
 
 def _frame_rows(records: Sequence[FrameRecord], settings: BatchSettings) -> str:
@@ -127,8 +134,9 @@ def _gallery(records: Sequence[FrameRecord], settings: BatchSettings) -> str:
     return "\n".join(out)
 
 
-def summary_html(records: Sequence[FrameRecord], settings: BatchSettings) -> str:
-    """The page (module docstring): counts, residual statistics, the frames worst first, the gallery."""
+def summary_html(records: Sequence[FrameRecord], settings: BatchSettings, planned: int | None = None) -> str:
+    """The page (module docstring): counts (of ``planned`` frames), residual statistics, the frames worst first,
+    the gallery."""
     e = html.escape
     st = statistics(records)
     counts = ", ".join(f'<span class="{s}">{n} {s}</span>' for s, n in st["counts"].items())
@@ -137,12 +145,12 @@ def summary_html(records: Sequence[FrameRecord], settings: BatchSettings) -> str
                   f"<td>{_num(d['residual_px']['median'])}</td><td>{_num(d['residual_px']['max'])}</td></tr>"
                   for n, d in st["fiducials"].items())
     return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>aerofid batch: {st['frames']} frames</title>
+<html lang="en"><head><meta charset="utf-8"><title>aerofid batch: {_heading(st['frames'], planned)}</title>
 <style>body{{font-family:sans-serif;margin:2em}} td,th{{padding:2px 8px;text-align:left}}
 figure{{display:inline-block;margin:3px}} .t{{width:{TILE_PX}px;height:{TILE_PX}px;overflow:hidden}}
 figcaption{{font-size:small}} .ok,.found{{color:#080}} .doubtful,.rejected{{color:#b60}}
 .failed,.error,.not_found{{color:#b00}}</style></head><body>
-<h1>{st['frames']} frames: {counts}</h1>
+<h1>{_heading(st['frames'], planned)}: {counts}</h1>
 <p>Camera {e(settings.camera_path)}, model {e(settings.model)}, settings {e(settings.fingerprint)}.
 Frame RMS (px): median {_num(rms['median'])}, max {_num(rms['max'])}. Residuals of the used marks (px):
 {res['n']} marks, median {_num(res['median'])}, 95th percentile {_num(res['p95'])}, max {_num(res['max'])}.</p>
@@ -159,10 +167,13 @@ Frame RMS (px): median {_num(rms['median'])}, max {_num(rms['max'])}. Residuals 
 """
 
 
-def write_summary(records: Sequence[FrameRecord], settings: BatchSettings) -> list[Path]:
-    """Write :data:`SUMMARY_FILES` into the output folder together (staged, then renamed); their paths."""
+def write_summary(records: Sequence[FrameRecord], settings: BatchSettings, planned: int | None = None
+                  ) -> list[Path]:
+    """Write :data:`SUMMARY_FILES` of ``records`` (of ``planned`` frames) into the output folder together
+    (staged, then renamed); their paths."""
     out = Path(settings.outdir)
-    texts = (summary_csv(records), summary_json(records, settings), summary_html(records, settings))
+    texts = (summary_csv(records), summary_json(records, settings, planned),
+             summary_html(records, settings, planned))
     paths = [out / name for name in SUMMARY_FILES]
     with Staging() as staging:
         for p, text in zip(paths, texts, strict=True):

@@ -127,6 +127,24 @@ def test_covariance_follows_a_mirror_and_a_transposition(method, mark):
     np.testing.assert_allclose(tr.covariance[::-1, ::-1], d.covariance, rtol=0.05)
 
 
+def test_hough_sigma_matches_the_spread_under_film_grain():
+    """Film grain (white noise smoothed over 1.2 px) correlates the residuals of the cross fit: its white-noise
+    covariance was 0.46 and 0.59 of the spread per axis (this test's '+', 10 degrees, grain 0.05), now the
+    residuals' correlation widens it (``correlated_covariance``). At 10 degrees: the pixel grid's blur of the
+    synthetic renderer biases a '+' along the pixel axes by 0.02-0.03 px, which is no noise."""
+    rng = np.random.default_rng(5)
+    cov = synth.coverage((W, W), CENTRE, plus(10.0), 16)
+    clean = synth.blur(synth.paint(np.full((W, W), 0.25, np.float32), cov, 0.85), 0.7)
+    err, rep = [], []
+    for _ in range(TRIALS):
+        d = hough.detect(np.clip(synth.add_grain(clean, NOISE, rng), 0.0, 1.0).astype(np.float32))
+        assert d.found
+        err.append((d.x - CENTRE[0], d.y - CENTRE[1]))
+        rep.append((d.sigma_x, d.sigma_y))
+    ratio = np.sqrt((np.array(rep) ** 2).mean(axis=0)) / np.array(err).std(axis=0, ddof=1)
+    assert np.all((0.75 < ratio) & (ratio < 1.4)), ratio
+
+
 def test_auto_reports_the_covariance_of_the_member_it_returns():
     sc = synth.mark_scene("ring_cross", 40, width=2.0, window=72, rng=np.random.default_rng(4))
     r = auto.detect(sc.image)

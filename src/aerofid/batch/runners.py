@@ -205,5 +205,5 @@ def open_runner(workers: int = 1, scheduler: str | None = None) -> Iterator[Runn
         yield run_sequential if workers <= 1 else process_runner(workers)
 
 
-__all__ = ["CLUSTER_EXTRA", "LOST_ALONE", "Job", "Runner", "Task", "dask_runner", "local_cluster", "open_runner", "process_runner",
-           "run_sequential", "WORKER_ENVIRONMENT"]
+__all__ = ["CLUSTER_EXTRA", "LOST_ALONE", "Job", "Runner", "Task", "dask_runner", "local_cluster", "open_runner",
+           "process_runner", "run_sequential", "WORKER_ENVIRONMENT"]

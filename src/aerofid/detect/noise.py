@@ -14,6 +14,9 @@ mark in the window (the Laplacian 0-2 %). Correlated noise has little power at t
 the Laplacian kernel sees most, so both read low and the Laplacian much lower: white noise blurred by 0.7 px
 0.64-0.69 against 0.26-0.28; JPEG (quality 75) of noise 0.53-0.90 against 0.13-0.43; film grain
 (``synth.add_grain``) 0.40-0.43 against 0.04-0.05. Neither is the pixel sigma of correlated noise.
+
+What correlated noise does to a least-squares fit's covariance, :func:`correlated_covariance` measures from the
+fit's own residuals.
 """
 
 from __future__ import annotations
@@ -42,4 +45,61 @@ def laplacian_noise_sigma(img: np.ndarray) -> float:
     return float(median(np.abs(resp)) / 0.6745 / 6.0)
 
 
-__all__ = ["difference_noise_sigma", "laplacian_noise_sigma"]
+CORRELATION_LAG = 4
+"""Largest lag (px, per axis) at which the residuals' correlation enters :func:`correlated_covariance`: film grain
+(``synth.add_grain``, white noise smoothed over 1.2 px) still correlates 0.06 at 4 px, white noise blurred by
+0.7 px 0.0002."""
+
+
+def correlated_covariance(px: np.ndarray, py: np.ndarray, v: np.ndarray, rows: np.ndarray, white: np.ndarray,
+                          lag: int = CORRELATION_LAG) -> np.ndarray:
+    """The covariance of estimates linear in the pixels' grey values, ``x = rows @ g`` (``rows`` k x n, e.g. a
+    least-squares fit's ``(J'J)^-1 J'`` for the parameters wanted), when the noise is stationary but not white:
+
+        Cov(x) = sum_h r(h) sum_i rows_i rows_(i+h)'
+
+    over the lags ``h`` with ``|h_x|, |h_y| <= lag``, ``r(h)`` the autocovariance of the fit's residuals ``v``
+    at lag ``h`` (the mean of ``v_i v_(i+h)`` over the pairs of pixels both fitted): the heteroscedasticity and
+    autocorrelation consistent ("sandwich") estimator of Newey & West (1987) in two dimensions. Its lag-0 term
+    is the white-noise covariance ``sigma0^2 (J'J)^-1`` (``white``, k x k, given as the fit computed it); the
+    other lags add what the noise's correlation adds. Beyond the seeds, which fit with white-noise covariances:
+    film grain, scanner blur and JPEG correlate neighbouring pixels, and a white-noise sigma is then several times
+    too small (docs/noise.md).
+
+    Returns ``white`` where the other lags do not widen it (white noise: they sum to about 0, either sign), or
+    where their sum is not a covariance.
+
+    Parameters
+    ----------
+    px, py : ndarray
+        The fitted pixels' integer coordinates (n).
+    v : ndarray
+        The fit's (weighted) residuals (n).
+    rows : ndarray
+        k x n: each estimate's weights on the pixels' values.
+    white : ndarray
+        k x k white-noise covariance.
+    lag : int
+        :data:`CORRELATION_LAG`.
+    """
+    ix, iy = (px - px.min()).astype(np.intp), (py - py.min()).astype(np.intp)
+    h, w = int(iy.max()) + 1, int(ix.max()) + 1
+    k = rows.shape[0]
+    grids = np.zeros((k + 2, h + lag, w + lag))   # zero padding: no lag up to ``lag`` wraps round
+    grids[:k, iy, ix], grids[k, iy, ix], grids[k + 1, iy, ix] = rows, v, 1.0
+    f = np.fft.rfft2(grids)
+    # sum_i X_i Y_(i+h) for every lag h at once: the inverse transform of conj(FX) FY
+    auto = np.fft.irfft2(f[k:].conj() * f[k:], s=grids.shape[1:])             # v with v, fitted with fitted
+    cross = np.fft.irfft2(f[:k, None].conj() * f[None, :k], s=grids.shape[1:])  # rows with rows (k x k)
+    lags = np.r_[0:lag + 1, -lag:0]                                             # wrapped indices of -lag..lag
+    window = np.ix_(lags, lags)
+    pairs = np.rint(auto[1][window])
+    r = np.where(pairs > 0.5, auto[0][window] / np.maximum(pairs, 1.0), 0.0)
+    r[0, 0] = 0.0                                   # lag 0 is the white-noise term, given
+    extra = np.einsum("ij,klij->kl", r, cross[:, :, lags[:, None], lags[None, :]])
+    cov = white + extra
+    widened = np.trace(extra) > 0 and np.all(np.linalg.eigvalsh(0.5 * (cov + cov.T)) > 0)
+    return cov if widened else white
+
+
+__all__ = ["CORRELATION_LAG", "correlated_covariance", "difference_noise_sigma", "laplacian_noise_sigma"]

@@ -10,7 +10,9 @@ where c_k is the coverage of bar k (length L_k, stroke width w, normal angle the
 is Phi((u + a/2) / s) - Phi((u - a/2) / s). The 12 parameters (xc, yc, theta1, theta2, L1, L2, w, s, A,
 b0, bx, by) are estimated by Levenberg-Marquardt (MINPACK, :mod:`aerofid.scipy_kernels`); the
 covariance of the centre is sigma0^2 (J^T J)^-1 with sigma0^2 = v^T v / (n - u), so texture that the model
-does not explain widens the reported sigma instead of hiding in it.
+does not explain widens the reported sigma instead of hiding in it, and is widened by the residuals' correlation
+(film grain, scanner blur, JPEG: :func:`~aerofid.detect.noise.correlated_covariance`), which the white-noise
+formula takes for independent pixels.
 
 The fit uses every pixel of the mark, including the crossing, and works for 7 px panels as for 40 px
 external fiducials, for non-orthogonal arms and for arms of unequal length.
@@ -24,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aerofid.detect.noise import correlated_covariance
 from aerofid.robust import percentile, robust_std
 from aerofid.scipy_kernels import LMSolution, levenberg_marquardt, ndtr
 
@@ -82,7 +85,7 @@ class CrossFit:
     mark, larger for a feature that only resembles it."""
     cov_xy: float = float("nan")
     """Covariance of the centre's x and y (px^2): with ``sigma_x``, ``sigma_y`` the centre's 2 x 2 block of
-    sigma0^2 (J^T J)^+."""
+    sigma0^2 (J^T J)^+, widened by the residuals' correlation (:func:`_centre_covariance`)."""
 
     @property
     def arm_balance(self) -> float:
@@ -397,7 +400,8 @@ def _robust_solve(pt: _Patch, p0: np.ndarray, lo: np.ndarray, hi: np.ndarray, ma
 
 def _centre_covariance(pt: _Patch, sol: np.ndarray, weights: np.ndarray) -> tuple[float, np.ndarray] | None:
     """sigma0 = sqrt(v'Pv / (n - u)) and the covariance sigma0^2 (J'J)^+ of the parameters (pseudo-inverse:
-    when the arms run out of the patch their lengths are not determined, but the centre still is)."""
+    when the arms run out of the patch their lengths are not determined, but the centre still is), the centre's
+    block widened by the residuals' correlation (:func:`~aerofid.detect.noise.correlated_covariance`)."""
     model, jacobian = pt.evaluated(sol)
     v = model - pt.g
     J = weights[:, None] * jacobian
@@ -406,7 +410,9 @@ def _centre_covariance(pt: _Patch, sol: np.ndarray, weights: np.ndarray) -> tupl
         Q = np.linalg.pinv(J.T @ J, rcond=1e-12, hermitian=True)
     except np.linalg.LinAlgError:
         return None
+    centre = Q[:2] @ J.T   # the centre's weights on the pixels' values
     cov = sigma0 ** 2 * Q
+    cov[:2, :2] = correlated_covariance(pt.px, pt.py, weights * v, centre, cov[:2, :2])
     if not (np.isfinite(cov[0, 0]) and np.isfinite(cov[1, 1]) and cov[0, 0] >= 0 and cov[1, 1] >= 0):
         return None
     return sigma0, cov

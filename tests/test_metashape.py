@@ -139,6 +139,17 @@ def test_the_script_pins_the_used_fiducials_at_metashape_pixels_and_reports_miss
     assert set(fiducial_markers(chunk)) == set(used) and "1 of 2 scans placed" in again
 
 
+def test_cameras_of_the_chunk_that_share_a_label_get_no_fiducials(measured, monkeypatch, capsys):
+    """Two cameras of the project labelled as one scan: the script cannot tell which is the scan; it placed the
+    fiducials on the first."""
+    text = metashape_script([from_result(measured["roll/scan1.tif"][0])], CAMERA, [])
+    chunk = _Chunk([_Camera("scan1", _Sensor("s0")), _Camera("scan1", _Sensor("s1"))])
+    printed = run_script(text, chunk, monkeypatch, capsys)
+    assert chunk.markers == [] and not any(c.sensor.film_camera for c in chunk.cameras)
+    assert "scan1: 2 cameras in the chunk have this label: not placed" in printed
+    assert "0 of 1 scans placed" in printed and "no camera with this label" not in printed
+
+
 def test_a_camera_file_with_y_down_keeps_y_and_no_project_is_one_message(measured, monkeypatch, capsys):
     res, _ = measured["roll/scan2.tif"]
     down = replace(CAMERA, y_axis="down")

@@ -196,19 +196,25 @@ _BODY = '''
 
 def place_fiducials(chunk):
     """Set the film camera, the fiducial markers and their pinned projections; print what matched."""
-    cameras = {}
+    cameras, alike = {}, {}
     for camera in chunk.cameras:
         cameras.setdefault(camera.label, camera)
+        alike[camera.label] = alike.get(camera.label, 0) + 1
     markers = {}
     for marker in chunk.markers:
         if marker.type == Metashape.Marker.Type.Fiducial and marker.sensor is not None:
             markers.setdefault((marker.sensor.key, marker.label), marker)
     cam = DATA["camera"]
-    missing = []
+    missing, unplaced = [], 0
     for frame in DATA["frames"]:
         camera = cameras.get(frame["label"]) or cameras.get(frame["image"].replace("\\\\", "/").split("/")[-1])
         if camera is None:
             missing.append(frame["label"])
+            continue
+        if alike[camera.label] > 1:
+            print("aerofid: {}: {} cameras in the chunk have this label: not placed (give them distinct labels "
+                  "and run the script again)".format(camera.label, alike[camera.label]))
+            unplaced += 1
             continue
         sensor = camera.sensor
         sensor.film_camera = True
@@ -233,7 +239,8 @@ def place_fiducials(chunk):
         print("aerofid: {}: no camera with this label in the chunk: not placed".format(label))
     for item in DATA["left_out"]:
         print("aerofid: {}: left out: {}".format(item["image"], item["reason"]))
-    print("aerofid: {} of {} scans placed".format(len(DATA["frames"]) - len(missing), len(DATA["frames"])))
+    print("aerofid: {} of {} scans placed".format(len(DATA["frames"]) - len(missing) - unplaced,
+                                                  len(DATA["frames"])))
     return missing
 
 

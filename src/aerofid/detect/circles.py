@@ -19,7 +19,8 @@ The pipeline of seed 003, section 5 ("Algorithm"), on one window:
    ``(x_i - x0)^2 + (y_i - y0)^2 - R_1^2 = e_i`` and ``(x_j - x0)^2 + (y_j - y0)^2 - R_2^2 = e_j``, handled as
    "condition equations with parameters" (the Gauss-Helmert model, seed eq. (3), Schaffrin 1997):
    ``B e + A xi = w``, ``e ~ (0, sigma0^2 P^-1)`` (:func:`fit_concentric_circles`). The cofactor matrix of
-   the parameters scaled by the a-posteriori ``sigma0^2`` gives the centre's standard deviation.
+   the parameters scaled by the a-posteriori ``sigma0^2`` gives the centre's standard deviation, widened by the
+   edge points' correlation (:func:`centre_covariance`; the seed takes them as independent).
 
 The result is rejected (``not_found`` with a reason) when fewer than two circles are supported on enough of
 their circumference, when the circles are not concentric (each circle adjusted on its own, its edge points
@@ -42,7 +43,7 @@ import numpy as np
 
 from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import distances, in_disc
-from aerofid.detect.noise import difference_noise_sigma
+from aerofid.detect.noise import correlated_covariance, difference_noise_sigma
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused, unusable_window
 from aerofid.robust import median
@@ -96,11 +97,6 @@ COMPETITOR_RATIO = 0.5
 window ambiguous (e.g. two non-concentric circles)."""
 
 N_SECTORS = 36
-
-EDGE_CORRELATION = 2.0
-"""Edge points per independent observation: neighbouring Canny pixels share the smoothing and Sobel kernels
-(about 2 px along the edge), so the adjustment's cofactors, which assume independent points, are scaled by
-sqrt(EDGE_CORRELATION). Measured: with it the RMS error on synthetic marks is 0.7-1.4 times the sigma."""
 
 MAX_RMS_RATIO = 5.0
 """Largest ratio of the adjustment's sigma0 (edge residual RMS) to the RMS the noise explains; measured on good
@@ -830,7 +826,8 @@ def detect(window: np.ndarray, params: CirclesParams = DEFAULT) -> CirclesResult
     -------
     CirclesResult
         The adjusted common centre; ``sigma_x``, ``sigma_y``, ``cov_xy`` = its covariance from the adjustment
-        (times ``EDGE_CORRELATION``), ``sigma`` = the mean of ``sigma_x`` and ``sigma_y`` (not their RMS);
+        with the edge points' correlation (:func:`centre_covariance`), ``sigma`` = the mean of ``sigma_x`` and
+        ``sigma_y`` (not their RMS);
         ``score`` = min(circumference support / 0.9, fit quality, concentricity), and the intermediate results
         as typed fields; ``extent`` is the largest circle's radius + 1 px. A window without two concentric
         circles gives ``status="not_found"`` with the reason.
@@ -895,7 +892,7 @@ def _run(w: np.ndarray, p: CirclesParams, t: _Trace,
         raise Refused(f"too few edge pixels ({ep.x.size}) for circles")
     r_max = float(p.max_radius) if p.max_radius is not None else 0.5 * min(h, wd)
     cx, cy, radii, votes = _hough_start(ep, p, r_max, (h, wd), t, start)
-    fit, lab = _adjust(ep, cx, cy, radii, p, t)
+    fit, lab, fitted = _adjust(ep, cx, cy, radii, p, t)
     if not (0 <= fit.x0 <= wd - 1 and 0 <= fit.y0 <= h - 1):
         raise Refused("the adjusted centre lies outside the window")
     if max(fit.radii) > 0.5 * max(h, wd) * 1.5:
@@ -915,16 +912,15 @@ def _run(w: np.ndarray, p: CirclesParams, t: _Trace,
         raise Refused(f"the edge points scatter {fit.sigma0:.2f} px about the adjusted circles, "
                        f"{fit.sigma0 / expected:.1f} times what the noise explains: not a clean pair of "
                        f"concentric circles")
-    sx, sy = fit.sigma_xy
-    # the adjustment's covariance of the centre, scaled for the correlated edge points
-    t.sigma_x, t.sigma_y = float(sx * np.sqrt(EDGE_CORRELATION)), float(sy * np.sqrt(EDGE_CORRELATION))
-    t.cov_xy = float(fit.cov[0, 1] * EDGE_CORRELATION)
+    cov = centre_covariance(ep, *fitted, fit, p.fix_radii)
+    sx, sy = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
+    t.sigma_x, t.sigma_y, t.cov_xy = sx, sy, float(cov[0, 1])
     # score: circumference support, fit quality (edge residual RMS vs what the noise explains), concentricity
     t.score_parts = parts = {"coverage": min(1.0, min(cover) / 0.9),
                              "fit": float(min(1.0, 2.0 * expected / max(fit.sigma0, 1e-9))),
                              "concentric": float(np.exp(-0.5 * (sep / (p.concentric_tol / 2 + 3 * s_sep)) ** 2))}
     score = float(np.clip(min(parts.values()), 0.0, 1.0))
-    return float(cx), float(cy), float(0.5 * (sx + sy) * np.sqrt(EDGE_CORRELATION)), score
+    return float(cx), float(cy), float(0.5 * (sx + sy)), score
 
 
 def _hough_start(ep: EdgePoints, p: CirclesParams, r_max: float, shape: tuple[int, int], t: _Trace,
@@ -964,13 +960,13 @@ def _hough_start(ep: EdgePoints, p: CirclesParams, r_max: float, shape: tuple[in
 
 
 def _adjust(ep: EdgePoints, cx: float, cy: float, radii: list[float], p: CirclesParams,
-            t: _Trace) -> tuple[CircleFit, np.ndarray]:
+            t: _Trace) -> tuple[CircleFit, np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """Steps 3-4: de-Houghing (:func:`de_hough`) and the Gauss-Helmert adjustment
     (:func:`fit_concentric_circles`), twice (the second time about the adjusted centre and radii, with a
     tolerance of at most 1 px, unless that selects the same edge points on the same circles: then the adjustment
-    would end where it did, within its tolerance); returns the fit and the circle of each edge point about its
-    centre (-1: none)."""
-    fit, lab = None, None
+    would end where it did, within its tolerance); returns the fit, the circle of each edge point about its
+    centre (-1: none), and the points the fit was given (their indices and circles)."""
+    fit, lab, used = None, None, (np.zeros(0, np.intp), np.zeros(0, np.intp))
     for tol_i in (p.dehough_tol, min(p.dehough_tol, 1.0)):
         again = de_hough(ep, cx, cy, radii, tol_i, p.radial_cos)
         if lab is not None and np.array_equal(again, lab):
@@ -983,6 +979,7 @@ def _adjust(ep: EdgePoints, cx: float, cy: float, radii: list[float], p: Circles
         fit = fit_concentric_circles(ep.x[sel], ep.y[sel], lab[sel], start, (cx, cy), fix_radii=p.fix_radii)
         if fit is None or not np.isfinite([fit.x0, fit.y0]).all():
             raise Refused("the concentric-circles adjustment did not converge")
+        used = np.flatnonzero(sel), lab[sel]
         cx, cy = fit.x0, fit.y0
         radii = list(fit.radii)
     assert fit is not None
@@ -990,7 +987,30 @@ def _adjust(ep: EdgePoints, cx: float, cy: float, radii: list[float], p: Circles
     sel = lab >= 0
     t.points, t.labels, t.fit = np.column_stack([ep.x[sel], ep.y[sel]]), lab[sel], fit
     t.circles = tuple((fit.x0, fit.y0, r) for r in fit.radii)
-    return fit, lab
+    return fit, lab, used
+
+
+def centre_covariance(ep: EdgePoints, used: np.ndarray, label: np.ndarray, fit: CircleFit, fix_radii: bool
+                      ) -> np.ndarray:
+    """The 2 x 2 covariance of the adjusted centre with the edge points' correlation: the adjustment's
+    ``sigma0^2 N^-1`` takes the points as independent, but neighbouring Canny pixels share the smoothing and the
+    Sobel kernels, and film grain, scanner blur and JPEG move neighbouring edge points together. The centre is
+    linear in the points' distances from their circles, ``(J'J)^-1 J' d`` (J: the distances' Jacobian at the
+    solution, minus the unit vector from the centre and -1 for the point's radius), so its covariance follows from
+    the distances' correlation between edge pixels up to :data:`~aerofid.detect.noise.CORRELATION_LAG` px apart
+    (:func:`~aerofid.detect.noise.correlated_covariance`). ``used``, ``label``: the indices of ``ep``'s points the
+    adjustment was given, in its order, and their circles."""
+    x, y = ep.x[used], ep.y[used]
+    dx, dy = x - fit.x0, y - fit.y0
+    d = np.hypot(dx, dy)
+    ux, uy = dx / d, dy / d
+    ex, ey = fit.residuals.T
+    J = np.column_stack([-ux, -uy])
+    if not fix_radii:
+        J = np.column_stack([J, -(label[:, None] == np.arange(len(fit.radii))[None, :]).astype(float)])
+    rows = (np.linalg.pinv(J.T @ J) @ J.T)[:2]
+    return correlated_covariance(ep.col[used].astype(float), ep.row[used].astype(float), -(ex * ux + ey * uy), rows,
+                                 fit.cov[:2, :2])
 
 
 def _check_coverage(ep: EdgePoints, lab: np.ndarray, cx: float, cy: float, radii: list[float], p: CirclesParams,

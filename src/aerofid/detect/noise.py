@@ -59,7 +59,9 @@ def correlated_covariance(px: np.ndarray, py: np.ndarray, v: np.ndarray, rows: n
         Cov(x) = sum_h r(h) sum_i rows_i rows_(i+h)'
 
     over the lags ``h`` with ``|h_x|, |h_y| <= lag``, ``r(h)`` the autocovariance of the fit's residuals ``v``
-    at lag ``h`` (the mean of ``v_i v_(i+h)`` over the pairs of pixels both fitted): the heteroscedasticity and
+    at lag ``h`` (the mean of ``v_i v_(i+h)`` over the pairs of pixels both fitted, averaged with its mirror
+    image, ``r(h_x, h_y) = r(-h_x, h_y)``: grain and a scanner's blur correlate alike along either diagonal, and
+    a mark symmetric about the pixel axes keeps uncorrelated axes): the heteroscedasticity and
     autocorrelation consistent ("sandwich") estimator of Newey & West (1987) in two dimensions. Its lag-0 term
     is the white-noise covariance ``sigma0^2 (J'J)^-1`` (``white``, k x k, given as the fit computed it); the
     other lags add what the noise's correlation adds. Beyond the seeds, which fit with white-noise covariances:
@@ -96,6 +98,7 @@ def correlated_covariance(px: np.ndarray, py: np.ndarray, v: np.ndarray, rows: n
     pairs = np.rint(auto[1][window])
     r = np.where(pairs > 0.5, auto[0][window] / np.maximum(pairs, 1.0), 0.0)
     r[0, 0] = 0.0                                   # lag 0 is the white-noise term, given
+    r = 0.5 * (r + r[:, -np.arange(2 * lag + 1)])   # mirror-symmetric: r(h_x, h_y) = r(-h_x, h_y)
     extra = np.einsum("ij,klij->kl", r, cross[:, :, lags[:, None], lags[None, :]])
     cov = white + extra
     widened = np.trace(extra) > 0 and np.all(np.linalg.eigvalsh(0.5 * (cov + cov.T)) > 0)

@@ -87,19 +87,25 @@ def correlated_covariance(px: np.ndarray, py: np.ndarray, v: np.ndarray, rows: n
     ix, iy = (px - px.min()).astype(np.intp), (py - py.min()).astype(np.intp)
     h, w = int(iy.max()) + 1, int(ix.max()) + 1
     k = rows.shape[0]
-    grids = np.zeros((k + 2, h + lag, w + lag))   # zero padding: no lag up to ``lag`` wraps round
-    grids[:k, iy, ix], grids[k, iy, ix], grids[k + 1, iy, ix] = rows, v, 1.0
+    # r(h) for every lag at once (sum_i X_i X_(i+h): the inverse transform of |FX|^2), zero padded so that no lag
+    # up to ``lag`` wraps round
+    size = (cv2.getOptimalDFTSize(h + lag), cv2.getOptimalDFTSize(w + lag))
+    grids = np.zeros((2, *size))
+    grids[0, iy, ix], grids[1, iy, ix] = v, 1.0
     f = np.fft.rfft2(grids)
-    # sum_i X_i Y_(i+h) for every lag h at once: the inverse transform of conj(FX) FY
-    auto = np.fft.irfft2(f[k:].conj() * f[k:], s=grids.shape[1:])             # v with v, fitted with fitted
-    cross = np.fft.irfft2(f[:k, None].conj() * f[None, :k], s=grids.shape[1:])  # rows with rows (k x k)
-    lags = np.r_[0:lag + 1, -lag:0]                                             # wrapped indices of -lag..lag
-    window = np.ix_(lags, lags)
-    pairs = np.rint(auto[1][window])
-    r = np.where(pairs > 0.5, auto[0][window] / np.maximum(pairs, 1.0), 0.0)
-    r[0, 0] = 0.0                                   # lag 0 is the white-noise term, given
-    r = 0.5 * (r + r[:, -np.arange(2 * lag + 1)])   # mirror-symmetric: r(h_x, h_y) = r(-h_x, h_y)
-    extra = np.einsum("ij,klij->kl", r, cross[:, :, lags[:, None], lags[None, :]])
+    auto = np.fft.irfft2(f * f.conj(), s=size)                  # v with v, fitted with fitted
+    lags = np.r_[-lag:lag + 1]                                  # wrapped indices of -lag..lag
+    pairs = np.rint(auto[1][np.ix_(lags, lags)])
+    r = np.where(pairs > 0.5, auto[0][np.ix_(lags, lags)] / np.maximum(pairs, 1.0), 0.0)
+    r[lag, lag] = 0.0                                 # lag 0 is the white-noise term, given
+    r = 0.5 * (r + r[:, ::-1])                        # mirror-symmetric: r(h_x, h_y) = r(-h_x, h_y)
+    # sum_h r(h) sum_i a_i a_(i+h)' = sum_i a_i b_i' with b = the rows correlated with the kernel r
+    a = np.zeros((k, h, w), np.float32)
+    a[:, iy, ix] = rows
+    kernel = r.astype(np.float32)
+    b = np.stack([cv2.filter2D(a_k, -1, kernel, borderType=cv2.BORDER_CONSTANT) for a_k in a])
+    extra = np.einsum("kij,lij->kl", a.astype(np.float64), b.astype(np.float64))
+    extra = 0.5 * (extra + extra.T)
     cov = white + extra
     widened = np.trace(extra) > 0 and np.all(np.linalg.eigvalsh(0.5 * (cov + cov.T)) > 0)
     return cov if widened else white

@@ -38,6 +38,13 @@ NOT_FOUND = "not_found"
 Box = tuple[int, int, int, int]
 """(x0, y0, x1, y1) in full-image pixels, x1 and y1 exclusive."""
 
+LEAST_GREY_STEP = 1e-4
+"""The least grey-level step (grey levels on [0, 1]) the screening believes: its noise floor
+(:func:`aerofid.detect.screen.local_noise`; flat JPEG black has almost no noise, and its specks would outrank the
+mark), and the least quantisation step a reduced read reports (:func:`aerofid.io.reduce.read_reduced_levels`). A
+16-bit scan's 1/65535 let the few specks in its black clipped to 0 outrank every mark of ``synth.demo_frame``,
+which its float samples (floor 1e-4) keep below them (a helper's audit)."""
+
 
 
 def finite_or_none(v: float | None) -> float | None:

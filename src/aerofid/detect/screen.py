@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from aerofid.conventions import LEAST_GREY_STEP
 from aerofid.parallel import THREADS, map_in_threads
 from aerofid.robust import median
 
@@ -156,7 +157,7 @@ def symmetric_energy(g: np.ndarray, radii: tuple[int, ...] = RADII, threads: int
     return rings
 
 
-def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.ndarray:
+def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = LEAST_GREY_STEP) -> np.ndarray:
     """Per pixel, the white-noise sigma of the plainest of the 3 x 3 blocks of ``block`` px around it: the
     median absolute first difference of each block (horizontal and vertical, scaled to a sigma), the minimum
     over the neighbouring blocks (a mark beside a strong edge is judged by its plain side), bilinearly
@@ -184,7 +185,8 @@ def local_noise(img: np.ndarray, block: int = BLOCK, floor: float = 1e-4) -> np.
 
 
 def strength_maps(img: np.ndarray, radii: tuple[int, ...] = RADII,
-                  k: float = SYMMETRY_WEIGHT, noise_floor: float = 1e-4, threads: int | None = None) -> np.ndarray:
+                  k: float = SYMMETRY_WEIGHT, noise_floor: float = LEAST_GREY_STEP,
+                  threads: int | None = None) -> np.ndarray:
     """The screening strength (module docstring) of every pixel of ``img`` for each of ``radii`` (axis 0);
     zero where the disc is not wholly inside ``img``. Worked on by ``threads`` threads (the symmetric energy's
     bands, the radii, the largest first: its disc sums cost the most); default: :data:`~aerofid.parallel.THREADS` for
@@ -224,7 +226,7 @@ def _strength_maps(img: np.ndarray, radii: tuple[int, ...], k: float, noise_floo
 
 
 def level_candidates(img: np.ndarray, scale: float, radii: tuple[int, ...] = RADII,
-                     min_strength: float = MIN_STRENGTH, noise_floor: float = 1e-4,
+                     min_strength: float = MIN_STRENGTH, noise_floor: float = LEAST_GREY_STEP,
                      limit: int = 256, threads: int | None = None) -> Found:
     """The ``limit`` strongest local maxima of the strength of one pyramid level per radius, in input pixels
     (``scale`` input pixels per level pixel; a level pixel's centre i lies at input ``(i + 0.5) * scale - 0.5``);
@@ -254,7 +256,7 @@ def reduce2(img: np.ndarray) -> np.ndarray:
 
 def screen(img: np.ndarray, scale: float = 1.0, min_radius: float = 3.0, max_radius: float | None = None,
            max_candidates: int = 32, min_strength: float = MIN_STRENGTH,
-           noise_floor: float = 1e-4, threads: int | None = None) -> tuple[Candidate, ...]:
+           noise_floor: float = LEAST_GREY_STEP, threads: int | None = None) -> tuple[Candidate, ...]:
     """Candidates for mark centres in ``img`` (grey, either polarity), strongest first.
 
     Parameters

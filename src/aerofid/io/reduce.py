@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from aerofid.conventions import LEAST_GREY_STEP
 from aerofid.errors import AerofidInputError
 from aerofid.io.source import ImageSource
 from aerofid.parallel import map_in_threads
@@ -386,19 +387,14 @@ class ReducedView:
 def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int,
                         overview: bool = False) -> tuple[np.ndarray, float]:
     """``box`` of ``source`` reduced by ``f`` as float32 grey levels on [0, 1] (integer samples divided by their
-    type's maximum), and one quantisation step of the samples on that scale, at least :data:`LEAST_STEP` (float
+    type's maximum), and one quantisation step of the samples on that scale, at least
+    :data:`~aerofid.conventions.LEAST_GREY_STEP` (float
     samples: that). With ``overview``, read by the source's ``read_overview`` where it has one (a JPEG's reduced
     decode: :meth:`aerofid.io.raster.Raster.read_overview`)."""
     read = getattr(source, "read_overview", source.read_reduced) if overview else source.read_reduced
     reduced = read(box, f)
     if source.dtype.kind not in "ui":
-        return reduced.astype(np.float32), LEAST_STEP
+        return reduced.astype(np.float32), LEAST_GREY_STEP
     step = 1.0 / float(np.iinfo(source.dtype).max)
-    return (reduced * np.float32(step)).astype(np.float32), max(step, LEAST_STEP)
+    return (reduced * np.float32(step)).astype(np.float32), max(step, LEAST_GREY_STEP)
 
-
-LEAST_STEP = 1e-4
-"""The least quantisation step :func:`read_reduced_levels` reports (grey levels on [0, 1]): the screening's noise
-floor (:func:`aerofid.detect.screen.local_noise`). A 16-bit scan's 1/65535 let the few specks in its black clipped
-to 0 outrank every mark of ``synth.demo_frame``, which its float samples (floor 1e-4) keep below them (a helper's
-audit)."""

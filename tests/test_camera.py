@@ -71,6 +71,9 @@ def test_fiducial_list_form():
     ('{"name": "c", "focal_length_mm": -5, "fiducials": {"P1": [0, 0], "P2": [10, 0], "P3": [0, 10]}}',
      "focal length"),
     ('{"name": "c", "pixel_size_um": 0, "fiducials": {"P1": [0, 0], "P2": [10, 0], "P3": [0, 10]}}', "pixel size"),
+    # the bounds of a pixel size given on the command line (checked_pixel_size): 0.5 um was accepted here
+    ('{"name": "c", "pixel_size_um": 0.5, "fiducials": {"P1": [0, 0], "P2": [10, 0], "P3": [0, 10]}}',
+     "at least 1.27 um, 20000 dpi, and less than 1000 um"),
     ('{"fiducials": {"P1": [0, 0], "P2": [10, 0], "P3": [0, 10]}}', "name"),
     ('{"name": "c", "fiducials": {"P1": [0, 0], "P2": [10, 0], "P3": [0, 10]}, "focal": 3}', "unknown"),
     ('{"name": "c", "fiducials": {"P1": [0, 0], "P2": [10, 0], "P3": [0, 10]}, "y_axis": "left"}', "y_axis"),

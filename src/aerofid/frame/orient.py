@@ -28,7 +28,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from aerofid.conventions import Box, Polarity, opposite
+from aerofid.conventions import MM_PER_INCH, Box, Polarity, opposite
 from aerofid.detect.auto import AutoResult
 from aerofid.detect.screen import Candidate, screen
 from aerofid.errors import AerofidInputError
@@ -80,7 +80,7 @@ from aerofid.frame.verdict import LIE_UNTOLD, adjusted_pixel_mm, verdict
 from aerofid.io.array import open_image
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import ReducedView, read_reduced_levels
-from aerofid.io.resolution import MM_PER_INCH, checked_pixel_size, pixel_size_from_tags
+from aerofid.io.resolution import checked_pixel_size, pixel_size_from_tags
 from aerofid.orientation.camera import Camera
 from aerofid.orientation.correspondence import ARRANGEMENTS, FILM_TURN_DEG
 from aerofid.robust import median

@@ -11,13 +11,10 @@ from typing import BinaryIO
 
 import tifffile
 
+from aerofid.conventions import MAX_DPI, MAX_GIVEN_MM, MIN_DPI, MM_PER_INCH, plausible_pixel_size
 from aerofid.errors import AerofidInputError
 from aerofid.io.jpeg import header_segments
 
-MM_PER_INCH = 25.4
-MIN_DPI, MAX_DPI = 50.0, 20000.0
-"""Resolutions believed: below 50 dpi a tag is a default (72, 96 dpi are screen defaults and refused separately),
-above 20000 dpi no film scanner goes."""
 SCREEN_DEFAULTS = (72.0, 96.0)
 """dpi values that image software writes when it knows nothing of the scan: not a scan resolution."""
 SCREEN_ROUNDING = 1.3
@@ -28,7 +25,7 @@ whole dots per centimetre (96 dpi as 38, 96.52 dpi; 72 as 28, 71.12 dpi). No fil
 
 def checked_pixel_size(pixel_size_mm: object) -> float:
     """A pixel size given for a scan (mm per px) as a float, refused in one line unless it is a number from that of
-    :data:`MAX_DPI` (0.00127 mm) to less than :data:`MAX_GIVEN_MM`.
+    :data:`~aerofid.conventions.MAX_DPI` (0.00127 mm) to less than :data:`~aerofid.conventions.MAX_GIVEN_MM`.
 
     >>> import numpy as np
     >>> checked_pixel_size(0.021), checked_pixel_size(np.float32(0.5))
@@ -41,15 +38,10 @@ def checked_pixel_size(pixel_size_mm: object) -> float:
     lo = MM_PER_INCH / MAX_DPI
     if isinstance(pixel_size_mm, numbers.Real) and not isinstance(pixel_size_mm, bool):
         size = float(pixel_size_mm)
-        if lo <= size < MAX_GIVEN_MM:
+        if plausible_pixel_size(size):
             return size
     raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021 "
                             f"(at least {lo:g} mm, {MAX_DPI:g} dpi, and less than {MAX_GIVEN_MM:g} mm)")
-
-
-MAX_GIVEN_MM = 1.0
-"""A pixel size given for a scan is less than this (mm): a 23 cm frame of fewer than 230 px is no scan to measure
-(a browse image's 0.3 mm is the coarsest one seen)."""
 
 
 def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:

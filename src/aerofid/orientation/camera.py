@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from aerofid.conventions import MAX_DPI, MAX_GIVEN_MM, MM_PER_INCH, plausible_pixel_size
 from aerofid.errors import AerofidInputError
 from aerofid.orientation.measurements import finite_number
 
@@ -36,8 +37,6 @@ from aerofid.orientation.measurements import finite_number
 MAX_FIDUCIAL_MM = 500.0
 #: Plausible calibrated focal lengths, mm.
 FOCAL_RANGE_MM = (1.0, 5000.0)
-#: Plausible scan pixel sizes, micrometres.
-PIXEL_SIZE_RANGE_UM = (0.1, 1000.0)
 
 
 @dataclass(frozen=True)
@@ -232,8 +231,10 @@ def _validate(cam: Camera) -> None:
     _validate_fiducials(cam, where)
     if cam.focal_length_mm is not None and not (FOCAL_RANGE_MM[0] <= cam.focal_length_mm <= FOCAL_RANGE_MM[1]):
         raise AerofidInputError(f"focal length {cam.focal_length_mm} mm is implausible{where}")
-    if cam.pixel_size_um is not None and not (PIXEL_SIZE_RANGE_UM[0] <= cam.pixel_size_um <= PIXEL_SIZE_RANGE_UM[1]):
-        raise AerofidInputError(f"pixel size {cam.pixel_size_um} um is implausible{where}")
+    if cam.pixel_size_um is not None and not plausible_pixel_size(cam.pixel_size_um / 1000.0):
+        raise AerofidInputError(f"pixel size {cam.pixel_size_um} um is implausible{where} (a scan's is at least "
+                                f"{1000 * MM_PER_INCH / MAX_DPI:g} um, {MAX_DPI:g} dpi, and less than "
+                                f"{1000 * MAX_GIVEN_MM:g} um)")
     for label, pp in (("ppa", cam.ppa_mm), ("pbs", cam.pbs_mm)):
         if pp is not None and max(abs(pp[0]), abs(pp[1])) > MAX_FIDUCIAL_MM:
             raise AerofidInputError(f"principal point {label} {pp} mm is implausible{where}")

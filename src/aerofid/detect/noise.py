@@ -87,16 +87,12 @@ def correlated_covariance(px: np.ndarray, py: np.ndarray, v: np.ndarray, rows: n
     ix, iy = (px - px.min()).astype(np.intp), (py - py.min()).astype(np.intp)
     h, w = int(iy.max()) + 1, int(ix.max()) + 1
     k = rows.shape[0]
-    # r(h) for every lag at once (sum_i X_i X_(i+h): the inverse transform of |FX|^2), zero padded so that no lag
-    # up to ``lag`` wraps round
-    size = (cv2.getOptimalDFTSize(h + lag), cv2.getOptimalDFTSize(w + lag))
-    grids = np.zeros((2, *size))
-    grids[0, iy, ix], grids[1, iy, ix] = v, 1.0
-    f = np.fft.rfft2(grids)
-    auto = np.fft.irfft2(f * f.conj(), s=size)                  # v with v, fitted with fitted
-    lags = np.r_[-lag:lag + 1]                                  # wrapped indices of -lag..lag
-    pairs = np.rint(auto[1][np.ix_(lags, lags)])
-    r = np.where(pairs > 0.5, auto[0][np.ix_(lags, lags)] / np.maximum(pairs, 1.0), 0.0)
+    # sum_i X_i X_(i+h) for every lag h at once: X (zero padded by ``lag``) correlated with itself
+    grids = np.zeros((2, h + 2 * lag, w + 2 * lag), np.float32)
+    grids[0, iy + lag, ix + lag], grids[1, iy + lag, ix + lag] = v, 1.0
+    auto = [cv2.matchTemplate(g, g[lag:lag + h, lag:lag + w], cv2.TM_CCORR) for g in grids]
+    pairs = np.rint(auto[1])                                    # fitted with fitted: the pairs at each lag
+    r = np.where(pairs > 0.5, auto[0] / np.maximum(pairs, 1.0), 0.0)
     r[lag, lag] = 0.0                                 # lag 0 is the white-noise term, given
     r = 0.5 * (r + r[:, ::-1])                        # mirror-symmetric: r(h_x, h_y) = r(-h_x, h_y)
     # sum_h r(h) sum_i a_i a_(i+h)' = sum_i a_i b_i' with b = the rows correlated with the kernel r

@@ -193,13 +193,15 @@ def test_local_processes_give_the_sequential_results(roll, sequential, tmp_path)
 
 
 def _dies(path, frame, settings):
-    """A frame job for the pool test: ``kill*`` frames end their worker every time, ``once*`` the first time only
-    (a file beside ``path`` remembers it); the others take a moment, so that they are in flight when one dies."""
+    """A frame job for the pool tests: ``kill*`` frames end their worker every time, ``once*`` the first time only
+    (a file beside ``path`` remembers it), after 0.3 s (1 s if ``slow`` is in the name); ``quick*`` frames return at
+    once, the others after 0.2 s, so that they are in flight when one dies."""
     if frame.startswith("kill") or (frame.startswith("once") and not os.path.exists(path + ".died")):
         Path(path + ".died").touch()
-        time.sleep(0.3)
+        time.sleep(1.0 if "slow" in frame else 0.3)
         os.kill(os.getpid(), signal.SIGKILL)
-    time.sleep(0.2)
+    if not frame.startswith("quick"):
+        time.sleep(0.2)
     return FrameRecord(frame, path, "ok")
 
 
@@ -212,6 +214,20 @@ def test_a_worker_killed_costs_only_the_frame_that_kills_it(tmp_path):
     bad = {r.frame: r.error for r in records if r.status != "ok"}
     assert sorted(bad) == ["kill", "kill2"]                           # the frames caught with them are done again
     assert all(runners.LOST_ALONE in e for e in bad.values())
+
+
+def test_a_worker_that_dies_while_the_records_are_read_costs_no_frame(tmp_path):
+    """The pool broke while the batch was busy with a record (writing the summary): the next frame's submission
+    raised BrokenProcessPool out of the runner, and the batch stopped with no record of the rest (a review)."""
+    frames = ("quick", "once_slow", "c", "d")
+    tasks = [(str(tmp_path / f), f) for f in frames]
+    settings = batch_settings(CAMERA, tmp_path / "camera.json", tmp_path / "out")
+    records = []
+    for rec in runners.process_runner(2, _dies)(tasks, settings):
+        records.append(rec)
+        if len(records) == 1:
+            time.sleep(2.0)                                              # meanwhile once_slow's worker dies
+    assert sorted(r.frame for r in records) == sorted(frames) and all(r.status == "ok" for r in records)
 
 
 def test_bad_input_is_one_line_and_exit_2_before_any_work(roll, tmp_path):

@@ -80,13 +80,13 @@ def _until_broken(queue: deque[Task], settings: BatchSettings, workers: int, job
     running: dict[Future[FrameRecord], Task] = {}
     try:
         while queue or running:
-            while queue and len(running) < workers:
-                task = queue.popleft()
-                running[ex.submit(job, *task, settings)] = task
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
-            if any(isinstance(f.exception(), BrokenExecutor) for f in done):
+            broken = _submit(ex, queue, running, workers, job, settings)
+            done: set[Future[FrameRecord]] = set()
+            if broken is None:
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                broken = next((e for f in done if isinstance(e := f.exception(), BrokenExecutor)), None)
+            if broken is not None:
                 wait(running)  # a broken pool ends every future it holds: the finished ones keep their records
-                broken = next(e for f in running if isinstance(e := f.exception(), BrokenExecutor))
                 yield from (f.result() for f in running if f.exception() is None)
                 return [t for f, t in running.items() if f.exception() is not None], broken
             for f in done:
@@ -100,11 +100,25 @@ def _until_broken(queue: deque[Task], settings: BatchSettings, workers: int, job
         ex.shutdown(wait=True, cancel_futures=True)
 
 
+def _submit(ex: ProcessPoolExecutor, queue: deque[Task], running: dict[Future[FrameRecord], Task], workers: int,
+            job: Job, settings: BatchSettings) -> BrokenExecutor | None:
+    """Submit frames of ``queue`` to ``ex`` until ``workers`` run; the error when the pool is found broken (a
+    worker died since the last look; the frame not submitted stays first in the queue)."""
+    while queue and len(running) < workers:
+        try:
+            future = ex.submit(job, *queue[0], settings)
+        except BrokenExecutor as e:
+            return e
+        running[future] = queue.popleft()
+    return None
+
+
 def process_runner(workers: int, job: Job = run_frame_job) -> Runner:
     """A runner on ``workers`` local processes (``concurrent.futures.ProcessPoolExecutor``), each given one frame
-    at a time. A worker that dies breaks the pool: the frames then in flight are done again, each alone on a
-    fresh pool, and the rest go on on another; a frame whose worker dies again alone is an ``error``
-    (:data:`LOST_ALONE`) - the others caught in its break are not."""
+    at a time. A worker that dies breaks the pool: the frames then in flight are done again one after another,
+    each alone on a fresh pool of one process, and then the rest go on on a fresh pool of ``workers``; a frame
+    whose worker dies again alone is an ``error`` (:data:`LOST_ALONE`) - the others caught in its break are
+    not."""
 
     def run(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[FrameRecord]:
         queue = deque(tasks)

@@ -46,7 +46,8 @@ def checked_pixel_size(pixel_size_mm: object) -> float:
 
 def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:
     """The pixel size (mm per px) the file's resolution tags declare, or None when it declares none, declares
-    different x and y resolutions, or a value no scan has (:data:`MIN_DPI`, :data:`MAX_DPI`,
+    different x and y resolutions, or a value no scan has (:data:`~aerofid.conventions.MIN_DPI`,
+    :data:`~aerofid.conventions.MAX_DPI`,
     :data:`SCREEN_DEFAULTS` to within :data:`SCREEN_ROUNDING`).
 
     Examples

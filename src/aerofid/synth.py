@@ -156,7 +156,8 @@ def blurred_coverage(shape_hw: tuple[int, int], centre: tuple[float, float], sha
     shape: a bar's profile then depends on where it falls on the grid, and the cross fit of ``hough`` finds an
     upright '+' 0.02 px RMS (0.03 px at worst, at a blur of 0.7 px) from its truth, against 0.0005 px here
     (docs/hough.md). The benchmarks' scenes keep that rendering (their tables were made with it); the demo frame
-    uses this one.
+    uses this one. A mark within its blur's reach of the image's edge loses the light its part beyond the edge
+    would have blurred in.
     """
     k = BLUR_OVERSAMPLING
     reach = extent + 4.0 * blur_sigma + 1.0

@@ -148,6 +148,10 @@ def test_cameras_of_the_chunk_that_share_a_label_get_no_fiducials(measured, monk
     assert chunk.markers == [] and not any(c.sensor.film_camera for c in chunk.cameras)
     assert "scan1: 2 cameras in the chunk have this label: not placed" in printed
     assert "0 of 1 scans placed" in printed and "no camera with this label" not in printed
+    unique = _Camera("scan1.tif", _Sensor("s2"))                          # the scan's file name: one camera
+    chunk = _Chunk([_Camera("scan1", _Sensor("s0")), _Camera("scan1", _Sensor("s1")), unique])
+    printed = run_script(text, chunk, monkeypatch, capsys)
+    assert "1 of 1 scans placed" in printed and all(unique in m.projections for m in chunk.markers)
 
 
 def test_a_camera_file_with_y_down_keeps_y_and_no_project_is_one_message(measured, monkeypatch, capsys):

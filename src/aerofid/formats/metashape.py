@@ -207,14 +207,16 @@ def place_fiducials(chunk):
     cam = DATA["camera"]
     missing, unplaced = [], 0
     for frame in DATA["frames"]:
-        camera = cameras.get(frame["label"]) or cameras.get(frame["image"].replace("\\\\", "/").split("/")[-1])
+        labels = [frame["label"], frame["image"].replace("\\\\", "/").split("/")[-1]]
+        camera = next((cameras[k] for k in labels if alike.get(k) == 1), None)
+        shared = [k for k in labels if alike.get(k, 0) > 1]
+        if camera is None and shared:
+            print("aerofid: {}: {} cameras in the chunk have this label: not placed (give them distinct labels "
+                  "and run the script again)".format(shared[0], alike[shared[0]]))
+            unplaced += 1
+            continue
         if camera is None:
             missing.append(frame["label"])
-            continue
-        if alike[camera.label] > 1:
-            print("aerofid: {}: {} cameras in the chunk have this label: not placed (give them distinct labels "
-                  "and run the script again)".format(camera.label, alike[camera.label]))
-            unplaced += 1
             continue
         sensor = camera.sensor
         sensor.film_camera = True

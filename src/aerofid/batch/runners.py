@@ -94,7 +94,8 @@ def _until_broken(queue: deque[Task], settings: BatchSettings, workers: int, job
                 try:
                     yield f.result()
                 except Exception as e:  # the job's record could not come back (pickling)
-                    yield _lost(*task, e)
+                    yield FrameRecord(task[1], task[0], ERROR, error=f"its record did not come back from its worker "
+                                      f"({type(e).__name__}: {' '.join(str(e).split()) or 'no message'})")
         return [], None
     finally:
         ex.shutdown(wait=True, cancel_futures=True)

@@ -56,10 +56,14 @@ def run_sequential(tasks: Sequence[Task], settings: BatchSettings) -> Iterator[F
         yield run_frame_job(path, frame, settings)
 
 
+def _said(e: BaseException) -> str:
+    """An exception in one line: ``Type: message``."""
+    return f"{type(e).__name__}: {' '.join(str(e).split()) or 'no message'}"
+
+
 def _lost(path: str, frame: str, e: BaseException, why: str = "run the batch again") -> FrameRecord:
     """The record of a frame whose worker did not return (killed, out of memory, lost by the cluster)."""
-    return FrameRecord(frame, path, ERROR, error=f"its worker was lost ({type(e).__name__}: "
-                                                 f"{' '.join(str(e).split()) or 'no message'}); {why}")
+    return FrameRecord(frame, path, ERROR, error=f"its worker was lost ({_said(e)}); {why}")
 
 
 LOST_ALONE = ("it was lost again running alone: the frame itself ends its worker (out of memory?); try it with "
@@ -94,8 +98,8 @@ def _until_broken(queue: deque[Task], settings: BatchSettings, workers: int, job
                 try:
                     yield f.result()
                 except Exception as e:  # the job's record could not come back (pickling)
-                    yield FrameRecord(task[1], task[0], ERROR, error=f"its record did not come back from its worker "
-                                      f"({type(e).__name__}: {' '.join(str(e).split()) or 'no message'})")
+                    yield FrameRecord(task[1], task[0], ERROR,
+                                      error=f"its record did not come back from its worker ({_said(e)})")
         return [], None
     finally:
         ex.shutdown(wait=True, cancel_futures=True)

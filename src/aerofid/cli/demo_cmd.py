@@ -59,4 +59,5 @@ def demo(out_dir: Path, seed: int) -> int:
     ok = np.isfinite(err_px)
     click.echo(f"found {ok.sum()} of {len(err_px)}; RMS error {np.sqrt(np.mean(err_px[ok] ** 2)):.3f} px, "
                f"max {np.max(err_px[ok]):.3f} px; overlays, diagnostics_P1.png and results.json in {out_dir}/")
+    click.echo("(error: the distance from the truth; sigma: per axis, so an honest error is about 1.4 sigma)")
     return 0 if ok.all() else 1

@@ -928,7 +928,7 @@ def test_bad_options_are_one_line_errors(options, match):
         aerofid.orient_frame(image, options.pop("camera"), **options)
 
 
-def test_a_scan_whose_resolution_tags_are_wrong_is_oriented_with_its_pixel_size_estimated(tmp_path):
+def test_a_scan_whose_resolution_tags_are_wrong_is_oriented_with_its_pixel_size_estimated(tmp_path, monkeypatch):
     """A TIFF tagged 300 dpi (0.0847 mm) for a 0.1 mm scan: its layout is sought within 3 % of the tags' size and
     failed with no word of them (a helper's audit). It is sought again with the pixel size unknown: every mark at its
     centre, doubtful, the reason naming the tags. A wrong pixel size given is the user's: the frame fails, and says at
@@ -936,9 +936,13 @@ def test_a_scan_whose_resolution_tags_are_wrong_is_oriented_with_its_pixel_size_
     spec = frame_spec(CAMERA, 0.1, np.random.default_rng(3))
     image = render_frame(spec)
     tifffile.imwrite(tmp_path / "tagged.tif", image, tile=(256, 256), resolution=(300, 300), resolutionunit="INCH")
+    screened = []
+    screen = orient_module.frame_features
+    monkeypatch.setattr(orient_module, "frame_features", lambda source, f=None: screened.append(f) or screen(source, f))
     res = aerofid.orient_frame(tmp_path / "tagged.tif", CAMERA)
     errors = _errors(res, frame_truth(spec).marks)
     assert res.status == "doubtful" and len(errors) == 8 and max(errors.values()) < 0.05
+    assert screened == [None, 2]     # each reduction screened once: the search with the size unknown reuses them
     assert res.pixel_size_source == "estimated" and res.pixel_size_mm == pytest.approx(0.1, rel=1e-4)
     assert res.reasons == ("the scan's resolution tags declare 300.0 dpi (0.08467 mm), its marks 0.10000 mm: the tags "
                            "are wrong; give the pixel size (--pixel-size)",)

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -283,7 +283,7 @@ def _without_the_tags(frame: _Frame, extras: dict[str, tuple[float, float]], fai
     neither is sought again (a tagged frame without marks, a leader or a blank, pays for the layout search only)."""
     if frame.size is None or len(failed.found) >= MIN_MATCHED:
         return failed
-    features, f = frame_features(frame.source)
+    features, f = frame.features()
     cam = frame.cam
     layouts = _layouts(frame.source, features, f, cam.xy_mm, cam.y_axis, None, first_complete=True)
     if not (layouts and layouts[0].decisive):
@@ -324,6 +324,18 @@ class _Frame:
     nominal: bool
     size_range: tuple[float, float] | None = None
     """The pixel sizes the layout is sought at when ``size`` is None (default: those the scan's size allows)."""
+    screens: dict[int | None, tuple[tuple[Candidate, ...], int]] = field(default_factory=dict, compare=False,
+                                                                        repr=False)
+    """The whole frame's screens by reduction (:meth:`features`), shared with the frame sought again at another pixel
+    size (``dataclasses.replace`` passes the same dict): they do not depend on the size."""
+
+    def features(self, f: int | None = None) -> tuple[tuple[Candidate, ...], int]:
+        """:func:`frame_features` of the scan at reduction ``f`` (default: its own), screened once per frame."""
+        got = self.screens.get(f)
+        if got is None:
+            got = frame_features(self.source, f)
+            self.screens[f] = self.screens[got[1]] = got
+        return got
 
     def oriented(self, features: tuple[Candidate, ...], f: int, searched: str,
                  extras: dict[str, tuple[float, float]], turns: tuple[float, float] = USUAL_TURNS
@@ -353,10 +365,10 @@ class _Frame:
         :data:`~aerofid.orientation.correspondence.FILM_TURN_DEG`: the layouts measured so far are not met again),
         among the features of each screen, the last first (a noisy frame's marks can be among the first screen's
         features and not the second's, where its noise is stronger)."""
-        screens = [frame_features(self.source)]
+        screens = [self.features()]
         best = _better(best, self.oriented(*screens[0], WHOLE_FRAME, extras))
         if (best is None or best.status == FAILED) and screens[0][1] > 1:
-            screens.append(frame_features(self.source, screens[0][1] // 2))
+            screens.append(self.features(screens[0][1] // 2))
             best = _better(best, self.oriented(*screens[1], WHOLE_FRAME, extras))
         for features, f in reversed(screens):
             if best is not None and len(best.found) >= ASKEW_MARKS * len(self.cam.fiducials):

@@ -63,17 +63,20 @@ MIN_DPI, MAX_DPI = 50.0, 20000.0
 """Resolutions believed: below 50 dpi a tag is a default (72, 96 dpi are screen defaults and refused separately),
 above 20000 dpi no film scanner goes."""
 
+MIN_PIXEL_MM = MM_PER_INCH / MAX_DPI
+"""The least pixel size of a scan (mm): that of :data:`MAX_DPI`, 0.00127 mm."""
+
 MAX_GIVEN_MM = 1.0
 """A pixel size given for a scan is less than this (mm): a 23 cm frame of fewer than 230 px is no scan to measure
 (a browse image's 0.3 mm is the coarsest one seen)."""
 
 
 def plausible_pixel_size(pixel_size_mm: float) -> bool:
-    """Whether a scan's pixel size (mm) is one a film scan has: at least that of :data:`MAX_DPI` (0.00127 mm) and
-    less than :data:`MAX_GIVEN_MM` (what a user gives, and a camera file's scan pixel size)."""
-    return MM_PER_INCH / MAX_DPI <= pixel_size_mm < MAX_GIVEN_MM
+    """Whether a scan's pixel size (mm) is one a film scan has: at least :data:`MIN_PIXEL_MM` and less than
+    :data:`MAX_GIVEN_MM` (what a user gives, and a camera file's scan pixel size)."""
+    return MIN_PIXEL_MM <= pixel_size_mm < MAX_GIVEN_MM
 
 
-__all__ = ["FOUND", "LEAST_GREY_STEP", "MARKS", "MAX_DPI", "MAX_GIVEN_MM", "METHOD_NAMES", "MIN_DPI", "MM_PER_INCH",
-           "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "SEED_METHODS", "Box", "MarkKind", "Polarity", "opposite",
-           "finite_or_none", "plausible_pixel_size"]
+__all__ = ["FOUND", "LEAST_GREY_STEP", "MARKS", "MAX_DPI", "MAX_GIVEN_MM", "METHOD_NAMES", "MIN_DPI", "MIN_PIXEL_MM",
+           "MM_PER_INCH", "NOT_FOUND", "POLARITIES", "POLARITY_CHOICES", "SEED_METHODS", "Box", "MarkKind", "Polarity",
+           "opposite", "finite_or_none", "plausible_pixel_size"]

@@ -11,7 +11,7 @@ from typing import BinaryIO
 
 import tifffile
 
-from aerofid.conventions import MAX_DPI, MAX_GIVEN_MM, MIN_DPI, MM_PER_INCH, plausible_pixel_size
+from aerofid.conventions import MAX_DPI, MAX_GIVEN_MM, MIN_DPI, MIN_PIXEL_MM, MM_PER_INCH, plausible_pixel_size
 from aerofid.errors import AerofidInputError
 from aerofid.io.jpeg import header_segments
 
@@ -35,13 +35,12 @@ def checked_pixel_size(pixel_size_mm: object) -> float:
     ...
     aerofid.errors.AerofidInputError: pixel size 21 mm: give the scan's pixel size in mm, e.g. 0.021 (...)
     """
-    lo = MM_PER_INCH / MAX_DPI
     if isinstance(pixel_size_mm, numbers.Real) and not isinstance(pixel_size_mm, bool):
         size = float(pixel_size_mm)
         if plausible_pixel_size(size):
             return size
     raise AerofidInputError(f"pixel size {pixel_size_mm!r} mm: give the scan's pixel size in mm, e.g. 0.021 "
-                            f"(at least {lo:g} mm, {MAX_DPI:g} dpi, and less than {MAX_GIVEN_MM:g} mm)")
+                            f"(at least {MIN_PIXEL_MM:g} mm, {MAX_DPI:g} dpi, and less than {MAX_GIVEN_MM:g} mm)")
 
 
 def pixel_size_from_tags(path: str | os.PathLike[str]) -> float | None:

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from aerofid.conventions import MAX_DPI, MAX_GIVEN_MM, MM_PER_INCH, plausible_pixel_size
+from aerofid.conventions import MAX_DPI, MAX_GIVEN_MM, MIN_PIXEL_MM, plausible_pixel_size
 from aerofid.errors import AerofidInputError
 from aerofid.orientation.measurements import finite_number
 
@@ -233,7 +233,7 @@ def _validate(cam: Camera) -> None:
         raise AerofidInputError(f"focal length {cam.focal_length_mm} mm is implausible{where}")
     if cam.pixel_size_um is not None and not plausible_pixel_size(cam.pixel_size_um / 1000.0):
         raise AerofidInputError(f"pixel size {cam.pixel_size_um} um is implausible{where} (a scan's is at least "
-                                f"{1000 * MM_PER_INCH / MAX_DPI:g} um, {MAX_DPI:g} dpi, and less than "
+                                f"{1000 * MIN_PIXEL_MM:g} um, {MAX_DPI:g} dpi, and less than "
                                 f"{1000 * MAX_GIVEN_MM:g} um)")
     for label, pp in (("ppa", cam.ppa_mm), ("pbs", cam.pbs_mm)):
         if pp is not None and max(abs(pp[0]), abs(pp[1])) > MAX_FIDUCIAL_MM:

@@ -130,7 +130,7 @@ def process_runner(workers: int, job: Job = run_frame_job) -> Runner:
         while queue:
             suspects, _ = yield from _until_broken(queue, settings, workers, job)
             for task in suspects:
-                again, broken = yield from _until_broken(deque([task]), settings, 1, job)
+                _, broken = yield from _until_broken(deque([task]), settings, 1, job)
                 if broken is not None:
                     yield _lost(*task, broken, LOST_ALONE)
 

@@ -1,4 +1,4 @@
-"""aerofid.robust: the medians and percentiles from one sort are numpy's (of all the values, or along an axis)."""
+"""aerofid.robust: the medians and percentiles are numpy's (of all the values, or along an axis)."""
 
 import warnings
 
@@ -107,3 +107,42 @@ def test_percentile_of_no_values_or_beyond_0_to_100_is_an_error():
     for q in (-1, 100.5):
         with pytest.raises(ValueError, match="not in"):
             percentile(np.array([1.0, 2.0]), q)
+
+
+_MANY = st.integers(2048, 9000)
+
+
+@given(arrays(_FLOATS, _MANY, elements=st.floats(-1e3, 1e3, width=32) | st.sampled_from([0.0, -0.0, 0.5])),
+       st.sampled_from([1e-30, 1.0, 1e30]))
+def test_median_and_mad_of_many_values_are_numpys(values, scale):
+    """From SELECT_FROM values on, the order statistics are selected through a histogram: the same values as numpy's,
+    with ties, zeros of either sign, tiny and huge spans (a few distinct values make most bins empty)."""
+    values = (values * scale).astype(values.dtype)
+    ours, numpys = median(values), np.median(values)
+    assert ours == numpys and type(ours) is type(numpys)
+    v = values.astype(np.float64)
+    assert robust_std(values) == MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))
+
+
+@pytest.mark.parametrize("extra", [np.inf, -np.inf, 3e38, np.nan])
+def test_median_of_many_values_with_extremes(extra):
+    rng = np.random.default_rng(1)
+    for dtype in (np.float32, np.float64):
+        values = rng.normal(size=5001).astype(dtype)
+        values[[7, 4000]] = extra
+        values[100] = -3e38 if extra == 3e38 else values[100]      # a span that overflows float32
+        numpys = np.median(values)
+        ours = median(values)
+        assert (np.isnan(ours) and np.isnan(numpys)) or (ours == numpys and type(ours) is type(numpys))
+        v = values.astype(np.float64)
+        mad = MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))
+        assert (np.isnan(mad) and np.isnan(robust_std(values))) or robust_std(values) == mad
+
+
+def test_median_of_many_skewed_values():
+    """One far value puts nearly every value in the first bin: the selection still reads the right one."""
+    rng = np.random.default_rng(2)
+    values = np.concatenate([rng.normal(size=40000), [1e12]])
+    assert median(values) == np.median(values)
+    assert median(values.reshape(1, -1)) == np.median(values)
+    assert median(np.arange(10001)) == 5000.0

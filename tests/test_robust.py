@@ -146,3 +146,13 @@ def test_median_of_many_skewed_values():
     assert median(values) == np.median(values)
     assert median(values.reshape(1, -1)) == np.median(values)
     assert median(np.arange(10001)) == 5000.0
+
+
+def test_median_of_many_tied_values():
+    """A clean scan's differences are mostly exactly 0: the nested histograms end on a bin of equal values."""
+    rng = np.random.default_rng(3)
+    for share in (0.3, 0.8, 0.999):
+        values = np.where(rng.random(30001) < share, 0.0, rng.normal(size=30001)).astype(np.float32)
+        assert median(values) == np.median(values)
+        v = values.astype(np.float64)
+        assert robust_std(values) == MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))

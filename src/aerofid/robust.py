@@ -154,6 +154,8 @@ SELECT_FROM = 2048
 """Fewer values than this are sorted by :func:`_kth` (the histogram's fixed cost would exceed a sort's)."""
 SELECT_BINS = 1024
 """Bins of :func:`_kth`'s histogram between the least and the greatest value."""
+SELECT_DEPTH = 3
+"""Histograms :func:`_kth` nests (each within the bin of the one before) before it sorts what is left."""
 
 
 def _floating(values: np.ndarray) -> np.ndarray:
@@ -174,14 +176,16 @@ def _median_of(v: np.ndarray) -> np.floating[Any]:
     return picked[0] if n % 2 else (picked[0] + picked[1]) / v.dtype.type(2)
 
 
-def _kth(v: np.ndarray, ks: tuple[int, ...]) -> list[Any] | None:
+def _kth(v: np.ndarray, ks: tuple[int, ...], depth: int = 0) -> list[Any] | None:
     """The ``ks``-th smallest (from 0) of the 1-D floating values ``v``, exactly, in their type; None where a value is
     nan.
 
     The values are binned by ``floor((v - min) / (max - min) x (SELECT_BINS - 1))``, in float64: each of these steps
     keeps the order of the values (a correctly rounded operation is monotonic), so every value of a lower bin is at most
-    every value of a higher one, and the k-th smallest is the (k - values before its bin)-th of its bin's values alone.
-    Infinite values or a span that overflows fall back to ``np.partition`` of all of them.
+    every value of a higher one, and the k-th smallest is the (k - values before its bin)-th of its bin's values alone,
+    found the same way (a bin of equal values answers at once: a clean scan's differences are mostly 0, on which
+    ``np.partition`` took 8 ms for 100 000 values). Below ``SELECT_FROM`` values, or ``SELECT_DEPTH`` bins down, or
+    with infinite values or a span that overflows, the values are sorted.
     """
     if v.size < SELECT_FROM:
         s = np.sort(v)
@@ -192,20 +196,22 @@ def _kth(v: np.ndarray, ks: tuple[int, ...]) -> list[Any] | None:
     span = float(hi) - float(lo)
     if span == 0:
         return [lo for _ in ks]
-    if not math.isfinite(span):
-        return [np.partition(v, k)[k] for k in ks]
+    if not math.isfinite(span) or depth == SELECT_DEPTH:
+        s = np.sort(v)
+        return [s[k] for k in ks]
     at = np.subtract(v, float(lo), dtype=np.float64)
     at *= (SELECT_BINS - 1) / span
     bins = at.astype(np.intp)
     counts = np.bincount(bins)
     before = np.cumsum(counts) - counts
-    picked = []
-    for k in ks:
-        b = int(np.searchsorted(before, k, side="right")) - 1
-        inside = v[bins == b]
-        rank = k - int(before[b])
-        picked.append(np.partition(inside, rank)[rank])
-    return picked
+    where = [int(np.searchsorted(before, k, side="right")) - 1 for k in ks]
+    picked: dict[tuple[int, int], Any] = {}
+    for b in set(where):            # the median's two middle values mostly share a bin: one look at it
+        ranks = tuple(k - int(before[b]) for k, at_b in zip(ks, where, strict=True) if at_b == b)
+        got = _kth(v[bins == b], ranks, depth + 1)
+        assert got is not None      # no nan here
+        picked.update(zip(((b, r) for r in ranks), got, strict=True))
+    return [picked[b, k - int(before[b])] for k, b in zip(ks, where, strict=True)]
 
 
 __all__ = ["MAD_TO_SIGMA", "median", "percentile", "percentiles", "robust_std"]

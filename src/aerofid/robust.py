@@ -2,7 +2,7 @@
 
 The medians here are numpy's (``np.median``), to the bit. Of a window's 40 000-80 000 grey levels or differences
 (every detector takes several) they are selected in linear time by :func:`_kth`: a histogram of the values finds the
-bin that holds the wanted order statistic, and only that bin's values are partitioned. Neither ``np.sort`` nor
+bin that holds the wanted order statistic, and only that bin's values are looked at again. Neither ``np.sort`` nor
 ``np.partition`` is quick on every processor: on one machine numpy's vectorised sort took a third to a half of the
 time of its selection, on another 3-5 times as long (1.4 ms against 0.4 ms for 40 000 doubles); the histogram
 costs a few passes over the values on both.
@@ -28,9 +28,10 @@ def median(values: np.ndarray, axis: int) -> np.ndarray: ...
 
 
 def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np.ndarray:
-    """``np.median(values, axis=axis)``, from a sort: the same values and floating type (float32 values give
+    """``np.median(values, axis=axis)``: the same values and floating type (float32 values give
     float32 medians, integers float64 ones; nan where a value is nan or there are none; float16 aside, which numpy
-    averages in float32). ``axis`` None (or a 1-D ``values``): the median of all the values, a scalar.
+    averages in float32). ``axis`` None (or a 1-D ``values``): the median of all the values, a scalar, selected by
+:func:`_kth`; along an axis, from a sort.
 
     Examples
     --------

@@ -57,8 +57,8 @@ def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np
 def robust_std(values: np.ndarray) -> float:
     """MAD_TO_SIGMA x the median absolute deviation of ``values`` (0 for no values).
 
-    Equal to ``MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))`` in float64: the absolute deviations below
-    and above the median are two sorted runs of the sorted values, and their median is found by bisection.
+    Equal to ``MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))`` in float64 (both medians selected by
+    :func:`_kth`).
 
     Examples
     --------

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import types
@@ -1508,3 +1509,21 @@ def test_a_jpeg_frame_is_screened_on_one_thread_while_its_whole_decode_runs(tmp_
         assert not raster.decoding
         orient_module.frame_features(raster)
     assert asked == [1, None, None]
+
+
+def test_a_mark_painted_over_says_which_window_its_methods_reason_counts_in():
+    """A mark painted over (as bench_frames.py damages frames): not found, and its reason names the window that the
+    methods' own coordinates ("at pixel (235, 246)") count in, which holds the predicted place."""
+    spec = frame_spec(CAMERA, 0.09, np.random.default_rng(3))
+    image, name = render_frame(spec), CAMERA.names[0]
+    x, y = frame_truth(spec).marks[name]
+    half = int(3.0 / 0.09)
+    patch = image[int(y) - half:int(y) + half, int(x) - half:int(x) + half]
+    patch[...] = np.median(patch)
+    res = aerofid.orient_frame(image, CAMERA, pixel_size_mm=0.09)
+    gone = next(f for f in res.fiducials if f.name == name)
+    assert gone.status == "not_found", gone
+    window = re.search(r"\[in the window \((\d+), (\d+), (\d+), (\d+)\)", gone.reason)
+    assert window is not None, gone.reason
+    x0, y0, x1, y1 = map(int, window.groups())
+    assert x0 <= x < x1 and y0 <= y < y1

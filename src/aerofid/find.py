@@ -102,6 +102,15 @@ class Located:
     def y(self) -> float:
         return self.detection.y
 
+    def reason_in_window(self, width: int, height: int) -> str:
+        """The detector's reason with the window it speaks of (its coordinates are the window's), and whether the
+        image's edge (an image of ``width`` x ``height`` px) cut the window: then pixels of the mark may really be
+        missing from the scan."""
+        x0, y0, x1, y1 = self.box
+        edge = x0 == 0 or y0 == 0 or x1 == width or y1 == height
+        where = f"in the window ({x0}, {y0}, {x1}, {y1})" + (", which the image's edge cuts" if edge else "")
+        return f"{self.detection.reason or 'no mark'} [{where}]"
+
     @property
     def extent(self) -> float:
         """The mark's radius by its method's model, else the screening radius, else a quarter of the window."""

@@ -220,7 +220,8 @@ def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_cl
         return _location(None, search, mark, requested, was_clipped, NOT_FOUND,
                          "nothing in the box stands out of its ground as a mark")
     first = search.attempts[0]
-    return _location(first, search, mark, requested, was_clipped, NOT_FOUND, _window_reason(first, search))
+    return _location(first, search, mark, requested, was_clipped, NOT_FOUND,
+                     first.reason_in_window(search.width, search.height))
 
 
 RIVAL_SCALE = 2.0
@@ -253,15 +254,6 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
                               for m in rivals):
                 rivals.append(again)
     return rivals
-
-
-def _window_reason(got: Located, search: MarkSearch) -> str:
-    """A measurement's reason with the window it speaks of (its coordinates are the window's), and whether the
-    image itself cut the window: then pixels of the mark may really be missing from the scan."""
-    x0, y0, x1, y1 = got.box
-    edge = x0 == 0 or y0 == 0 or x1 == search.width or y1 == search.height
-    where = f"in the window ({x0}, {y0}, {x1}, {y1})" + (", which the image's edge cuts" if edge else "")
-    return f"{got.detection.reason} [{where}]"
 
 
 def _location(got: Located | None, search: MarkSearch, mark: str, requested: tuple[float, ...],

@@ -1165,7 +1165,8 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
 def _at_start(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,
               other_polarity: Polarity | None) -> tuple[Located | None, str]:
     """:func:`measure_fiducial`'s measurements from ``start`` (in the measurer's polarities, then in
-    ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there."""
+    ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there (after the
+    first window's box, whose pixels the method's reason counts in)."""
     others = () if other_polarity is None else (replace(measurer, polarities=(other_polarity,)),)
     first: Located | None = None
     for m in (measurer, *others):
@@ -1174,7 +1175,7 @@ def _at_start(measurer: Measurer, start: Candidate, at: tuple[float, float], tol
         if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
             return got, ""
     assert first is not None
-    return None, first.detection.reason or "no mark"
+    return None, first.reason_in_window(measurer.source.width, measurer.source.height)
 
 
 def _in_a_larger_box(measurer: Measurer, refused: Located, at: tuple[float, float], tolerance: float) -> Located:

@@ -365,12 +365,16 @@ def test_auto_params_are_validated():
 
 def test_the_cross_check_limits_hough_unless_the_user_limits_it_more():
     """``hough`` re-examining a lone answer gets ``cross_check_rejections`` and ``cross_check_crossing_gap``, or the
-    user's own ``max_rejections`` and ``max_crossing_gap`` where those are lower."""
-    hough = METHODS["hough"].params_type
+    user's own ``max_rejections`` and ``max_crossing_gap`` where those are lower; ``lines`` stops refining at
+    ``cross_check_converged`` unless the user's own ``converged`` is looser; ``symmetry`` runs as it is."""
 
-    def overrides(params, **mine):
-        seeds = auto.seed_params(params, {"hough": hough(**mine)})
-        return auto._cross_check_hough(auto._Context(np.zeros((8, 8), np.float32), 0.01, params, seeds))
+    def overrides(params, method="hough", **mine):
+        seeds = auto.seed_params(params, {method: METHODS[method].params_type(**mine)})
+        return auto._cross_check_params(auto._Context(np.zeros((8, 8), np.float32), 0.01, params, seeds), method)
+
+    assert overrides(AutoParams(), "lines") == {"converged": 0.01}
+    assert overrides(AutoParams(cross_check_converged=0.002), "lines", converged=0.05) == {"converged": 0.05}
+    assert overrides(AutoParams(), "symmetry") == {}
 
     assert overrides(AutoParams()) == {"max_rejections": 2, "max_crossing_gap": 1.0}
     assert overrides(AutoParams(), max_rejections=None) == {"max_rejections": 2, "max_crossing_gap": 1.0}

@@ -49,8 +49,6 @@ MIN_FOREGROUND = 10
 """Fewest foreground pixels of the binary image for a Hough transform."""
 MAX_HOUGH_SHIFT = 3.0
 """The least-squares lines may move the intersection at most this far (px, per axis) from the Hough lines'."""
-CONVERGED = 1e-3
-"""The refinement stops when the intersection moves less than this (px)."""
 SLICE_LENGTH = 8.0
 """Length (px) along the line of each stretch whose background plane is fitted separately."""
 
@@ -565,7 +563,7 @@ def _half_widths(peaks: HoughPeaks, shape: tuple[int, ...], rho_step: float) -> 
 def refine_lines(w: np.ndarray, binary: np.ndarray, peaks: HoughPeaks, centre: np.ndarray, hw: list[float],
                  noise: float, params: LinesParams = DEFAULT) -> tuple[list[LineFit], np.ndarray]:
     """Refine both Hough lines (:func:`fit_line`), each with the other's band left out, until the intersection
-    moves less than ``CONVERGED`` or ``iterations`` are done (``noise``: the window's grey-level noise).
+    moves less than ``converged`` or ``iterations`` are done (``noise``: the window's grey-level noise).
     Returns the fits and their intersection."""
     # foreground (dilated by 1 px) is kept out of the background estimate: the ring of a Wild mark crosses
     # the strips beside the lines
@@ -589,7 +587,7 @@ def refine_lines(w: np.ndarray, binary: np.ndarray, peaks: HoughPeaks, centre: n
             raise Refused("the fitted lines are parallel")
         moved = float(np.hypot(*(np.array(c_new) - c)))
         c = np.array(c_new)
-        if moved < CONVERGED:
+        if moved < params.converged:
             break
     return fits, c
 

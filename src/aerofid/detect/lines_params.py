@@ -53,7 +53,9 @@ class LinesParams(MethodParams):
     lines meeting in a 'T' or 'L', has one side missing)."""
     iterations: int = 12
     """Band / background / fit iterations of the sub-pixel refinement (at most; they stop when the centre moves
-    less than 0.001 px)."""
+    less than ``converged``)."""
+    converged: float = 1e-3
+    """The refinement stops when an iteration moves the intersection less than this (px)."""
     taper: float = 1.0
     """Standard deviation of the Gaussian taper across the line, in bar half-widths (0: a plain centroid)."""
     offset_floor: float = 0.03
@@ -89,7 +91,7 @@ class LinesParams(MethodParams):
         for name in ("min_peak_ratio", "min_arm_ratio", "max_side_foreground"):
             value = getattr(self, name)
             check(number_in(value, 0.0, 1.0), f"{name} must be a fraction in [0, 1], not {value!r}")
-        for name in ("band_margin", "taper", "offset_floor", "min_contrast"):
+        for name in ("band_margin", "taper", "offset_floor", "min_contrast", "converged"):
             value = getattr(self, name)
             check(number_in(value, 0.0, 1e6), f"{name} must be a finite number >= 0, not {value!r}")
         check(is_int(self.min_arm) and self.min_arm >= 0, f"min_arm must be an integer >= 0, not {self.min_arm!r}")

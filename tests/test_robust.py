@@ -118,8 +118,7 @@ def test_median_and_mad_of_many_values_are_numpys(values, scale):
     """From SELECT_FROM values on, the order statistics are selected through a histogram: the same values as numpy's,
     with ties, zeros of either sign, tiny and huge spans (a few distinct values make most bins empty)."""
     values = (values * scale).astype(values.dtype)
-    ours, numpys = median(values), np.median(values)
-    assert ours == numpys and type(ours) is type(numpys)
+    _same_bits(median(values), np.median(values))
     v = values.astype(np.float64)
     assert robust_std(values) == MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))
 
@@ -156,3 +155,35 @@ def test_median_of_many_tied_values():
         assert median(values) == np.median(values)
         v = values.astype(np.float64)
         assert robust_std(values) == MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))
+
+
+def _same_bits(ours, numpys):
+    """The same value to the bit (zeros of either sign told apart) and the same type."""
+    assert type(ours) is type(numpys) and np.asarray(ours).tobytes() == np.asarray(numpys).tobytes(), (ours, numpys)
+
+
+@pytest.mark.parametrize("values", [
+    np.arange(3000) * 1e-310,                                                  # a span of subnormals
+    np.linspace(0.0, 1e-305, 3001),                                            # its deviations' span underflows
+    np.longdouble(1) + np.arange(5001, dtype=np.longdouble) * np.longdouble(2.0) ** -70,   # one float64 apart
+    np.arange(1, 3002, dtype=np.longdouble) * np.longdouble("1e-4000"),
+    np.full(3001, -0.0), np.r_[-np.ones(1500), -0.0, np.ones(1500)], np.array([-0.0, -0.0, 1.0]),
+    np.where(np.random.default_rng(0).random(3000) < 0.3, 0.0, -0.0),
+    np.full(3000, 40000, np.float16), np.full(3, 40000, np.float16),             # float16 averaged in float32
+    np.r_[np.zeros(50000, np.float32), np.random.default_rng(1).normal(size=30000).astype(np.float32)],
+    np.r_[np.random.default_rng(2).normal(size=9000) * 1e-15, 1.0, 1e-4, 1e-8, 1e-12],   # nested far values
+])
+def test_median_and_mad_to_the_bit_where_binning_is_delicate(values):
+    """A reviewer's cases: spans too small for float64 to bin, long doubles float64 does not resolve, zeros of either
+    sign (numpy's median averages from +0.0), float16 (averaged in float32), ties, far values."""
+    _same_bits(median(values), np.median(values))
+    v = values.astype(np.float64)
+    _same_bits(np.float64(robust_std(values)), np.float64(MAD_TO_SIGMA * np.median(np.abs(v - np.median(v)))))
+
+
+def test_median_along_an_axis_averages_as_numpy():
+    values = np.array([[-0.0, -0.0, -0.0, -0.0], [40000, 40000, 40000, 1], [-0.0, 2, -0.0, 3]], np.float16)
+    for axis in (0, 1):
+        ours, numpys = median(values, axis=axis), np.median(values, axis=axis)
+        assert ours.dtype == numpys.dtype and ours.tobytes() == numpys.tobytes()
+    assert median(np.full((2, 4), -0.0), axis=1).tobytes() == np.median(np.full((2, 4), -0.0), axis=1).tobytes()

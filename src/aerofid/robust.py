@@ -29,9 +29,9 @@ def median(values: np.ndarray, axis: int) -> np.ndarray: ...
 
 def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np.ndarray:
     """``np.median(values, axis=axis)``: the same values and floating type (float32 values give
-    float32 medians, integers float64 ones; nan where a value is nan or there are none; float16 aside, which numpy
-    averages in float32). ``axis`` None (or a 1-D ``values``): the median of all the values, a scalar, selected by
-:func:`_kth`; along an axis, from a sort.
+    float32 medians, integers float64 ones; nan where a value is nan or there are none; the middle values averaged as
+    numpy's mean averages them: from +0.0, float16 in float32). ``axis`` None (or a 1-D ``values``): the median of all
+    the values, a scalar, selected by :func:`_kth`; along an axis, from a sort.
 
     Examples
     --------
@@ -50,7 +50,9 @@ def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np
     if n == 0:
         return np.full(s.shape[:-1], nan)
     k = n // 2
-    middle = s[..., k] if n % 2 else (s[..., k - 1] + s[..., k]) / s.dtype.type(2)
+    t = np.float32 if s.dtype == np.float16 else s.dtype.type
+    total = t(0) + s[..., k].astype(t) if n % 2 else t(0) + s[..., k - 1].astype(t) + s[..., k].astype(t)
+    middle = (total if n % 2 else total / t(2)).astype(s.dtype)
     return np.where(np.isnan(s[..., -1]), nan, middle)[()]
 
 
@@ -71,7 +73,8 @@ def robust_std(values: np.ndarray) -> float:
     m = float(_median_of(v))
     if np.isnan(m):
         return float("nan")
-    return float(MAD_TO_SIGMA * _median_of(np.abs(v - m)))
+    deviations = v - m
+    return float(MAD_TO_SIGMA * _median_of(np.abs(deviations, out=deviations)))
 
 
 def percentile(values: np.ndarray, q: float) -> float:
@@ -166,7 +169,8 @@ def _floating(values: np.ndarray) -> np.ndarray:
 
 
 def _median_of(v: np.ndarray) -> np.floating[Any]:
-    """The median of 1-D floating values, in their type (nan where a value is nan or there are none)."""
+    """The median of 1-D floating values, in their type (nan where a value is nan or there are none), as numpy's
+    mean of the middle one or two: from +0.0 (never -0.0), float16 in float32."""
     n = v.size
     if n == 0:
         return v.dtype.type(np.nan)
@@ -174,7 +178,9 @@ def _median_of(v: np.ndarray) -> np.floating[Any]:
     picked = _kth(v, (k,) if n % 2 else (k - 1, k))
     if picked is None:
         return v.dtype.type(np.nan)
-    return picked[0] if n % 2 else (picked[0] + picked[1]) / v.dtype.type(2)
+    t = np.float32 if v.dtype == np.float16 else v.dtype.type
+    total = t(0) + t(picked[0]) if n % 2 else t(0) + t(picked[0]) + t(picked[1])
+    return v.dtype.type(total if n % 2 else total / t(2))
 
 
 def _kth(v: np.ndarray, ks: tuple[int, ...], depth: int = 0) -> list[Any] | None:
@@ -185,8 +191,10 @@ def _kth(v: np.ndarray, ks: tuple[int, ...], depth: int = 0) -> list[Any] | None
     keeps the order of the values (a correctly rounded operation is monotonic), so every value of a lower bin is at most
     every value of a higher one, and the k-th smallest is the (k - values before its bin)-th of its bin's values alone,
     found the same way (a bin of equal values answers at once: a clean scan's differences are mostly 0, on which
-    ``np.partition`` took 8 ms for 100 000 values). Below ``SELECT_FROM`` values, or ``SELECT_DEPTH`` bins down, or
-    with infinite values or a span that overflows, the values are sorted.
+    ``np.partition`` took 8 ms for 100 000 values; a bin that holds most of its level's values is first tried for one
+    value holding the ranks wanted, :func:`_tied`). Below ``SELECT_FROM`` values, ``SELECT_DEPTH`` bins down, or where
+    float64 cannot bin them (infinite values, a span that overflows, or underflows its bins' scale, or that float64
+    does not resolve: long doubles), the values are sorted (numpy's sort, unlike its partition, is quick on ties).
     """
     if v.size < SELECT_FROM:
         s = np.sort(v)
@@ -194,14 +202,15 @@ def _kth(v: np.ndarray, ks: tuple[int, ...], depth: int = 0) -> list[Any] | None
     lo, hi = v.min(), v.max()
     if np.isnan(hi):
         return None
-    span = float(hi) - float(lo)
-    if span == 0:
+    if lo == hi:
         return [lo for _ in ks]
-    if not math.isfinite(span) or depth == SELECT_DEPTH:
+    span = float(hi) - float(lo)
+    scale = (SELECT_BINS - 1) / span if 0 < span < math.inf else math.inf
+    if not scale < math.inf or depth == SELECT_DEPTH:
         s = np.sort(v)
         return [s[k] for k in ks]
     at = np.subtract(v, float(lo), dtype=np.float64)
-    at *= (SELECT_BINS - 1) / span
+    at *= scale
     bins = at.astype(np.intp)
     counts = np.bincount(bins)
     before = np.cumsum(counts) - counts
@@ -209,10 +218,26 @@ def _kth(v: np.ndarray, ks: tuple[int, ...], depth: int = 0) -> list[Any] | None
     picked: dict[tuple[int, int], Any] = {}
     for b in set(where):            # the median's two middle values mostly share a bin: one look at it
         ranks = tuple(k - int(before[b]) for k, at_b in zip(ks, where, strict=True) if at_b == b)
-        got = _kth(v[bins == b], ranks, depth + 1)
+        inside = v[bins == b]
+        # a bin that holds most of the values: ties (a clean scan's zeros) or a far value that took the span
+        got = _tied(inside, ranks) if 2 * inside.size > v.size else None
+        got = got or _kth(inside, ranks, depth + 1)
         assert got is not None      # no nan here
         picked.update(zip(((b, r) for r in ranks), got, strict=True))
     return [picked[b, k - int(before[b])] for k, b in zip(ks, where, strict=True)]
+
+
+def _tied(v: np.ndarray, ranks: tuple[int, ...]) -> list[Any] | None:
+    """The ``ranks``-th smallest of the values ``v`` where one value is all of them, else None: the middle value of
+    ``v`` as they lie (where one value fills most of them, likely it) and the values below it and equal to it
+    counted."""
+    c = v[v.size // 2]
+    below = int(np.count_nonzero(v < c))
+    if all(below <= r for r in ranks):
+        equal = int(np.count_nonzero(v == c))
+        if all(r < below + equal for r in ranks):
+            return [c for _ in ranks]
+    return None
 
 
 __all__ = ["MAD_TO_SIGMA", "median", "percentile", "percentiles", "robust_std"]

@@ -1527,3 +1527,18 @@ def test_a_mark_painted_over_says_which_window_its_methods_reason_counts_in():
     assert window is not None, gone.reason
     x0, y0, x1, y1 = map(int, window.groups())
     assert x0 <= x < x1 and y0 <= y < y1
+
+
+def test_a_mark_found_off_its_prediction_is_reported_with_its_distance():
+    """The measurement at a fiducial's start found a mark, but beyond the tolerance of the prediction: the reason
+    says where the mark lies and how far off (it said "no mark", the reason of a found answer being empty)."""
+    sc = synth.mark_scene("ring_x_dot", size=30, window=120, rng=np.random.default_rng(3), noise_sigma=0.02)
+    truth = sc.marks[0]
+    with open_image(sc.image) as source:
+        measurer = Measurer(source, make_detector("auto", "auto", {}), ("bright",))
+        start = Candidate(truth.x, truth.y, 15.0, 0.0)
+        got, why = orient_module._at_start(measurer, start, (truth.x + 20.0, truth.y), 5.0, None)
+    said = re.fullmatch(r"the mark found there, at \(([\d.]+), ([\d.]+)\), lies (\d+) px from the prediction", why)
+    assert got is None and said is not None, why
+    assert float(said[1]) == pytest.approx(truth.x, abs=0.1) and float(said[2]) == pytest.approx(truth.y, abs=0.1)
+    assert said[3] == "20"

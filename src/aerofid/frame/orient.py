@@ -1165,8 +1165,9 @@ def measure_fiducial(measurer: Measurer, start: Candidate, at: tuple[float, floa
 def _at_start(measurer: Measurer, start: Candidate, at: tuple[float, float], tolerance: float,
               other_polarity: Polarity | None) -> tuple[Located | None, str]:
     """:func:`measure_fiducial`'s measurements from ``start`` (in the measurer's polarities, then in
-    ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there (after the
-    first window's box, whose pixels the method's reason counts in)."""
+    ``other_polarity``): the mark found within ``tolerance`` px of ``at``, else None and why not there (where the
+    first measurement found a mark, how far off; else its reason, with the box of the window it speaks of:
+    :meth:`aerofid.find.Located.reason_in_window`)."""
     others = () if other_polarity is None else (replace(measurer, polarities=(other_polarity,)),)
     first: Located | None = None
     for m in (measurer, *others):
@@ -1175,6 +1176,9 @@ def _at_start(measurer: Measurer, start: Candidate, at: tuple[float, float], tol
         if got.found and math.hypot(got.x - at[0], got.y - at[1]) <= tolerance:
             return got, ""
     assert first is not None
+    if first.found:
+        return None, (f"the mark found there, at ({first.x:.1f}, {first.y:.1f}), lies "
+                      f"{math.hypot(first.x - at[0], first.y - at[1]):.0f} px from the prediction")
     return None, first.reason_in_window(measurer.source.width, measurer.source.height)
 
 

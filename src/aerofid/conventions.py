@@ -46,7 +46,6 @@ mark), and the least quantisation step a reduced read reports (:func:`aerofid.io
 which its float samples (floor 1e-4) keep below them (a helper's audit)."""
 
 
-
 def finite_or_none(v: float | None) -> float | None:
     """A number as JSON may carry it: a float, or None for a missing, NaN or infinite value.
 

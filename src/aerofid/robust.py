@@ -50,9 +50,7 @@ def median(values: np.ndarray, axis: int | None = None) -> np.floating[Any] | np
     if n == 0:
         return np.full(s.shape[:-1], nan)
     k = n // 2
-    t = np.float32 if s.dtype == np.float16 else s.dtype.type
-    total = t(0) + s[..., k].astype(t) if n % 2 else t(0) + s[..., k - 1].astype(t) + s[..., k].astype(t)
-    middle = (total if n % 2 else total / t(2)).astype(s.dtype)
+    middle = _mean_of_middle((s[..., k],) if n % 2 else (s[..., k - 1], s[..., k]), s.dtype)
     return np.where(np.isnan(s[..., -1]), nan, middle)[()]
 
 
@@ -178,9 +176,17 @@ def _median_of(v: np.ndarray) -> np.floating[Any]:
     picked = _kth(v, (k,) if n % 2 else (k - 1, k))
     if picked is None:
         return v.dtype.type(np.nan)
-    t = np.float32 if v.dtype == np.float16 else v.dtype.type
-    total = t(0) + t(picked[0]) if n % 2 else t(0) + t(picked[0]) + t(picked[1])
-    return v.dtype.type(total if n % 2 else total / t(2))
+    return _mean_of_middle(tuple(picked), v.dtype)
+
+
+def _mean_of_middle(middle: tuple[Any, ...], dtype: np.dtype) -> Any:
+    """The mean of the middle one or two values (scalars, or arrays of one per median) as ``np.median`` takes it,
+    numpy's mean: summed from +0.0 (never -0.0), float16 in float32; in ``dtype``."""
+    t = np.float32 if dtype == np.float16 else dtype.type
+    total = t(0)
+    for m in middle:
+        total = total + t(m)
+    return dtype.type(total / t(len(middle)))
 
 
 def _kth(v: np.ndarray, ks: tuple[int, ...], depth: int = 0) -> list[Any] | None:

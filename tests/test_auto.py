@@ -16,6 +16,7 @@ from aerofid.detect import auto
 from aerofid.detect.auto import AutoParams, AutoResult, Check, detect
 from aerofid.detect.hough.cross_fit import CrossFit
 from aerofid.detect.hough.detector import HoughResult
+from aerofid.detect.hough.params import HoughParams
 from aerofid.detect.params import MethodParams
 from aerofid.detect.registry import METHODS, SEED_METHODS
 from aerofid.detect.result import Detection
@@ -382,6 +383,22 @@ def test_the_cross_check_limits_hough_unless_the_user_limits_it_more():
         "max_rejections": 1, "max_crossing_gap": 0.5}
     assert overrides(AutoParams(cross_check_rejections=5), max_crossing_gap=3.0) == {
         "max_rejections": 5, "max_crossing_gap": 1.0}
+
+
+def test_hough_run_because_nothing_else_answered_gives_up_after_fallback_rejections():
+    """Step 1's ``hough``, run on a Zeiss dot in its notch that ``circles`` and ``symmetry`` do not find, stops after
+    ``fallback_rejections`` refused candidates (2), or the user's own ``max_rejections`` where that is lower; the dot is
+    then found by step 4 at the same centre, with the same score, as with the whole box's 8."""
+    sc = synth.mark_scene("notch_dot", size=40, window=200, rng=np.random.default_rng(0), noise_sigma=0.02,
+                          blur_sigma=0.75, contrast=0.7, angle_deg=0.0)
+    mark = sc.marks[0]
+    two, eight = auto.detect(sc.image), auto.detect(sc.image, AutoParams(fallback_rejections=8))
+    mine = auto.detect(sc.image, methods={"hough": HoughParams(max_rejections=1)})
+    assert [len(r.answers["hough"].rejected) for r in (two, eight, mine)] == [2, 8, 1]
+    assert two.found and abs(two.x - mark.x) < 0.2 and abs(two.y - mark.y) < 0.2
+    assert (two.x, two.y, two.score, two.rule) == (eight.x, eight.y, eight.score, eight.rule)
+    with pytest.raises(ValueError, match="fallback_rejections"):
+        AutoParams(fallback_rejections=0)
 
 
 def test_auto_params_do_not_take_a_seed_methods_name_for_something_else():

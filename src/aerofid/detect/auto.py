@@ -9,10 +9,11 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    the user named the kind of mark (``mark="external"`` or ``"panel"``) or the ground is plain (film
    border: at least ``min_plain`` of the box within 4 noise sigma of its median; with ``mark="auto"`` on
    textured ground a lone ``hough`` answer could not be accepted anyway, see below, and its search is slow
-   there). With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+': an answer without ``hough``'s
-   '+' is not a panel, step 2). ``lines`` (Sohn et al.) is
-   never run on the whole window (it returns confident wrong centres on dots and bull's-eyes); it is a
-   corroborator only (step 2). Each detector must first pass its own self-diagnosis (status found).
+   there); it gives up after ``fallback_rejections`` refused candidates (a true '+' is the first it verifies).
+   With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+': an answer without ``hough``'s
+   '+' is not a panel, step 2). ``lines`` (Sohn et al.) is never run on the whole window (it returns confident
+   wrong centres on dots and bull's-eyes); it is a corroborator only (step 2). Each detector must first pass its
+   own self-diagnosis (status found).
 2. **Cross-check.** Found answers within ``max(0.5 px, 3 sqrt(s1^2 + s2^2))`` (capped at ``max_agree`` px) of
    each other form a group. A group with a single member is re-examined on a crop of the window centred on
    it (half-size = the mark's extent + ``crop_margin``): a '+' from ``hough`` by ``lines`` (not for cloth
@@ -159,6 +160,14 @@ class AutoParams(MethodParams):
     ``max_rejections`` is 8 for a whole box; a lower one of the user's is kept): a true '+' is the first candidate
     it verifies (measured in ``HoughParams.max_rejections``), and on the real RC20 rings every verified candidate
     was refused. Step 2."""
+    fallback_rejections: int = 2
+    """``hough`` run in step 1 because ``circles`` and ``symmetry`` found no mark gives up after this many refused
+    candidates (its own ``max_rejections`` is 8 for a whole box; a lower one of the user's is kept). A true '+' is
+    the first candidate it verifies (measured in ``HoughParams.max_rejections``; the frames' searches run with 2,
+    :data:`aerofid.frame.orient.HOUGH_REJECTIONS`), and a box of a mark that is no '+' (a Zeiss dot in its notch)
+    refused 8: ``hough`` took 27-32 ms of its ``auto`` call with 8, 14 ms with 2 (20 of bench_peers.py's boxes,
+    scratch ``/tmp/s52/nh2.py``). The uniqueness pass's search of the blanked box keeps 8 (a second '+' there
+    refuses the box). Step 1."""
     lone_factor: float = 0.8
     """A lone (uncorroborated) answer's evidence is scaled by this. Score."""
     min_lone_score_hough: float = 0.2
@@ -212,7 +221,7 @@ class AutoParams(MethodParams):
         check(self.mark in MARKS, f"mark must be one of {', '.join(MARKS)}, not {self.mark!r}")
         check(number_in(self.min_agree, 0, MAX_PX, lo_open=True) and number_in(self.max_agree, self.min_agree, MAX_PX),
               f"need 0 < min_agree <= max_agree <= {MAX_PX}, not {self.min_agree!r} and {self.max_agree!r}")
-        for name in ("cross_check_rejections", "twin_fits"):
+        for name in ("cross_check_rejections", "fallback_rejections", "twin_fits"):
             check(is_int(getattr(self, name)) and getattr(self, name) >= 1,
                   f"{name} must be a whole number >= 1, not {getattr(self, name)!r}")
         check(isinstance(self.crop_margin, int) and 0 <= self.crop_margin <= MAX_PX,
@@ -494,7 +503,8 @@ def run_candidates(ctx: _Context, trace: _Trace) -> None:
     trace.plain_ground, trace.ground_level = plain_ground(ctx.img, ctx.noise, p)
     nothing = not any(d.found for d in trace.answers.values())
     if nothing and "hough" not in trace.answers and (p.mark != "auto" or trace.plain_ground >= p.min_plain):
-        trace.answers["hough"] = ctx.run("hough", ctx.img)
+        own = getattr(ctx.seeds["hough"], "max_rejections", None)
+        trace.answers["hough"] = ctx.run("hough", ctx.img, max_rejections=_lower(own, p.fallback_rejections))
 
 
 def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams()) -> tuple[float, float]:
@@ -600,12 +610,14 @@ def _cross_check_params(ctx: _Context, method: str) -> dict[str, Any]:
         return {"converged": max(own.converged, ctx.params.cross_check_converged)}
     if method != "hough":
         return {}
-    out: dict[str, Any] = {}
-    for name, limit in (("max_rejections", ctx.params.cross_check_rejections),
-                        ("max_crossing_gap", ctx.params.cross_check_crossing_gap)):
-        mine = getattr(own, name, None)
-        out[name] = limit if mine is None else min(mine, limit)
-    return out
+    return {name: _lower(getattr(own, name, None), limit)
+            for name, limit in (("max_rejections", ctx.params.cross_check_rejections),
+                                ("max_crossing_gap", ctx.params.cross_check_crossing_gap))}
+
+
+def _lower(mine: Any, limit: Any) -> Any:
+    """``limit``, or the user's own value ``mine`` where it is lower (None: no limit of the user's)."""
+    return limit if mine is None else min(mine, limit)
 
 
 def _outranks(method: str, group: list[Detection]) -> bool:

@@ -366,12 +366,14 @@ def test_auto_params_are_validated():
 
 def test_the_cross_check_limits_hough_unless_the_user_limits_it_more():
     """``hough`` re-examining a lone answer gets ``cross_check_rejections`` and ``cross_check_crossing_gap``, or the
-    user's own ``max_rejections`` and ``max_crossing_gap`` where those are lower; ``lines`` stops refining at
+    user's own ``max_rejections`` and ``max_crossing_gap`` where those are lower, and the external window alone for a
+    mark wider than the panel window; ``lines`` stops refining at
     ``cross_check_converged`` unless the user's own ``converged`` is looser; ``symmetry`` runs as it is."""
 
-    def overrides(params, method="hough", **mine):
+    def overrides(params, method="hough", extent=5.0, **mine):
         seeds = auto.seed_params(params, {method: METHODS[method].params_type(**mine)})
-        return auto._cross_check_params(auto._Context(np.zeros((8, 8), np.float32), 0.01, params, seeds), method)
+        return auto._cross_check_params(auto._Context(np.zeros((8, 8), np.float32), 0.01, params, seeds), method,
+                                        extent)
 
     assert overrides(AutoParams(), "lines") == {"converged": 0.01}
     assert overrides(AutoParams(cross_check_converged=0.002), "lines", converged=0.05) == {"converged": 0.05}
@@ -383,6 +385,11 @@ def test_the_cross_check_limits_hough_unless_the_user_limits_it_more():
         "max_rejections": 1, "max_crossing_gap": 0.5}
     assert overrides(AutoParams(cross_check_rejections=5), max_crossing_gap=3.0) == {
         "max_rejections": 5, "max_crossing_gap": 1.0}
+    # a mark wider than the panel window is sought with the external window alone, unless the user chose
+    assert overrides(AutoParams(), extent=8.5) == {"max_rejections": 2, "max_crossing_gap": 1.0, "window_size": 40}
+    assert "window_size" not in overrides(AutoParams(), extent=8.0)
+    assert "window_size" not in overrides(AutoParams(), extent=20.0, window_size=24)
+    assert "window_size" not in overrides(AutoParams(mark="panel"), extent=20.0)
 
 
 def test_hough_run_because_nothing_else_answered_gives_up_after_fallback_rejections():

@@ -47,6 +47,22 @@ def in_disc(x: float, y: float, radius: float, shape: tuple[int, int]) -> tuple[
     return (slice(y0, y1), slice(x0, x1)), distances(x, y, (y1 - y0, x1 - x0), (x0, y0)) <= radius
 
 
+@functools.lru_cache(maxsize=16)
+def offset_radii(k: int) -> np.ndarray:
+    """The distance ``hypot(dx, dy)`` of every offset of the (2k+1)-square from its centre (float64, read-only, made
+    once per size: a box's radial profiles and discs ask for the same few).
+
+    Examples
+    --------
+    >>> offset_radii(1).round(3).tolist()
+    [[1.414, 1.0, 1.414], [1.0, 0.0, 1.0], [1.414, 1.0, 1.414]]
+    """
+    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+    rr = np.hypot(xx, yy)
+    rr.setflags(write=False)
+    return rr
+
+
 @functools.lru_cache(maxsize=64)
 def disc_mask(k: int, radius: float) -> np.ndarray:
     """The offsets of the (2k+1)-square within ``radius`` of its centre (``hypot(dx, dy) <= radius``), a
@@ -57,8 +73,7 @@ def disc_mask(k: int, radius: float) -> np.ndarray:
     >>> disc_mask(2, 1.0).astype(int).tolist()
     [[0, 0, 0, 0, 0], [0, 0, 1, 0, 0], [0, 1, 1, 1, 0], [0, 0, 1, 0, 0], [0, 0, 0, 0, 0]]
     """
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    m = np.hypot(xx, yy) <= radius
+    m = offset_radii(k) <= radius
     m.setflags(write=False)
     return m
 
@@ -92,4 +107,4 @@ def point_asymmetry(img: np.ndarray, x: float, y: float, radius: float, noise: f
     return float(max(0.0, (dd * dd).mean() - 2.0 * n * n) / (2.0 * sig))
 
 
-__all__ = ["disc_box", "disc_mask", "distances", "in_disc", "patch", "point_asymmetry"]
+__all__ = ["disc_box", "disc_mask", "distances", "in_disc", "offset_radii", "patch", "point_asymmetry"]

@@ -69,7 +69,7 @@ import cv2
 import numpy as np
 
 from aerofid.conventions import FOUND, MARKS, Box
-from aerofid.detect.asymmetry import disc_box, distances, in_disc, point_asymmetry
+from aerofid.detect.asymmetry import disc_box, distances, in_disc, offset_radii, point_asymmetry
 from aerofid.detect.asymmetry import patch as _patch
 from aerofid.detect.hough.cross_fit import CrossFit
 from aerofid.detect.hough.detector import HoughResult, Verified, verify_like
@@ -870,8 +870,7 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
     points and would make the mark as large as the box."""
     k = int(np.ceil(r_max))
     p = cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0)
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    rr = np.hypot(xx, yy)
+    rr = offset_radii(k)
     ring = (rr > k - 2) & (rr <= k)
     g = float(median(p[ring])) if ring.any() else float(median(p))
     dev = np.abs(p - g)
@@ -929,8 +928,7 @@ def core_contrast(img: np.ndarray, x: float, y: float, extent: float, noise: flo
     noise sigma (per-pixel noise over sqrt of the pixels averaged)."""
     k = int(np.ceil(extent + 4))
     p = _patch(img, x, y, k)
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    rr = np.hypot(xx, yy)
+    rr = offset_radii(k)
     core = rr <= max(1.5, extent / 4.0)
     ground = (rr > extent + 1) & (rr <= extent + 4)
     if not ground.any():
@@ -1085,8 +1083,7 @@ def flat_blob(img: np.ndarray, bx: int, by: int, noise: float, ground: float,
     p = _patch(img, bx, by, k)
     if p[k, k] - ground < params.min_blob_snr * noise:   # the profile's value at radius 0, in the window's type
         return "the brightest compact blob is too faint"
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    rr = np.hypot(xx, yy)
+    rr = offset_radii(k)
     prof = np.array([p[(rr >= r - 0.5) & (rr < r + 0.5)].mean() for r in range(k + 1)])
     half = np.flatnonzero(prof - ground < 0.5 * (prof[0] - ground))
     if not half.size:
@@ -1136,7 +1133,7 @@ def blob_centroid(img: np.ndarray, det: Detection, iso: float, r_blob: float) ->
     k = int(np.ceil(iso))
     pc = _patch(img, det.x, det.y, k)
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    wgt = np.clip(pc - ground_level(img, det.x, det.y, iso, iso + 3), 0, None) * (np.hypot(xx, yy) <= r_blob + 2)
+    wgt = np.clip(pc - ground_level(img, det.x, det.y, iso, iso + 3), 0, None) * (offset_radii(k) <= r_blob + 2)
     if wgt.sum() <= 0:
         return None
     return Detection(status=FOUND, x=det.x + float((wgt * xx).sum() / wgt.sum()),

@@ -9,7 +9,8 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
    the user named the kind of mark (``mark="external"`` or ``"panel"``) or the ground is plain (film
    border: at least ``min_plain`` of the box within 4 noise sigma of its median; with ``mark="auto"`` on
    textured ground a lone ``hough`` answer could not be accepted anyway, see below, and its search is slow
-   there); it gives up after ``fallback_rejections`` refused candidates (a true '+' is the first it verifies).
+   there); with ``mark="auto"`` it searches with the external fiducials' window alone (no cloth panel lies on the
+   film border) and gives up after ``fallback_rejections`` refused candidates (a true '+' is the first it verifies).
    With ``mark="panel"`` ``hough`` and ``symmetry`` run (a cloth panel is a '+': an answer without ``hough``'s
    '+' is not a panel, step 2). ``lines`` (Sohn et al.) is never run on the whole window (it returns confident
    wrong centres on dots and bull's-eyes); it is a corroborator only (step 2). Each detector must first pass its
@@ -167,12 +168,12 @@ class AutoParams(MethodParams):
     the first candidate it verifies (measured in ``HoughParams.max_rejections``; the frames' searches run with 2,
     :data:`aerofid.frame.orient.HOUGH_REJECTIONS`), and a box of a mark that is no '+' (a Zeiss dot in its notch)
     refused 8: ``hough`` took 27-32 ms of its ``auto`` call with 8, 14 ms with 2 (20 of bench_peers.py's boxes,
-    scratch ``/tmp/s52/nh2.py``; ``auto`` 40.9 ms with 8, 35.3 with 4, 29.8 with 2, ``tfr.py``). The uniqueness
-    pass's search of the blanked box keeps 8 (a second '+' there refuses the box). On the 2210 boxes of
-    bench_marks.py's scenes and rejection cases (n = 30) and bench_peers.py's, every status, centre, sigma and score is
-    the same with 2 as with 8; 5 refusals give a vaguer reason ("no method found a mark" where the search went on to a
-    ring's '+' and refused it as "ambiguous, draw a tighter box", 3 of 60 boxes with two ring marks, or as "cut by the
-    box edge", 2 of 30 half rings; with 4: 2 of them; scratch ``boxes_dump.py``). Step 1."""
+    scratch ``/tmp/s52/nh2.py``; ``auto`` 40.9 ms with 8, 35.3 with 4, 29.8 with 2, ``tfr.py``, both windows
+    searched). The uniqueness pass's search of the blanked box keeps 8 (a second '+' there refuses the box). On the
+    2210 boxes of bench_marks.py's scenes and rejection cases (n = 30) and bench_peers.py's, every status, centre,
+    sigma and score is the same with 2 as with 8; 5 refusals give a vaguer reason ("no method found a mark" where the
+    search went on to a ring's '+' and refused it as "ambiguous, draw a tighter box", 3 of 60 boxes with two ring
+    marks, or as "cut by the box edge", 2 of 30 half rings; with 4: 2 of them; scratch ``boxes_dump.py``). Step 1."""
     lone_factor: float = 0.8
     """A lone (uncorroborated) answer's evidence is scaled by this. Score."""
     min_lone_score_hough: float = 0.2
@@ -508,8 +509,24 @@ def run_candidates(ctx: _Context, trace: _Trace) -> None:
     trace.plain_ground, trace.ground_level = plain_ground(ctx.img, ctx.noise, p)
     nothing = not any(d.found for d in trace.answers.values())
     if nothing and "hough" not in trace.answers and (p.mark != "auto" or trace.plain_ground >= p.min_plain):
-        own = getattr(ctx.seeds["hough"], "max_rejections", None)
-        trace.answers["hough"] = ctx.run("hough", ctx.img, max_rejections=_lower(own, p.fallback_rejections))
+        trace.answers["hough"] = ctx.run("hough", ctx.img, **_fallback_params(ctx))
+
+
+def _fallback_params(ctx: _Context) -> dict[str, Any]:
+    """The parameters of step 1's ``hough`` (run because ``circles`` and ``symmetry`` found no mark) that ``auto``
+    changes: ``max_rejections`` (``fallback_rejections``, or the user's own where it is lower) and, with
+    ``mark="auto"`` and no window size of the user's, ``window_size`` = ``WINDOW_EXTERNAL``: there it runs only on
+    plain ground (film border, ``min_plain``), where no cloth panel lies, and the panel window's spiral was 9.3 of
+    its 13 ms on bench_peers.py's notch-dot boxes (scratch ``/tmp/s52/nh3.py``; ``auto`` 29.8 -> 22.2 ms). On the
+    2210 boxes of :data:`fallback_rejections`' comparison every status, centre, sigma and score is the same; a cross
+    with a speck on its centre, refused either way, is refused as "no method found a mark" instead of as not
+    centrally symmetric about the '+' the panel window found."""
+    own = ctx.seeds["hough"]
+    assert isinstance(own, HoughParams)
+    out: dict[str, Any] = {"max_rejections": _lower(own.max_rejections, ctx.params.fallback_rejections)}
+    if own.mark == "auto" and own.window_size is None:
+        out["window_size"] = WINDOW_EXTERNAL
+    return out
 
 
 def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams()) -> tuple[float, float]:

@@ -62,6 +62,7 @@ The names in ``code`` are the fields of :class:`AutoParams`; each seed method ru
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -413,6 +414,11 @@ class _Context:
     params: AutoParams
     seeds: Mapping[str, MethodParams]
 
+    @functools.cached_property
+    def level(self) -> float:
+        """The window's median grey level (step 1's plain ground and step 3's significance both start from it)."""
+        return float(median(self.img))
+
     def run(self, name: str, window: np.ndarray, **overrides: Any) -> Detection:
         """Seed method ``name`` on ``window`` with its parameters, changed by ``overrides`` for this call."""
         p = self.seeds[name]
@@ -506,7 +512,7 @@ def run_candidates(ctx: _Context, trace: _Trace) -> None:
     p = ctx.params
     for m in ("hough", "symmetry") if p.mark == "panel" else ("circles", "symmetry"):
         trace.answers[m] = ctx.run(m, ctx.img)
-    trace.plain_ground, trace.ground_level = plain_ground(ctx.img, ctx.noise, p)
+    trace.plain_ground, trace.ground_level = plain_ground(ctx.img, ctx.noise, p, ctx.level)
     nothing = not any(d.found for d in trace.answers.values())
     if nothing and "hough" not in trace.answers and (p.mark != "auto" or trace.plain_ground >= p.min_plain):
         trace.answers["hough"] = ctx.run("hough", ctx.img, **_fallback_params(ctx))
@@ -529,9 +535,10 @@ def _fallback_params(ctx: _Context) -> dict[str, Any]:
     return out
 
 
-def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams()) -> tuple[float, float]:
+def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams(),
+                 level: float | None = None) -> tuple[float, float]:
     """(share, grey level) of the window's plain ground: the pixels within max(4 noise, ``plain_floor``)
-    of its median grey level, and their median (the window's when there are none).
+    of its median grey level (``level`` where it is known), and their median (the window's when there are none).
 
     Examples
     --------
@@ -540,9 +547,9 @@ def plain_ground(img: np.ndarray, noise: float, params: AutoParams = AutoParams(
     >>> share, round(level, 3)
     (0.96, 0.1)
     """
-    flat = np.abs(img - median(img)) <= max(4.0 * noise, params.plain_floor)
-    level = float(median(img[flat])) if flat.any() else float(median(img))
-    return float(flat.mean()), level
+    g = float(median(img)) if level is None else level
+    flat = np.abs(img - g) <= max(4.0 * noise, params.plain_floor)
+    return float(flat.mean()), float(median(img[flat])) if flat.any() else g
 
 
 def agree(a: Detection, b: Detection, params: AutoParams = AutoParams()) -> bool:
@@ -746,7 +753,7 @@ def uniqueness(ctx: _Context, trace: _Trace, group: list[Detection], best: Detec
     p = ctx.params
     blanked = blank_disc(ctx.img, best.x, best.y, extent + p.edge_margin, ctx.noise, level=dot)
     rest, blobs = structure_left(blanked, ctx.img, best.x, best.y, extent, ctx.noise, any_size=dot is not None,
-                                 edge_margin=p.edge_margin)
+                                 edge_margin=p.edge_margin, level=ctx.level)
     trace.structure_left, trace.mark_like = rest, blobs
     if blobs and p.mark != "panel":
         x0, y0, x1, y1, area = blobs[0]
@@ -967,11 +974,12 @@ def blank_disc(img: np.ndarray, x: float, y: float, radius: float, noise: float 
     return out
 
 
-def _significance(img: np.ndarray, x: float, y: float, extent: float,
-                  noise: float) -> tuple[np.ndarray, float, float]:
+def _significance(img: np.ndarray, x: float, y: float, extent: float, noise: float,
+                  level: float | None = None) -> tuple[np.ndarray, float, float]:
     """(smoothed image, ground level, threshold): a pixel of the image smoothed by 1 px is significant when it
-    differs from the window's median by more than max(6 x its noise, a quarter of the mark's amplitude)."""
-    g = float(median(img))
+    differs from the window's median (``level`` where it is known) by more than max(6 x its noise, a quarter of the
+    mark's amplitude)."""
+    g = float(median(img)) if level is None else level
     sm = cv2.GaussianBlur(img, (0, 0), 1.0)
     k = int(np.ceil(extent))
     amp = float(np.abs(cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0) - g).max())
@@ -979,15 +987,17 @@ def _significance(img: np.ndarray, x: float, y: float, extent: float,
 
 
 def structure_left(blanked: np.ndarray, img: np.ndarray, x: float, y: float, extent: float, noise: float,
-                   any_size: bool = False, edge_margin: float = 3.0) -> tuple[int, list[Blob]]:
+                   any_size: bool = False, edge_margin: float = 3.0, level: float | None = None
+                   ) -> tuple[int, list[Blob]]:
     """What remains of the window once the mark is blanked out (:func:`blank_disc`): the number of significant
     pixels (:func:`_significance`) and the *mark-like* connected components among them (:data:`Blob`): at
     least a quarter of the mark's own significant area (within ``extent + edge_margin``) and 6 px, and compact
     (bounding box at most 1.5 mark diameters across, not touching the box edge: an image-area edge or corner,
     or a frame running through the box, is not mark-like); with ``any_size`` (an isolated dot) any component
     up to half the box across counts: the 'dot' may be a piece of a larger mark, e.g. an arm's tip cut off by
-    a speck. None left means the box holds nothing but the mark and plain ground."""
-    sm0, g, thr = _significance(img, x, y, extent, noise)
+    a speck. None left means the box holds nothing but the mark and plain ground. ``level``: the window's median,
+    where it is known."""
+    sm0, g, thr = _significance(img, x, y, extent, noise, level)
     h, w = img.shape
     block, near = in_disc(x, y, extent + edge_margin, img.shape)
     own = int(((np.abs(sm0[block] - g) > thr) & near).sum())

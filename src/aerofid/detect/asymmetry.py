@@ -47,16 +47,28 @@ def in_disc(x: float, y: float, radius: float, shape: tuple[int, int]) -> tuple[
     return (slice(y0, y1), slice(x0, x1)), distances(x, y, (y1 - y0, x1 - x0), (x0, y0)) <= radius
 
 
-@functools.lru_cache(maxsize=16)
+KEPT_RADII = 256
+"""Squares of half-side up to this (px; 4 MB of float64 at most) keep their :func:`offset_radii`."""
+
+
 def offset_radii(k: int) -> np.ndarray:
-    """The distance ``hypot(dx, dy)`` of every offset of the (2k+1)-square from its centre (float64, read-only, made
-    once per size: a box's radial profiles and discs ask for the same few).
+    """The distance ``hypot(dx, dy)`` of every offset of the (2k+1)-square from its centre (float64, read-only; made
+    once per size up to :data:`KEPT_RADII`: a box's radial profiles and discs ask for the same few).
 
     Examples
     --------
     >>> offset_radii(1).round(3).tolist()
     [[1.414, 1.0, 1.414], [1.0, 0.0, 1.0], [1.414, 1.0, 1.414]]
     """
+    return _kept_radii(k) if k <= KEPT_RADII else _radii(k)
+
+
+@functools.lru_cache(maxsize=16)
+def _kept_radii(k: int) -> np.ndarray:
+    return _radii(k)
+
+
+def _radii(k: int) -> np.ndarray:
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
     rr = np.hypot(xx, yy)
     rr.setflags(write=False)

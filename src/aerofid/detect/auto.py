@@ -920,11 +920,9 @@ def ring_percentiles(values: np.ndarray, ring: np.ndarray, n: int, percentile: f
     frac = pos - below
     out = np.zeros(n)
     for r in np.flatnonzero(counts).tolist():
-        b = int(below[r])
-        part = np.partition(v[ends[r] - counts[r]:ends[r]], (b, b + 1) if b + 1 < counts[r] else b)
-        lo = part[b]
-        hi = part[b + 1] if b + 1 < counts[r] else lo
-        out[r] = lo + (hi - lo) * frac[r]
+        b, top = int(below[r]), min(int(below[r]) + 1, int(counts[r]) - 1)    # the last value twice, as numpy
+        part = np.partition(v[ends[r] - counts[r]:ends[r]], (b, top))
+        out[r] = part[b] + (part[top] - part[b]) * frac[r]
     return out
 
 

@@ -326,7 +326,7 @@ def test_the_result_is_typed_and_tells_how_it_decided():
     assert d.rule.startswith("corroborated by") and len(d.members) >= 2 and d.member is not None
     assert (d.x, d.y, d.sigma) == (d.member.x, d.member.y, d.member.sigma)
     assert isinstance(d.check, Check) and d.check.ok and d.extent == d.check.extent == d.mark_extent
-    assert {"circles", "symmetry"} <= set(d.answers) and d.second_marks == ()
+    assert {"circles@crop", "symmetry"} <= set(d.answers) and d.second_marks == ()
     assert d.shifted(10, 20).x == d.x + 10 and d.to_dict()["method"] == "symmetry"
 
 
@@ -406,6 +406,31 @@ def test_hough_run_because_nothing_else_answered_gives_up_after_fallback_rejecti
     assert (two.x, two.y, two.score, two.rule) == (eight.x, eight.y, eight.score, eight.rule)
     with pytest.raises(ValueError, match="fallback_rejections"):
         AutoParams(fallback_rejections=0)
+
+
+def test_circles_looks_at_symmetry_s_answer_on_its_crop_before_the_whole_box(monkeypatch):
+    """Step 1: ``circles`` runs on the crop about ``symmetry``'s answer; on a ring it agrees there and its whole-box
+    search is not run (it would agree too, and the centre is ``symmetry``'s). On a dot, which it does not find on
+    the crop, it searches the whole box as well, and step 2's cross-check takes the crop's answer already given."""
+    from aerofid.detect import circles
+    real, shapes = circles.detect, []
+    monkeypatch.setattr(circles, "detect", lambda w, p=circles.DEFAULT: shapes.append(w.shape) or real(w, p))
+    rng = np.random.default_rng(5)
+    ring = _scene("ring_x_dot", rng, size=36)
+    res = detect(ring.image)
+    x0, y0, x1, y1 = res.windows["circles@crop"]
+    assert shapes == [(y1 - y0, x1 - x0)] and x1 - x0 < ring.image.shape[1]
+    assert res.found and res.rule == "corroborated by circles, symmetry" and "circles" not in res.answers
+    assert (res.x, res.y) == (res.answers["symmetry"].x, res.answers["symmetry"].y)
+    whole = real(ring.image)
+    assert whole.found and auto.agree(whole, res.answers["circles@crop"])
+    shapes.clear()
+    dot = _scene("dot", rng, size=24)
+    res = detect(dot.image)
+    assert res.found and res.rule == "lone symmetry" and not res.answers["circles"].found
+    assert len(shapes) == 2 and shapes[1] == dot.image.shape and shapes[0] != dot.image.shape
+    m = dot.marks[0]
+    assert np.hypot(res.x - m.x, res.y - m.y) < 0.1
 
 
 def test_a_small_cross_on_plain_ground_is_found_by_the_panel_window():

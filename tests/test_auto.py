@@ -152,6 +152,24 @@ def test_a_lone_panel_is_not_refused_for_clutter_that_resembles_it():
         assert d.found and np.hypot(d.x - m.x, d.y - m.y) < 0.1, d.reason
 
 
+def test_a_panel_s_box_is_not_searched_for_concentric_circles(monkeypatch):
+    """Uniqueness of a cloth panel on aerial ground: the blanked box is searched by ``symmetry`` and the panel's twins,
+    not by ``circles`` (two concentric circles are no panel); ``circles`` runs nowhere in a panel's box."""
+    from aerofid.detect import circles, symmetry
+    seen: list[str] = []
+    for module in (circles, symmetry):
+        real = module.detect
+        monkeypatch.setattr(module, "detect", lambda w, p, real=real, name=module.__name__: seen.append(name)
+                            or real(w, p))
+    sc = synth.panel_scene(np.random.default_rng(2026), shape_hw=(200, 200), size=9.0, contrast=0.3,
+                           angle_deg=30.0)
+    d = detect(sc.image, AutoParams(mark="panel"))
+    m = sc.marks[0]
+    assert d.found and np.hypot(d.x - m.x, d.y - m.y) < 0.1, d.reason
+    assert d.structure_left and d.second_marks == ()       # the blanked box was searched
+    assert seen.count("aerofid.detect.symmetry") >= 2 and "aerofid.detect.circles" not in seen
+
+
 def test_a_second_panel_s_fit_ends_well_within_its_evaluations(monkeypatch):
     """``panel_twins``' fits stop at LIKE_EVALUATIONS a pass. With no such cap (the search's 100), the second panel of
     boxes with two (made noisier, where its fits take the most) converges within half of it, and the boxes are

@@ -43,7 +43,7 @@ cannot corroborate. The rule, applied deterministically to one grey window (mark
      size left in the rest of the window (:func:`structure_left`), or a second answer there of the group's
      methods, ``symmetry`` or ``circles`` (:func:`second_marks`), makes the box ambiguous. For a cloth panel
      the second '+' is sought by the panel's own image, turned, instead of ``hough``'s search
-     (:func:`panel_twins`).
+     (:func:`panel_twins`), and ``circles`` does not search (concentric circles are no panel).
 
 4. **Compact dots with no method** (the Zeiss dot in a notch, whose frame edge spoils the whole-window
    methods): when nothing was found, the single strongest compact blob (difference of Gaussians, not an
@@ -826,12 +826,15 @@ def second_marks(ctx: _Context, blanked: np.ndarray, group: list[Detection], bes
     ``second_ratio`` of the method's score on the mark, of a similar size (:func:`similar_size` of
     :func:`answer_extent`). For a cloth panel that ``hough`` fitted, :func:`panel_twins` takes the place of
     ``hough``'s search of the blanked window where it can look (not when the panel is too close to the window's
-    edge for its turned image)."""
+    edge for its turned image). A cloth panel's box (``mark="panel"``) is not searched by ``circles``: two concentric
+    circles are no panel, and on aerial ground it found nothing in any of the 198 blanked windows of
+    bench_marks.py's and bench_peers.py's panel boxes that reached this search (n = 30 per condition, scratch
+    ``/tmp/s53/pc.py``), at 3-5 ms each."""
     p = ctx.params
     own = {d.method: d.score for d in group}
     fitted = next((d for d in group if isinstance(getattr(d, "refinement", None), CrossFit)), None)
     again = []
-    for m in sorted(set(own) | {"symmetry", "circles"}):
+    for m in sorted(set(own) | ({"symmetry"} if p.mark == "panel" else {"symmetry", "circles"})):
         if m not in SEED_METHODS or m == "lines":
             continue
         twins = panel_twins(ctx, blanked, fitted, extent) if m == "hough" and p.mark == "panel" and fitted else None

@@ -72,7 +72,7 @@ import cv2
 import numpy as np
 
 from aerofid.conventions import FOUND, MARKS, Box
-from aerofid.detect.asymmetry import disc_box, distances, in_disc, offset_radii, point_asymmetry
+from aerofid.detect.asymmetry import KEPT_RADII, disc_box, distances, in_disc, offset_radii, point_asymmetry
 from aerofid.detect.asymmetry import patch as _patch
 from aerofid.detect.hough.cross_fit import CrossFit
 from aerofid.detect.hough.detector import HoughResult, Verified, verify_like
@@ -965,42 +965,81 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
     points and would make the mark as large as the box."""
     k = int(np.ceil(r_max))
     p = cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0)
-    rr = offset_radii(k)
-    ring = (rr > k - 2) & (rr <= k)
-    g = float(median(p[ring])) if ring.any() else float(median(p))
-    dev = np.abs(p - g)
-    inside = rr <= k
-    prof = ring_percentiles(dev[inside], np.floor(rr[inside]).astype(int), k + 1, percentile)
+    edge, order, layout = _profile_rings(k) if k <= KEPT_RADII else _rings_of_square(k)
+    g = float(median(p[edge])) if edge.any() else float(median(p))
+    prof = _percentiles_by_ring(np.abs(p - g).ravel()[order], layout, percentile)
     thr = max(0.25 * prof.max(), 5.0 * noise)
     above = np.flatnonzero(prof > thr)
     return float(above[-1] + 1) if above.size else 1.0
 
 
+RingLayout = tuple[np.ndarray, np.ndarray, np.ndarray, int]
+"""Values ordered by ring laid out as the rows of a table (:func:`_ring_layout`): each ring's count, and each value's
+row (its ring) and column (its place in the ring), and the longest ring's count."""
+
+
+@functools.lru_cache(maxsize=16)
+def _profile_rings(k: int) -> tuple[np.ndarray, np.ndarray, RingLayout]:
+    """:func:`_rings_of_square`, made once per size up to :data:`~aerofid.detect.asymmetry.KEPT_RADII` (a box's radial
+    profiles ask for the same few)."""
+    return _rings_of_square(k)
+
+
+def _rings_of_square(k: int) -> tuple[np.ndarray, np.ndarray, RingLayout]:
+    """The radial profile's rings of the (2k+1)-square about its centre: the outer ring's mask (radius in (k - 2,
+    k]: the ground), the flat indices of the pixels within k ordered by ring (``floor`` of the radius; numpy's stable
+    radix sort of 16-bit ring numbers, so in row-major order within a ring), and their layout."""
+    rr = offset_radii(k)
+    inside = rr <= k
+    ring = np.floor(rr[inside]).astype(np.int32)
+    order = np.flatnonzero(inside)[np.argsort(ring.astype(np.int16), kind="stable")].astype(np.intp)
+    return (rr > k - 2) & inside, order, _ring_layout(np.bincount(ring, minlength=k + 1))
+
+
 def ring_percentiles(values: np.ndarray, ring: np.ndarray, n: int, percentile: float) -> np.ndarray:
     """The ``percentile``-th percentile (linear interpolation, as :func:`numpy.percentile`) of ``values`` on each
-    ring ``0 .. n - 1`` (0 for a ring without values): the values ordered by ring (numpy's stable radix sort of 16-bit
-    ring numbers), then each ring's two order statistics selected (``np.partition``), the same numbers as a sort of
-    each ring gives. On a 200 px box's radial profile (31 000 values, 100 rings) 0.78 ms against 2.2 ms for one sort
-    of all the values (scratch ``/tmp/s52/rp.py``).
+    ring ``0 .. n - 1`` (0 for a ring without values): the values ordered by ring (numpy's stable sort of the ring
+    numbers), then :func:`_percentiles_by_ring`.
 
     Examples
     --------
     >>> ring_percentiles(np.array([1.0, 3.0, 2.0, 9.0]), np.array([0, 0, 0, 2]), 3, 50.0).tolist()
     [2.0, 0.0, 9.0]
     """
-    order = np.argsort(ring.astype(np.int16) if n <= np.iinfo(np.int16).max else ring, kind="stable")
-    v = np.asarray(values, np.float64)[order]
-    counts = np.bincount(ring, minlength=n)
+    ring = np.asarray(ring)
+    numbers = ring.astype(np.int16) if n <= np.iinfo(np.int16).max else ring
+    order = np.argsort(numbers, kind="stable")
+    return _percentiles_by_ring(np.asarray(values)[order], _ring_layout(np.bincount(ring, minlength=n)), percentile)
+
+
+def _ring_layout(counts: np.ndarray) -> RingLayout:
+    """:data:`RingLayout` of values ordered by ring, ``counts`` of them on each."""
     ends = np.cumsum(counts)
+    rows = np.repeat(np.arange(counts.size, dtype=np.intp), counts)
+    cols = np.arange(int(ends[-1]) if ends.size else 0, dtype=np.intp) - np.repeat(ends - counts, counts)
+    return counts, rows, cols, int(counts.max(initial=0))
+
+
+def _percentiles_by_ring(ordered: np.ndarray, layout: RingLayout, percentile: float) -> np.ndarray:
+    """Each ring's ``percentile``-th percentile of ``ordered`` (values ordered by ring, as ``layout`` lays them out):
+    the rings as the rows of a table padded with nan, each row sorted (a sorted row holds its ring's values in order,
+    nan last, as a selection within the ring places them), its two neighbours read in float64 and interpolated as
+    numpy does (0 for a ring without values). One sort of the table instead of a selection per ring: 0.97 -> 0.49 ms for
+    a 200 px box's profile (100 rings), the same bytes on 40 boxes of four styles (scratch ``/tmp/s53/pe2.py``)."""
+    counts, rows, cols, width = layout
+    n = counts.size
+    kind = ordered.dtype if ordered.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    table = np.full((n, max(width, 1)), np.nan, kind)
+    table[rows, cols] = ordered
+    table.sort(axis=1)
     pos = (counts - 1) * (percentile / 100.0)
-    below = np.floor(pos).astype(int)
+    below = np.floor(pos).astype(np.intp)
     frac = pos - below
-    out = np.zeros(n)
-    for r in np.flatnonzero(counts).tolist():
-        b, top = int(below[r]), min(int(below[r]) + 1, int(counts[r]) - 1)    # the last value twice, as numpy
-        part = np.partition(v[ends[r] - counts[r]:ends[r]], (b, top))
-        out[r] = part[b] + (part[top] - part[b]) * frac[r]
-    return out
+    top = np.minimum(below + 1, counts - 1)             # the last value twice, as numpy
+    every = np.arange(n)
+    lo = table[every, np.maximum(below, 0)].astype(np.float64)
+    hi = table[every, np.maximum(top, 0)].astype(np.float64)
+    return np.where(counts > 0, lo + (hi - lo) * frac, 0.0)
 
 
 def group_extent(img: np.ndarray, members: list[Detection], noise: float,

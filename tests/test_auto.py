@@ -586,6 +586,14 @@ def test_ring_percentiles_are_numpys_percentile_per_ring(n, pairs, percentile):
         assert ours[i] == pytest.approx(np.percentile(on, percentile) if on.size else 0.0, abs=1e-12)
 
 
+def test_ring_percentiles_refuse_rings_beyond_n_and_percentiles_beyond_0_100():
+    with pytest.raises(ValueError, match="ring numbers"):
+        auto.ring_percentiles(np.array([1.0, 2.0]), np.array([0, 3]), 2, 50.0)
+    for q in (-10.0, 150.0, float("nan")):
+        with pytest.raises(ValueError, match="percentile"):
+            auto.ring_percentiles(np.array([1.0, 2.0]), np.array([0, 1]), 2, q)
+
+
 def test_a_cross_larger_than_half_the_box_beats_a_dust_speck():
     """A '+' that ``circles`` and ``symmetry`` miss is ``hough``'s before step 4 looks for an isolated dot: a dust
     speck with a flat moat must not be answered instead (the dot's uniqueness only counts structure up to half the

@@ -981,7 +981,7 @@ row (its ring) and column (its place in the ring), and the longest ring's count.
 @functools.lru_cache(maxsize=16)
 def _profile_rings(k: int) -> tuple[np.ndarray, np.ndarray, RingLayout]:
     """:func:`_rings_of_square`, made once per size up to :data:`~aerofid.detect.asymmetry.KEPT_RADII` (a box's radial
-    profiles ask for the same few)."""
+    profiles ask for the same few; 2.7 MB at 256 px, read-only)."""
     return _rings_of_square(k)
 
 
@@ -992,8 +992,13 @@ def _rings_of_square(k: int) -> tuple[np.ndarray, np.ndarray, RingLayout]:
     rr = offset_radii(k)
     inside = rr <= k
     ring = np.floor(rr[inside]).astype(np.int32)
-    order = np.flatnonzero(inside)[np.argsort(ring.astype(np.int16), kind="stable")].astype(np.intp)
-    return (rr > k - 2) & inside, order, _ring_layout(np.bincount(ring, minlength=k + 1))
+    order = np.flatnonzero(inside)[np.argsort(ring.astype(np.int16), kind="stable")].astype(np.int32)
+    counts, rows, cols, width = _ring_layout(np.bincount(ring, minlength=k + 1))
+    parts = ((rr > k - 2) & inside, order, counts, rows.astype(np.int32), cols.astype(np.int32))
+    for a in parts:
+        a.flags.writeable = False           # kept (:func:`_profile_rings`): nobody may change them
+    edge, order, counts, rows, cols = parts
+    return edge, order, (counts, rows, cols, width)
 
 
 def ring_percentiles(values: np.ndarray, ring: np.ndarray, n: int, percentile: float) -> np.ndarray:
@@ -1007,6 +1012,10 @@ def ring_percentiles(values: np.ndarray, ring: np.ndarray, n: int, percentile: f
     [2.0, 0.0, 9.0]
     """
     ring = np.asarray(ring)
+    if ring.size and not (ring.min() >= 0 and ring.max() < n):
+        raise ValueError(f"ring numbers must lie in 0 .. {n - 1}")
+    if not 0 <= percentile <= 100:
+        raise ValueError(f"percentile {percentile!r} is not in [0, 100]")
     numbers = ring.astype(np.int16) if n <= np.iinfo(np.int16).max else ring
     order = np.argsort(numbers, kind="stable")
     return _percentiles_by_ring(np.asarray(values)[order], _ring_layout(np.bincount(ring, minlength=n)), percentile)

@@ -1033,8 +1033,9 @@ def _percentiles_by_ring(ordered: np.ndarray, layout: RingLayout, percentile: fl
     """Each ring's ``percentile``-th percentile of ``ordered`` (values ordered by ring, as ``layout`` lays them out):
     the rings as the rows of a table padded with nan, each row sorted (a sorted row holds its ring's values in order,
     nan last, as a selection within the ring places them), its two neighbours read in float64 and interpolated as
-    numpy does (0 for a ring without values). One sort of the table instead of a selection per ring: 0.97 -> 0.49 ms for
-    a 200 px box's profile (100 rings), the same bytes on 40 boxes of four styles (scratch ``/tmp/s53/pe2.py``)."""
+    numpy does (0 for a ring without values). One sort of the table instead of a selection per ring: 0.98 -> 0.55 ms for
+    a 200 px box's profile (100 rings; scratch ``/tmp/s53/pe3.py``), the same bytes on 5000 random cases and 1344
+    profiles (``/tmp/s53/rpid.py``)."""
     counts, rows, cols, width = layout
     n = counts.size
     kind = ordered.dtype if ordered.dtype in (np.float32, np.float64) else np.dtype(np.float64)

@@ -538,7 +538,8 @@ def _decide_group(ctx: _Context, trace: _Trace, group: list[Detection]) -> AutoR
 
 
 def run_candidates(ctx: _Context, trace: _Trace) -> None:
-    """Step 1: run the whole-window methods into ``trace.answers`` (and measure the plain ground)."""
+    """Step 1: run the whole-window methods (``circles`` first on the crop about ``symmetry``'s answer,
+    :func:`circles_about`) into ``trace.answers``, and measure the plain ground."""
     p = ctx.params
     if p.mark == "panel":
         for m in ("hough", "symmetry"):

@@ -398,6 +398,11 @@ class _Trace:
                 "second_marks": tuple(self.second_marks), "ambiguous_at": self.ambiguous_at,
                 "cut_at": self.cut_at}
 
+    def on_crop(self, method: str, d: Detection, crop: np.ndarray, x0: int, y0: int) -> None:
+        """Record ``method``'s answer ``d`` on ``crop`` (origin x0, y0) as ``<method>@crop``, with its window."""
+        self.answers[f"{method}@crop"] = d
+        self.windows[f"{method}@crop"] = (x0, y0, x0 + crop.shape[1], y0 + crop.shape[0])
+
     def not_found(self, reason: str) -> AutoResult:
         return AutoResult.not_found(METHOD, reason, **self.fields())
 
@@ -415,6 +420,8 @@ class _Context:
     noise: float
     params: AutoParams
     seeds: Mapping[str, MethodParams]
+    _extents: dict[tuple[tuple[str, float, float], ...], float] = field(default_factory=dict, init=False, repr=False)
+    _crops: dict[tuple[str, int, int, int, int], Detection] = field(default_factory=dict, init=False, repr=False)
 
     @functools.cached_property
     def level(self) -> float:
@@ -426,10 +433,6 @@ class _Context:
         p = self.seeds[name]
         return METHODS[name].detect(window, p.replace(**overrides) if overrides else p)
 
-    @functools.cached_property
-    def _extents(self) -> dict[tuple[tuple[str, float, float], ...], float]:
-        return {}
-
     def extent(self, members: list[Detection]) -> float:
         """:func:`group_extent` of ``members``, once per group (step 1's crop about ``symmetry``'s answer and step 2's
         are the same)."""
@@ -438,9 +441,10 @@ class _Context:
             self._extents[key] = group_extent(self.img, members, self.noise, self.params)
         return self._extents[key]
 
-    @functools.cached_property
-    def _crops(self) -> dict[tuple[str, int, int, int, int], Detection]:
-        return {}
+    def crop_about(self, d: Detection, extent: float) -> tuple[np.ndarray, int, int]:
+        """The crop a lone answer ``d`` of a mark of radius ``extent`` is re-examined on (half-size ``extent +
+        crop_margin``, step 2; step 1's ``circles`` about ``symmetry``'s answer), and its origin."""
+        return _crop(self.img, d.x, d.y, int(np.ceil(extent + self.params.crop_margin)))
 
     def on_crop(self, name: str, crop: np.ndarray, x0: int, y0: int, **overrides: Any) -> Detection:
         """:meth:`run` on ``crop``, the part of the window from column ``x0``, row ``y0``; a found answer in window
@@ -533,7 +537,7 @@ def _decide_group(ctx: _Context, trace: _Trace, group: list[Detection]) -> AutoR
         rule = f"lone {group[0].method}"
     else:
         rule = "corroborated by " + ", ".join(d.method for d in group)
-        extent = group_extent(ctx.img, group, ctx.noise, ctx.params)
+        extent = ctx.extent(group)
     return conclude(ctx, trace, group, extent, rule)
 
 
@@ -582,14 +586,13 @@ def circles_about(ctx: _Context, trace: _Trace, sym: Detection) -> bool:
     adopted: it changed 18 scores of blurred and heavy-noise rings and bull's-eyes by up to 0.21, and one centre by
     0.10 px. ``circles`` found those rings on the whole window but not on the crop, and the lone ``symmetry``
     answer's cross-check went on to ``hough``."""
-    crop, x0, y0 = _crop(ctx.img, sym.x, sym.y, int(np.ceil(ctx.extent([sym]) + ctx.params.crop_margin)))
+    crop, x0, y0 = ctx.crop_about(sym, ctx.extent([sym]))
     if min(crop.shape) < MIN_CROP_SIDE:
         return False
     d = ctx.on_crop("circles", crop, x0, y0)
     if not (d.found and agree(sym, d, ctx.params)):
         return False
-    trace.answers["circles@crop"] = d
-    trace.windows["circles@crop"] = (x0, y0, x0 + crop.shape[1], y0 + crop.shape[0])
+    trace.on_crop("circles", d, crop, x0, y0)
     return True
 
 
@@ -678,7 +681,7 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
     '+'), the others could only add evidence to a corroborated answer (``symmetry`` after ``lines`` confirmed a
     '+'; on 300 cross-checks of ``benchmarks/bench_fits.py``'s scenes a later checker never disagreed)."""
     lone = group[0]
-    crop, x0, y0 = _crop(ctx.img, lone.x, lone.y, int(np.ceil(extent + ctx.params.crop_margin)))
+    crop, x0, y0 = ctx.crop_about(lone, extent)
     if lone.method == "hough" and ctx.params.mark == "panel":
         checkers: tuple[str, ...] = ("symmetry",)
     else:
@@ -689,8 +692,7 @@ def cross_check(ctx: _Context, trace: _Trace, group: list[Detection], extent: fl
         d = ctx.on_crop(m, crop, x0, y0, **_cross_check_params(ctx, m, extent))
         if not d.found:
             continue
-        trace.answers[f"{m}@crop"] = d
-        trace.windows[f"{m}@crop"] = (x0, y0, x0 + crop.shape[1], y0 + crop.shape[0])
+        trace.on_crop(m, d, crop, x0, y0)
         if not agree(lone, d, ctx.params):
             dist = float(np.hypot(d.x - lone.x, d.y - lone.y))
             return (f"methods disagree: {lone.method} at ({lone.x:.2f}, {lone.y:.2f}) and {m} on a crop around it "
@@ -968,7 +970,7 @@ def profile_extent(img: np.ndarray, x: float, y: float, noise: float, r_max: flo
     points and would make the mark as large as the box."""
     k = int(np.ceil(r_max))
     p = cv2.GaussianBlur(_patch(img, x, y, k), (0, 0), 1.0)
-    edge, order, layout = _profile_rings(k) if k <= KEPT_RADII else _rings_of_square(k)
+    edge, order, layout = _profile_rings(k)
     g = float(median(p[edge])) if edge.any() else float(median(p))
     prof = _percentiles_by_ring(np.abs(p - g).ravel()[order], layout, percentile)
     thr = max(0.25 * prof.max(), 5.0 * noise)
@@ -981,10 +983,14 @@ RingLayout = tuple[np.ndarray, np.ndarray, np.ndarray, int]
 row (its ring) and column (its place in the ring), and the longest ring's count."""
 
 
-@functools.lru_cache(maxsize=16)
 def _profile_rings(k: int) -> tuple[np.ndarray, np.ndarray, RingLayout]:
     """:func:`_rings_of_square`, made once per size up to :data:`~aerofid.detect.asymmetry.KEPT_RADII` (a box's radial
-    profiles ask for the same few; 2.7 MB at 256 px, read-only)."""
+    profiles ask for the same few; 2.7 MB at 256 px, read-only), as :func:`offset_radii` keeps its squares."""
+    return _kept_rings(k) if k <= KEPT_RADII else _rings_of_square(k)
+
+
+@functools.lru_cache(maxsize=16)
+def _kept_rings(k: int) -> tuple[np.ndarray, np.ndarray, RingLayout]:
     return _rings_of_square(k)
 
 
@@ -997,10 +1003,9 @@ def _rings_of_square(k: int) -> tuple[np.ndarray, np.ndarray, RingLayout]:
     ring = np.floor(rr[inside]).astype(np.int32)
     order = np.flatnonzero(inside)[np.argsort(ring.astype(np.int16), kind="stable")].astype(np.int32)
     counts, rows, cols, width = _ring_layout(np.bincount(ring, minlength=k + 1))
-    parts = ((rr > k - 2) & inside, order, counts, rows.astype(np.int32), cols.astype(np.int32))
-    for a in parts:
+    edge, rows, cols = (rr > k - 2) & inside, rows.astype(np.int32), cols.astype(np.int32)
+    for a in (edge, order, counts, rows, cols):
         a.flags.writeable = False           # kept (:func:`_profile_rings`): nobody may change them
-    edge, order, counts, rows, cols = parts
     return edge, order, (counts, rows, cols, width)
 
 

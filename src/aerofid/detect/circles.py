@@ -575,8 +575,10 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray,
     u = 2 + (0 if fix_radii else k_circ)
     if n - u <= 0 or np.any(p <= 0):
         return None
-    root_p = np.sqrt(p)
-    rows = np.arange(n)
+    root_p = None if weights is None else np.sqrt(p)    # unit weights: J and the residuals as they are
+    J = np.zeros((n, u))
+    if not fix_radii:
+        J[np.arange(n), 2 + label] = -1.0                  # the radii's columns do not change
     converged = False
     it = 0
     for it in range(1, max_iter + 1):              # noqa: B007 (``it`` is reported)
@@ -584,22 +586,22 @@ def fit_concentric_circles(x: np.ndarray, y: np.ndarray, label: np.ndarray,
         d = np.hypot(dx, dy)
         if np.any(d <= 0):
             return None
-        J = np.zeros((n, u))
-        J[:, 0], J[:, 1] = -dx / d, -dy / d
-        if not fix_radii:
-            J[rows, 2 + label] = -1.0
-        Jw = J * root_p[:, None]
+        np.divide(-dx, d, out=J[:, 0])
+        np.divide(-dy, d, out=J[:, 1])
+        res = d - R[label]
+        Jw = J if root_p is None else J * root_p[:, None]
         try:
-            step = np.linalg.solve(Jw.T @ Jw, -(Jw.T @ ((d - R[label]) * root_p)))
+            step = np.linalg.solve(Jw.T @ Jw, -(Jw.T @ (res if root_p is None else res * root_p)))
         except np.linalg.LinAlgError:
             return None
-        if not np.all(np.isfinite(step)):
+        s = step.tolist()
+        if not all(map(math.isfinite, s)):
             return None
-        x0 += step[0]
-        y0 += step[1]
+        x0 += s[0]
+        y0 += s[1]
         if not fix_radii:
             R += step[2:]
-        if float(np.max(np.abs(step))) < tol:
+        if max(map(abs, s)) < tol:
             converged = True
             break
     dx, dy = x - x0, y - y0

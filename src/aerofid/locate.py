@@ -33,10 +33,11 @@ from aerofid.find import (
     rows_read,
     screen_region,
     search,
+    window_ladder,
 )
 from aerofid.io.array import open_image
 from aerofid.io.raster import Raster, clip_box
-from aerofid.methods import METHOD_NAMES
+from aerofid.methods import METHOD_NAMES, AutoDetector
 
 LOCATE_CANDIDATES = (8, 32)
 """At most this many screening candidates are measured in one box: the first for boxes up to
@@ -184,18 +185,47 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
 
 def search_box(measurer: Measurer, region: Box) -> MarkSearch:
     """The search of :func:`aerofid.find.find_marks` on one box, with the box's centre as a last candidate
-    (a tight box: the mark fills it)."""
+    (a tight box: the mark fills it); a cloth panel's box is first measured whole (:func:`panel_box`)."""
     w, h = region[2] - region[0], region[3] - region[1]
+    centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0,
+                       radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS), strength=0.0, inner=2.0)
+    whole = panel_box(measurer, region, centre)
+    if whole is not None:
+        return whole
     n = int(min(max(LOCATE_CANDIDATES[0] * w * h / CANDIDATE_AREA, LOCATE_CANDIDATES[0]), LOCATE_CANDIDATES[1]))
     candidates, f = screen_region(measurer.source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
                                   max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n)
-    centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0,
-                       radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS), strength=0.0, inner=2.0)
     found = search(measurer, region, candidates, f, last=(centre,))
     if len(found.marks) != 1:
         return found
     rivals = confirmed_rivals(measurer, region, found.attempts, found.marks[0])
     return replace(found, marks=found.marks + tuple(rivals))
+
+
+def panel_box(measurer: Measurer, region: Box, centre: Candidate) -> MarkSearch | None:
+    """A cloth panel's box (``auto`` with ``mark="panel"``) measured whole first: ``auto`` on the first window of the
+    box's ``centre`` candidate (:func:`~aerofid.find.window_ladder`: the box and 1.5 times its half-size + 8 px
+    around it, so that a panel with its centre in the box lies whole in it, unless the image's edge cuts it), then
+    re-centred (:meth:`~aerofid.find.Measurer.recentre`). Where that window holds the box and ``auto`` answers a
+    panel in the box, ``auto``'s uniqueness pass has already looked there for a second panel (its own image,
+    turned, matched and fitted: :func:`aerofid.detect.auto.panel_twins`) and for a second answer of ``symmetry``,
+    and that is the answer: the box's screening candidates are not measured. Else None, and the box is searched
+    candidate by candidate (the panel's thin strips screen weaker than aerial clutter: on bench_peers.py's boxes the
+    clutter's candidates came first and each cost ``auto``'s failed searches on its window ladder)."""
+    det = measurer.detector
+    if not (isinstance(det, AutoDetector) and det.params.mark == "panel"):
+        return None
+    got = measurer.at(centre.x, centre.y, window_ladder(centre.radius, centre.inner)[0], centre)
+    x0, y0, x1, y1 = got.box
+    holds = x0 <= region[0] and y0 <= region[1] and x1 >= region[2] and y1 >= region[3]
+    if not (holds and got.found and in_box(got.x, got.y, region)):
+        return None
+    final = measurer.recentre(got, centre)
+    if not (final.found and in_box(final.x, final.y, region)):
+        return None
+    source = measurer.source
+    return MarkSearch(region, (final,), (), (final,), (), 1, source.width, source.height,
+                      None if source.path is None else str(source.path))
 
 
 def one_mark(search: MarkSearch, mark: str, requested: tuple[float, ...], was_clipped: bool) -> Location:
@@ -280,4 +310,4 @@ def _box_tuple(box: Sequence[float]) -> tuple[float, ...]:
     return t
 
 
-__all__ = ["METHOD_NAMES", "Location", "locate", "one_mark", "search_box"]
+__all__ = ["METHOD_NAMES", "Location", "locate", "one_mark", "panel_box", "search_box"]

@@ -189,3 +189,39 @@ def test_two_crosses_in_a_box_are_named_once_each():
         img = np.clip(synth.add_gaussian_noise(synth.blur(img, 0.7), 0.02, rng), 0, 1).astype(np.float32)
     r = aerofid.locate(img, (30, 30, 130, 90), mark="external", method="symmetry")
     assert not r.found and r.reason.startswith("2 marks in the box, at (60.3, 60.7), (96.3, 60.7)"), r.reason
+
+
+def _two_panels(seed: int) -> np.ndarray:
+    """Two 9 px cloth panels on synthetic aerial ground, at (80.3, 90.6) and (125.7, 104.2)."""
+    rng = np.random.default_rng(seed)
+    a = synth.panel_scene(rng, shape_hw=(200, 200), centre=(80.3, 90.6), size=9.0, angle_deg=20.0, contrast=0.3)
+    return synth.panel_scene(rng, centre=(125.7, 104.2), size=9.0, angle_deg=33.0, contrast=0.3, ground=a.image).image
+
+
+def test_a_panel_s_box_is_measured_whole_first():
+    """A cloth panel in a loose box on aerial ground (bench_peers.py's kind): the clutter screens stronger than the
+    panel, and the box's candidates were measured first (0.7 s a box). ``auto`` on the box's whole window answers it,
+    its uniqueness pass having looked for a second panel there: no candidate is screened."""
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        sc = synth.panel_scene(rng, shape_hw=(200, 200), size=rng.uniform(7, 11), contrast=rng.uniform(0.2, 0.35))
+        m = sc.marks[0]
+        r = aerofid.locate(sc.image, (0, 0, 200, 200), mark="panel")
+        assert r.found and np.hypot(r.x - m.x, r.y - m.y) < 0.1, (r.reason, r.x - m.x, r.y - m.y)
+        assert r.search.candidates == () and len(r.search.attempts) == 1
+
+
+def test_two_panels_in_a_box_are_both_named():
+    """Two panels 47 px apart in one box: the search by candidates found one of them (the other's candidates were
+    clutter) and answered it; ``auto`` on the box's whole window sees both, and each is then measured on its own."""
+    r = aerofid.locate(_two_panels(1), (40, 40, 160, 160), mark="panel")
+    assert not r.found and r.reason.startswith("2 marks in the box"), r.reason
+    marks = sorted((m.x, m.y) for m in r.search.marks)
+    assert np.allclose(marks, [(80.3, 90.6), (125.7, 104.2)], atol=0.1), marks
+
+
+def test_a_panel_beside_the_box_does_not_make_it_ambiguous():
+    """The same two panels, the box round the first only: a candidate inside the box was measured on the second
+    panel, beyond the box's edge, and counted as a second mark in the box."""
+    r = aerofid.locate(_two_panels(1), (50, 60, 110, 120), mark="panel")
+    assert r.found and np.hypot(r.x - 80.3, r.y - 90.6) < 0.1, (r.reason, r.x, r.y)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from aerofid.conventions import FOUND, NOT_FOUND, Box, finite_or_none
+from aerofid.detect.auto import AutoResult
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate
 from aerofid.errors import AerofidInputError
@@ -205,26 +206,59 @@ def search_box(measurer: Measurer, region: Box) -> MarkSearch:
 def panel_box(measurer: Measurer, region: Box, centre: Candidate) -> MarkSearch | None:
     """A cloth panel's box (``auto`` with ``mark="panel"``) measured whole first: ``auto`` on the first window of the
     box's ``centre`` candidate (:func:`~aerofid.find.window_ladder`: the box and 1.5 times its half-size + 8 px
-    around it, so that a panel with its centre in the box lies whole in it, unless the image's edge cuts it), then
-    re-centred (:meth:`~aerofid.find.Measurer.recentre`). Where that window holds the box and ``auto`` answers a
-    panel in the box, ``auto``'s uniqueness pass has already looked there for a second panel (its own image,
-    turned, matched and fitted: :func:`aerofid.detect.auto.panel_twins`) and for a second answer of ``symmetry``,
-    and that is the answer: the box's screening candidates are not measured. Else None, and the box is searched
-    candidate by candidate (the panel's thin strips screen weaker than aerial clutter: on bench_peers.py's boxes the
-    clutter's candidates came first and each cost ``auto``'s failed searches on its window ladder)."""
+    around it, so that a panel with its centre in the box lies whole in it, unless the image's edge cuts it). Where
+    that window holds the box, ``auto``'s uniqueness pass has looked there for a second panel (the panel's own image,
+    turned, matched and fitted: :func:`aerofid.detect.auto.panel_twins`) and for a second answer of ``symmetry``:
+
+    - a panel found in the box, re-centred (:meth:`~aerofid.find.Measurer.recentre`), is the answer;
+    - a panel refused for a second one beside it: the two measured each on its own (:func:`two_panels`).
+
+    Else None, and the box is searched candidate by candidate (the panel's thin strips screen weaker than aerial
+    clutter: on bench_peers.py's boxes the clutter's candidates came first, each at the cost of ``auto``'s failed
+    searches on its window ladder)."""
     det = measurer.detector
     if not (isinstance(det, AutoDetector) and det.params.mark == "panel"):
         return None
     got = measurer.at(centre.x, centre.y, window_ladder(centre.radius, centre.inner)[0], centre)
     x0, y0, x1, y1 = got.box
-    holds = x0 <= region[0] and y0 <= region[1] and x1 >= region[2] and y1 >= region[3]
-    if not (holds and got.found and in_box(got.x, got.y, region)):
+    if not (x0 <= region[0] and y0 <= region[1] and x1 >= region[2] and y1 >= region[3]):
         return None
-    final = measurer.recentre(got, centre)
+    if not got.found:
+        return two_panels(measurer, region, got)
+    final = measurer.recentre(got, centre) if in_box(got.x, got.y, region) else got
     if not (final.found and in_box(final.x, final.y, region)):
         return None
+    return _measured(measurer, region, (final,), (final,))
+
+
+def two_panels(measurer: Measurer, region: Box, whole: Located) -> MarkSearch | None:
+    """The box's marks where ``auto`` on its ``whole`` window refused a panel for a second answer beside it: both
+    places measured as candidates of their own (:meth:`~aerofid.find.Measurer.candidate`, of the refused panel's
+    extent); both found in the box, apart: these two marks (:func:`one_mark` then names both). Else None. The
+    search candidate by candidate could miss one of them: of 4 scratch boxes with two 9 px panels 47 px apart, it
+    found one panel in one box and answered it."""
+    det = whole.detection
+    if not (isinstance(det, AutoResult) and det.ambiguous_at is not None and det.second_marks):
+        return None
+    wx, wy = whole.box[:2]
+    other = det.second_marks[0]
+    marks: list[Located] = []
+    for x, y in (det.ambiguous_at, (other.x, other.y)):
+        got = measurer.candidate(Candidate(x=x + wx, y=y + wy, radius=det.mark_extent, strength=0.0, inner=2.0))
+        if not (got.found and in_box(got.x, got.y, region)):
+            return None
+        marks.append(got)
+    a, b = marks
+    if float(np.hypot(a.x - b.x, a.y - b.y)) <= max(a.extent, b.extent):
+        return None
+    return _measured(measurer, region, (a, b), (whole, a, b))
+
+
+def _measured(measurer: Measurer, region: Box, marks: tuple[Located, ...],
+              attempts: tuple[Located, ...]) -> MarkSearch:
+    """The box's search where no candidate was screened: ``marks`` found by ``attempts``."""
     source = measurer.source
-    return MarkSearch(region, (final,), (), (final,), (), 1, source.width, source.height,
+    return MarkSearch(region, marks, (), attempts, (), 1, source.width, source.height,
                       None if source.path is None else str(source.path))
 
 
@@ -266,7 +300,9 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
     scale and strength (:data:`RIVAL_SCALE`, :data:`RIVAL_STRENGTH`) but refused, measured again with the found
     mark blanked out (:func:`aerofid.detect.auto.blank_disc`); those found then are marks too (two dots side by
     side: each one's window holds the other), one per mark (a second '+' screened twice was listed twice: a helper's
-    audit). A notch corner or an arm's end refused for what it is stays refused."""
+    audit), whose centres lie in the box (a candidate in the box was measured on a panel beyond its edge, and the box
+    refused for "2 marks in the box" with that panel's centre outside it). A notch corner or an arm's end refused for
+    what it is stays refused."""
     own = found.candidate
     if own is None or own.strength <= 0:
         return []
@@ -279,7 +315,8 @@ def confirmed_rivals(measurer: Measurer, region: Box, attempts: tuple[Located, .
         apart = all(float(np.hypot(c.x - m.x, c.y - m.y)) > m.extent for m in (found, *rivals))
         if inside and apart and 1 / RIVAL_SCALE <= c.radius / own.radius <= RIVAL_SCALE:
             again = measurer.candidate(c, blank=(found.x, found.y, found.extent + 2.0))
-            beyond = again.found and float(np.hypot(again.x - found.x, again.y - found.y)) > found.extent
+            beyond = again.found and in_box(again.x, again.y, region) \
+                and float(np.hypot(again.x - found.x, again.y - found.y)) > found.extent
             if beyond and all(float(np.hypot(again.x - m.x, again.y - m.y)) > max(m.extent, again.extent)
                               for m in rivals):
                 rivals.append(again)
@@ -310,4 +347,4 @@ def _box_tuple(box: Sequence[float]) -> tuple[float, ...]:
     return t
 
 
-__all__ = ["METHOD_NAMES", "Location", "locate", "one_mark", "panel_box", "search_box"]
+__all__ = ["METHOD_NAMES", "Location", "locate", "one_mark", "panel_box", "search_box", "two_panels"]

@@ -6,7 +6,9 @@ Synthetic part: per mark style, ``n`` scenes of a 200 x 200 px box (the moderate
 bench_marks.py: marks 20-44 px, random rotation and sub-pixel centre, blur 0.5-1.0 px, noise 0.02; cloth
 panels of 7-11 px on aerial ground, ``synth.panel_scene``), the whole box given to every contender:
 
-- aerofid: each method and ``auto`` as ``locate`` configures them (``make_detector``);
+- aerofid: each method and ``auto`` as ``locate`` configures them (``make_detector``), and ``aerofid.locate`` of the
+  whole box (the user's call: the box screened, its candidates measured on their windows and re-centred, the
+  one-mark rule; a cloth panel's box measured whole first);
 - ``tm exact``: OpenCV ``matchTemplate`` (TM_CCOEFF_NORMED) with the exact noise-free template (same
   renderer, style, size, angle, blur and contrast, the mark on a pixel centre), sub-pixel by a parabola
   through the score peak and its neighbours on each axis;
@@ -212,6 +214,8 @@ def bench_synthetic(n: int, repeats: int, rng: np.random.Generator, hipp: Hipp) 
             for m in METHODS:
                 d, t = timed(repeats, make_detector(m, mark, {}), img)
                 _record(out, style, m, (d.x, d.y) if d.found else None, (tx, ty), t)
+            loc, t = timed(repeats, aerofid.locate, img, (0, 0, BOX, BOX), mark=mark)
+            _record(out, style, "locate", (loc.x, loc.y) if loc.found else None, (tx, ty), t)
             for peer, scale in (("tm exact", 1.0), ("tm +10 %", 1.1)):
                 tpl, c = template(style, spec, scale)
                 xy, t = timed(repeats, match_template, img, tpl, c)
@@ -392,7 +396,7 @@ def main() -> None:
              f"Python {platform.python_version()}, OpenCV {cv2.__version__}, one thread, in {time.time() - t0:.0f} s; "
              f"{hipp_line}.\n",
              f"### Synthetic {BOX} px boxes: found, wrong (> {WRONG} px), RMS of the rest, median time\n",
-             "aerofid:\n", *synthetic_table(res, METHODS), "\nPeers (given the template):\n",
+             "aerofid:\n", *synthetic_table(res, (*METHODS, "locate")), "\nPeers (given the template):\n",
              *synthetic_table(res, peers), "\n### The real RC20 frame's 8 marks\n", *real]
     write_run(Path(args.out), "\n".join(parts))
     print("\n".join(parts))

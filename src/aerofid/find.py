@@ -377,10 +377,12 @@ def one_per_mark(found: list[Located]) -> tuple[list[Located], list[Located]]:
     return [m for m in marks if all(m is not a for a in accessories)], accessories
 
 
-def measure_candidates(measurer: Measurer, candidates: Sequence[Candidate]) -> list[Located]:
+def measure_candidates(measurer: Measurer, candidates: Sequence[Candidate],
+                       measured: Sequence[Located] = ()) -> list[Located]:
     """Step 2-3 for each candidate, strongest first, skipping those much weaker than a mark already found
-    (:data:`WEAK_CANDIDATE`) and those inside a mark already measured (its parts: arms, ring, centre dot)."""
-    attempts: list[Located] = []
+    (:data:`WEAK_CANDIDATE`) and those inside a mark already measured (its parts: arms, ring, centre dot); the
+    ``measured`` answers (made before, e.g. on a box's whole window) come first."""
+    attempts: list[Located] = list(measured)
     strongest = 0.0
     for c in candidates:
         if c.strength < WEAK_CANDIDATE * strongest:
@@ -454,10 +456,10 @@ def configure(method: str, mark: str, polarity: str, colour: str,
 
 
 def search(measurer: Measurer, region: Box, screened: tuple[Candidate, ...], reduction: int,
-           last: tuple[Candidate, ...] = ()) -> MarkSearch:
-    """Steps 2-4 on the ``screened`` candidates of ``region`` (then the ``last`` ones): the marks whose centres
-    lie in the region, one per mark, accessories apart."""
-    attempts = measure_candidates(measurer, (*screened, *last))
+           last: tuple[Candidate, ...] = (), measured: tuple[Located, ...] = ()) -> MarkSearch:
+    """Steps 2-4 on the ``screened`` candidates of ``region`` (then the ``last`` ones), with the answers
+    ``measured`` before: the marks whose centres lie in the region, one per mark, accessories apart."""
+    attempts = measure_candidates(measurer, (*screened, *last), measured)
     marks, accessories = one_per_mark([a for a in attempts if a.found and in_box(a.x, a.y, region)])
     source = measurer.source
     return MarkSearch(region, tuple(marks), tuple(accessories), tuple(attempts), screened, reduction,

@@ -190,48 +190,83 @@ def search_box(measurer: Measurer, region: Box) -> MarkSearch:
     w, h = region[2] - region[0], region[3] - region[1]
     centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0,
                        radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS), strength=0.0, inner=2.0)
-    whole = panel_box(measurer, region, centre)
+    candidates, f = screened = screen_box(measurer, region)
+    whole, measured = panel_box(measurer, region, centre, screened)
     if whole is not None:
         return whole
-    n = int(min(max(LOCATE_CANDIDATES[0] * w * h / CANDIDATE_AREA, LOCATE_CANDIDATES[0]), LOCATE_CANDIDATES[1]))
-    candidates, f = screen_region(measurer.source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
-                                  max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n)
-    found = search(measurer, region, candidates, f, last=(centre,))
+    found = search(measurer, region, candidates, f, last=() if measured else (centre,), measured=measured)
     if len(found.marks) != 1:
         return found
     rivals = confirmed_rivals(measurer, region, found.attempts, found.marks[0])
     return replace(found, marks=found.marks + tuple(rivals))
 
 
-def panel_box(measurer: Measurer, region: Box, centre: Candidate) -> MarkSearch | None:
+def panel_box(measurer: Measurer, region: Box, centre: Candidate,
+              screened: tuple[tuple[Candidate, ...], int]) -> tuple[MarkSearch | None, tuple[Located, ...]]:
     """A cloth panel's box (``auto`` with ``mark="panel"``) measured whole first: ``auto`` on the first window of the
     box's ``centre`` candidate (:func:`~aerofid.find.window_ladder`: the box and 1.5 times its half-size + 8 px
     around it, so that a panel with its centre in the box lies whole in it, unless the image's edge cuts it). Where
     that window holds the box, ``auto``'s uniqueness pass has looked there for a second panel (the panel's own image,
     turned, matched and fitted: :func:`aerofid.detect.auto.panel_twins`) and for a second answer of ``symmetry``:
 
-    - a panel found in the box, re-centred (:meth:`~aerofid.find.Measurer.recentre`), is the answer;
+    - a panel found in the box, re-centred (:meth:`~aerofid.find.Measurer.recentre`), is the answer, unless
+      ``hough`` alone finds another '+' in the box on the first window of one of its ``screened`` candidates
+      (:func:`another_cross`; a '+' of another shape is no twin of the panel);
     - a panel refused for a second one beside it: the two measured each on its own (:func:`two_panels`).
 
-    Else None, and the box is searched candidate by candidate (the panel's thin strips screen weaker than aerial
-    clutter: on bench_peers.py's boxes the clutter's candidates came first, each at the cost of ``auto``'s failed
-    searches on its window ladder)."""
+    Returns that answer (else None), and the panel the box's search by candidates (with ``auto`` on each one's window
+    ladder) is then to count with the marks it finds, in place of the box's centre candidate, whose measurement it is
+    (where ``hough`` found another '+': the search named only that '+', a bright one 2-3 times as thick as the panel,
+    in one of 8 scratch boxes, without measuring the centre after it: it skips a candidate weaker than a mark found,
+    and the centre has no strength). The panel's thin strips screen weaker than aerial clutter: on bench_peers.py's
+    boxes the clutter's candidates came first, each at the cost of ``auto``'s failed searches on every window of its
+    ladder."""
     det = measurer.detector
     if not (isinstance(det, AutoDetector) and det.params.mark == "panel"):
-        return None
+        return None, ()
     got = measurer.at(centre.x, centre.y, window_ladder(centre.radius, centre.inner)[0], centre)
     x0, y0, x1, y1 = got.box
     if not (x0 <= region[0] and y0 <= region[1] and x1 >= region[2] and y1 >= region[3]):
-        return None
+        return None, ()
     if not got.found:
-        return two_panels(measurer, region, got)
+        return two_panels(measurer, region, got, screened), ()
     final = measurer.recentre(got, centre) if in_box(got.x, got.y, region) else got
     if not (final.found and in_box(final.x, final.y, region)):
-        return None
-    return _measured(measurer, region, (final,), (final,))
+        return None, ()
+    if another_cross(measurer, region, final, screened[0]):
+        return None, (final,)
+    return _measured(measurer, region, (final,), (final,), screened), ()
 
 
-def two_panels(measurer: Measurer, region: Box, whole: Located) -> MarkSearch | None:
+def screen_box(measurer: Measurer, region: Box) -> tuple[tuple[Candidate, ...], int]:
+    """The box's screening candidates (at most :data:`LOCATE_CANDIDATES`, by its area) and the screen's reduction."""
+    w, h = region[2] - region[0], region[3] - region[1]
+    n = int(min(max(LOCATE_CANDIDATES[0] * w * h / CANDIDATE_AREA, LOCATE_CANDIDATES[0]), LOCATE_CANDIDATES[1]))
+    return screen_region(measurer.source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
+                         max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n)
+
+
+def another_cross(measurer: Measurer, region: Box, panel: Located, screened: tuple[Candidate, ...]) -> bool:
+    """Whether the box may hold a '+' besides ``panel``: ``hough`` alone (as ``auto`` runs it) answers one with its
+    centre in the box, beyond the panel's extent, on the first window of a ``screened`` candidate of the box
+    (:func:`screen_box`) outside the panel, with the panel blanked out. The box's search by candidates measures those
+    same candidates with ``auto`` (whose panel is ``hough``'s '+'), and names two marks where two of them hold one;
+    ``auto``'s uniqueness on the whole window seeks only a second panel of this one's shape (a review's bright '+'
+    2.2-3 times as thick as a panel beside it was answered, 67-103 px from the panel, in 3 of 765 boxes)."""
+    hough = measurer.alone("hough")
+    blank = (panel.x, panel.y, panel.extent + 2.0)
+    for c in screened:
+        if float(np.hypot(c.x - panel.x, c.y - panel.y)) <= panel.extent:
+            continue
+        got = hough.at(c.x, c.y, window_ladder(c.radius, c.inner)[0], c, blank)
+        apart = float(np.hypot(got.x - panel.x, got.y - panel.y)) > panel.extent
+        if got.found and in_box(got.x, got.y, region) and apart:
+            return True
+    return False
+
+
+def two_panels(measurer: Measurer, region: Box, whole: Located,
+               screened: tuple[tuple[Candidate, ...], int]) -> MarkSearch | None:
     """The box's marks where ``auto`` on its ``whole`` window refused a panel for a second answer beside it: both
     places measured as candidates of their own (:meth:`~aerofid.find.Measurer.candidate`, of the refused panel's
     extent); both found in the box, apart: these two marks (:func:`one_mark` then names both). Else None. The
@@ -251,14 +286,15 @@ def two_panels(measurer: Measurer, region: Box, whole: Located) -> MarkSearch | 
     a, b = marks
     if float(np.hypot(a.x - b.x, a.y - b.y)) <= max(a.extent, b.extent):
         return None
-    return _measured(measurer, region, (a, b), (whole, a, b))
+    return _measured(measurer, region, (a, b), (whole, a, b), screened)
 
 
-def _measured(measurer: Measurer, region: Box, marks: tuple[Located, ...],
-              attempts: tuple[Located, ...]) -> MarkSearch:
-    """The box's search where no candidate was screened: ``marks`` found by ``attempts``."""
+def _measured(measurer: Measurer, region: Box, marks: tuple[Located, ...], attempts: tuple[Located, ...],
+              screened: tuple[tuple[Candidate, ...], int]) -> MarkSearch:
+    """The box's search where its ``screened`` candidates (and the screen's reduction) were not measured: ``marks``
+    found by ``attempts``."""
     source = measurer.source
-    return MarkSearch(region, marks, (), attempts, (), 1, source.width, source.height,
+    return MarkSearch(region, marks, (), attempts, *screened, source.width, source.height,
                       None if source.path is None else str(source.path))
 
 
@@ -347,4 +383,5 @@ def _box_tuple(box: Sequence[float]) -> tuple[float, ...]:
     return t
 
 
-__all__ = ["METHOD_NAMES", "Location", "locate", "one_mark", "panel_box", "search_box", "two_panels"]
+__all__ = ["METHOD_NAMES", "Location", "another_cross", "locate", "one_mark", "panel_box", "screen_box", "search_box",
+           "two_panels"]

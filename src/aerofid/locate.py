@@ -19,8 +19,7 @@ from typing import Any
 import numpy as np
 
 from aerofid.conventions import FOUND, NOT_FOUND, Box, finite_or_none
-from aerofid.detect.auto import AutoResult, at_most
-from aerofid.detect.hough.params import HoughParams
+from aerofid.detect.auto import AutoResult
 from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate
 from aerofid.errors import AerofidInputError
@@ -253,18 +252,8 @@ def another_cross(measurer: Measurer, region: Box, panel: Located, screened: tup
     (:func:`screen_box`) outside the panel, with the panel blanked out. The box's search by candidates measures those
     same candidates with ``auto`` (whose panel is ``hough``'s '+'), and names two marks where two of them hold one;
     ``auto``'s uniqueness on the whole window seeks only a second panel of this one's shape (a review's bright '+'
-    2-3 times as thick as a panel beside it was answered, 45-118 px from the panel, in 5 of 845 boxes). ``hough``
-    gives up after ``cross_check_rejections`` refused candidates, as when ``auto`` re-examines a place: its spiral
-    starts at the candidate, and a true '+' is the first candidate it verifies."""
-    auto_detector = measurer.detector
-    if not isinstance(auto_detector, AutoDetector):
-        return True
-    member = auto_detector.member("hough")
-    if member is None or not isinstance(member.params, HoughParams):
-        return True
-    quick = replace(member.params, max_rejections=at_most(member.params.max_rejections,
-                                                          auto_detector.params.cross_check_rejections))
-    hough = replace(measurer, detector=replace(member, params=quick))
+    2.2-3 times as thick as a panel beside it was answered, 67-103 px from the panel, in 3 of 765 boxes)."""
+    hough = measurer.alone("hough")
     blank = (panel.x, panel.y, panel.extent + 2.0)
     for c in screened:
         if float(np.hypot(c.x - panel.x, c.y - panel.y)) <= panel.extent:

@@ -604,7 +604,7 @@ def _fallback_params(ctx: _Context) -> dict[str, Any]:
     2210 boxes the same, but a review found small '+' marks on plain ground that only the panel window finds: 27 of
     1152 scenes of 8-16 px crosses in 32-96 px boxes (noise 0.05, contrast 0.5) were lost (scratch
     ``/tmp/review52/fb6.py``)."""
-    return {"max_rejections": at_most(getattr(ctx.seeds["hough"], "max_rejections", None),
+    return {"max_rejections": _lower(getattr(ctx.seeds["hough"], "max_rejections", None),
                                      ctx.params.fallback_rejections)}
 
 
@@ -714,7 +714,7 @@ def _cross_check_params(ctx: _Context, method: str, extent: float) -> dict[str, 
         return {"converged": max(own.converged, ctx.params.cross_check_converged)}
     if not isinstance(own, HoughParams):
         return {}
-    out: dict[str, Any] = {name: at_most(getattr(own, name), limit)
+    out: dict[str, Any] = {name: _lower(getattr(own, name), limit)
                            for name, limit in (("max_rejections", ctx.params.cross_check_rejections),
                                                ("max_crossing_gap", ctx.params.cross_check_crossing_gap))}
     if own.mark == "auto" and own.window_size is None and 2.0 * extent > WINDOW_PANEL:
@@ -722,7 +722,7 @@ def _cross_check_params(ctx: _Context, method: str, extent: float) -> dict[str, 
     return out
 
 
-def at_most(mine: Any, limit: Any) -> Any:
+def _lower(mine: Any, limit: Any) -> Any:
     """``limit``, or the user's own value ``mine`` where it is lower (None: no limit of the user's)."""
     return limit if mine is None else min(mine, limit)
 

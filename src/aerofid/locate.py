@@ -26,6 +26,7 @@ from aerofid.errors import AerofidInputError
 from aerofid.find import (
     ACCESSORY_RATIO,
     MAX_MARK_RADIUS,
+    WEAK_CANDIDATE,
     Located,
     MarkSearch,
     Measurer,
@@ -249,22 +250,29 @@ def screen_box(measurer: Measurer, region: Box) -> tuple[tuple[Candidate, ...], 
 def another_cross(measurer: Measurer, region: Box, panel: Located, screened: tuple[Candidate, ...]) -> bool:
     """Whether the box may hold a '+' besides ``panel``: ``hough`` alone (as ``auto`` runs it) answers one with its
     centre in the box, beyond the panel's extent, on the first window of a ``screened`` candidate of the box
-    (:func:`screen_box`) outside the panel, with the panel blanked out. The box's search by candidates measures those
-    same candidates with ``auto`` (whose panel is ``hough``'s '+'), and names two marks where two of them hold one;
-    ``auto``'s uniqueness on the whole window seeks only a second panel of this one's shape (a review's bright '+'
-    2-3 times as thick as a panel beside it was answered, 45-118 px from the panel, in 5 of 845 boxes). ``hough``
-    searches as ``auto`` runs it on those windows (up to 8 refused candidates): giving up after 2, as when ``auto``
-    re-examines a place, took a panel box from 0.40 to 0.21 s but let 2 of those 5 bright '+' through (the spiral
-    starts at the candidate, which is clutter, and the panel lies elsewhere in its window)."""
+    (:func:`screen_box`). The candidates are taken as the box's search by candidates takes them (strongest first; one
+    whose answer was found makes those weaker than :data:`~aerofid.find.WEAK_CANDIDATE` times its strength not worth
+    a look; the panel's own, within its extent, counts as found), and that search measures them with ``auto``, whose
+    panel is ``hough``'s '+', and names two marks where two of them answer one. ``auto``'s uniqueness on the whole
+    window seeks only a second panel of this one's shape: a review's bright '+' 2-3 times as thick as a panel beside
+    it was answered, 45-118 px from the panel, in 5 of 845 boxes. ``hough`` searches as ``auto`` runs it on those
+    windows (up to 8 refused candidates): giving up after 2, as when ``auto`` re-examines a place, took a panel box
+    from 0.40 to 0.21 s but let 2 of those 5 bright '+' through (the spiral starts at the candidate, which is
+    clutter, and the panel lies elsewhere in its window)."""
     hough = measurer.alone("hough")
-    blank = (panel.x, panel.y, panel.extent + 2.0)
+    strongest = 0.0
     for c in screened:
-        if float(np.hypot(c.x - panel.x, c.y - panel.y)) <= panel.extent:
+        if c.strength < WEAK_CANDIDATE * strongest:
             continue
-        got = hough.at(c.x, c.y, window_ladder(c.radius, c.inner)[0], c, blank)
-        apart = float(np.hypot(got.x - panel.x, got.y - panel.y)) > panel.extent
-        if got.found and in_box(got.x, got.y, region) and apart:
+        if float(np.hypot(c.x - panel.x, c.y - panel.y)) <= panel.extent:
+            strongest = max(strongest, c.strength)
+            continue
+        got = hough.at(c.x, c.y, window_ladder(c.radius, c.inner)[0], c)
+        if not got.found:
+            continue
+        if in_box(got.x, got.y, region) and float(np.hypot(got.x - panel.x, got.y - panel.y)) > panel.extent:
             return True
+        strongest = max(strongest, c.strength)
     return False
 
 

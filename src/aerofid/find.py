@@ -199,12 +199,17 @@ class Measurer:
         box, samples = self._window(x, y, half)
         return box, self._grey(samples, polarity)
 
-    def _window(self, x: float, y: float, half: float) -> tuple[Box, np.ndarray]:
+    def window_box(self, x: float, y: float, half: float) -> Box:
         """The window of half-size ``half`` (:func:`~aerofid.windows.window_half`) centred on the pixel nearest (x, y),
-        clipped to the image, and its samples."""
+        clipped to the image: the pixels :meth:`at` reads."""
         h = window_half(half)
         cx, cy = int(round(x)), int(round(y))
         box, _ = clip_box((cx - h, cy - h, cx + h + 1, cy + h + 1), self.source.width, self.source.height)
+        return box
+
+    def _window(self, x: float, y: float, half: float) -> tuple[Box, np.ndarray]:
+        """The window :meth:`window_box` and its samples."""
+        box = self.window_box(x, y, half)
         return box, self.source.read_window(box)
 
     def _grey(self, samples: np.ndarray, pol: Polarity) -> np.ndarray:

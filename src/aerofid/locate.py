@@ -225,13 +225,16 @@ def panel_box(measurer: Measurer, region: Box, centre: Candidate,
     det = measurer.detector
     if not (isinstance(det, AutoDetector) and det.params.mark == "panel"):
         return None, ()
-    got = measurer.at(centre.x, centre.y, window_ladder(centre.radius, centre.inner)[0], centre)
-    x0, y0, x1, y1 = got.box
+    half = window_ladder(centre.radius, centre.inner)[0]
+    x0, y0, x1, y1 = measurer.window_box(centre.x, centre.y, half)
     if not (x0 <= region[0] and y0 <= region[1] and x1 >= region[2] and y1 >= region[3]):
         return None, ()
+    got = measurer.at(centre.x, centre.y, half, centre)
     if not got.found:
         return two_panels(measurer, region, got, screened), ()
-    final = measurer.recentre(got, centre) if in_box(got.x, got.y, region) else got
+    if not in_box(got.x, got.y, region):
+        return None, ()
+    final = measurer.recentre(got, centre)
     if not (final.found and in_box(final.x, final.y, region)):
         return None, ()
     if another_cross(measurer, region, final, screened[0]):

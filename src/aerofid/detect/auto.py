@@ -64,8 +64,8 @@ The names in ``code`` are the fields of :class:`AutoParams`; each seed method ru
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -83,7 +83,7 @@ from aerofid.detect.noise import laplacian_noise_sigma
 from aerofid.detect.params import MAX_PX, MethodParams, check, is_int, number_in
 from aerofid.detect.registry import METHODS, SEED_METHODS
 from aerofid.detect.result import Detection, unusable_window
-from aerofid.detect.twins import match_peaks, turned_matches
+from aerofid.detect.twins import PEAK_SEPARATION, match_peaks, turned_matches
 from aerofid.robust import median
 
 if TYPE_CHECKING:
@@ -878,28 +878,56 @@ ranked it second or seventh twice, 0 or -1 px second or third once."""
 
 
 def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: float) -> list[Detection] | None:
-    """Uniqueness of a cloth panel (beyond the seeds): a second panel of the same survey looks like this one. The
-    panel's own image (a square of half-size ``extent`` + :data:`TWIN_MARGIN` around ``hough``'s centre) is turned
-    in 10 degree steps through a quarter turn and correlated with the blanked window
-    (:func:`aerofid.detect.twins.turned_matches`); the ``twin_fits`` best places correlating at least
-    ``twin_match``, outside the blanked disc, are fitted with the blurred-cross model started from the panel's own
-    fit, turned (:func:`aerofid.detect.hough.detector.verify_like`), and each '+' that passes ``hough``'s
-    verification, shaped like the panel (:func:`twin_shape`) and clear of its disc (centres further apart than the
-    two extents), is a second panel (score: its correlation; the first found ends the search). None when the panel
-    is too near the window's edge (or flat) for its turned image: then ``hough``'s search runs as before. ``hough``'s
-    own search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
-    scored a second panel's window 0.03-0.9: it let 3 of 20 boxes with two panels through as found (scratch
-    scenes of bench_peers.py's kind, the second panel 2.5-6 sizes away, turned at random, its size within 10 %)."""
-    p, hp = ctx.params, ctx.seeds["hough"]
+    """Uniqueness of a cloth panel (beyond the seeds): a second panel of the same survey looks like this one
+    (:func:`twin_panels` at the panel's own size on the window ``auto`` measured, the panel blanked out; a box's
+    search by :func:`aerofid.locate.locate` looks for panels of other sizes too). None when the panel is
+    too near the window's edge (or flat) for its turned image: then ``hough``'s search runs as before. ``hough``'s own
+    search of the blanked window, which this replaces, stopped after 8 refused candidates of the aerial clutter and
+    scored a second panel's window 0.03-0.9: it let 3 of 20 boxes with two panels through as found (scratch scenes of
+    bench_peers.py's kind, the second panel 2.5-6 sizes away, turned at random, its size within 10 %)."""
+    hp = ctx.seeds["hough"]
+    assert isinstance(hp, HoughParams)
+    return twin_panels(ctx.img, blanked, panel, extent, ctx.params, hp)
+
+
+TWIN_SCALES = (1.0, 0.75, 1.333, 1.778)
+"""Sizes of a second panel, relative to the found one, that :func:`twin_panels` matches where it is asked to look for
+panels of other sizes (:func:`aerofid.locate.box_twin`): its own first, then steps of 4/3 (a twin between two of them
+is at most 15 % off one) from 0.65 to 2 (``second_size``) times its size. Each scale's correlation costs the window's
+area over the scale squared (0.75: 1.8 times the panel's own)."""
+
+
+def twin_panels(img: np.ndarray, blanked: np.ndarray, panel: Detection, extent: float, params: AutoParams,
+                hp: HoughParams, inside: Callable[[float, float], bool] | None = None,
+                scales: tuple[float, ...] = (1.0,)) -> list[Detection] | None:
+    """A second panel like ``panel`` (a ``hough`` answer with its :class:`CrossFit`) in ``blanked`` (``img`` with the
+    panel blanked out), ``scales`` times the panel's size (the first: 1), whose centre satisfies ``inside`` (default:
+    anywhere). The panel's own image (a square of half-size ``extent`` + :data:`TWIN_MARGIN` around its centre) is
+    turned in 10 degree steps through a quarter turn and correlated with the blanked window
+    (:func:`aerofid.detect.twins.turned_matches`), at another scale with the window resized by its inverse (a twin
+    twice as large matches the panel's image in the window halved). The ``twin_fits`` best places of each scale
+    correlating at least ``twin_match`` outside the blanked disc, one per place (its best scale: a structure matches
+    at neighbouring scales alike), the ``twin_fits`` best of them, are fitted with the blurred-cross model started
+    from the panel's own fit, turned and scaled (:func:`aerofid.detect.hough.detector.verify_like`); each '+' that
+    passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`) and clear of its disc (centres further
+    apart than the two extents), is a second panel (score: its correlation; the first found ends the search). None
+    when the panel is too near the window's edge (or flat) for its turned image; ``[]`` when no twin is found."""
     model = getattr(panel, "refinement", None)
-    assert isinstance(model, CrossFit) and isinstance(hp, HoughParams)
-    matches = turned_matches(ctx.img, blanked, panel.x, panel.y, int(np.ceil(extent + TWIN_MARGIN)))
-    if matches is None:
+    assert isinstance(model, CrossFit)
+    places = _twin_places(img, blanked, panel, extent, params, inside, scales)
+    if places is None:
         return None
-    for score, x, y, turn in match_peaks(matches, panel.x, panel.y, extent + p.edge_margin, p.twin_match,
-                                         p.twin_fits):
-        got = verify_like(blanked, x, y, model, turn, hp, p.twin_slack)
-        if isinstance(got, Verified) and twin_shape(got.refinement, model, p):
+    fitted: list[tuple[float, float, float]] = []
+    for score, x, y, turn, scale in sorted(places, key=lambda p: -p[0]):
+        if len(fitted) == params.twin_fits:
+            break
+        if any(s != scale and np.hypot(x - tx, y - ty) <= 2 * PEAK_SEPARATION for tx, ty, s in fitted):
+            continue
+        fitted.append((x, y, scale))
+        like = model if scale == 1.0 else replace(model, length1=scale * model.length1,
+                                                  length2=scale * model.length2, width=scale * model.width)
+        got = verify_like(blanked, x, y, like, turn, hp, params.twin_slack)
+        if isinstance(got, Verified) and twin_shape(got.refinement, model, params):
             f = got.refinement
             twin = HoughResult(status=FOUND, x=got.x, y=got.y, score=score, sigma=f.sigma, sigma_x=f.sigma_x,
                                sigma_y=f.sigma_y, cov_xy=f.cov_xy, method="hough", refinement=f)
@@ -909,22 +937,62 @@ def panel_twins(ctx: _Context, blanked: np.ndarray, panel: Detection, extent: fl
     return []
 
 
+def _twin_places(img: np.ndarray, blanked: np.ndarray, panel: Detection, extent: float, params: AutoParams,
+                 inside: Callable[[float, float], bool] | None, scales: tuple[float, ...]
+                 ) -> list[tuple[float, float, float, float, float]] | None:
+    """:func:`twin_panels`' places to fit: (correlation, x, y, turn, scale) of each scale's best matches in ``blanked``
+    whose centres satisfy ``inside``; None where the panel's turned image does not fit at the first scale."""
+    half = int(np.ceil(extent + TWIN_MARGIN))
+    h, w = blanked.shape
+    places: list[tuple[float, float, float, float, float]] = []
+    for scale in scales:
+        if scale == 1.0:
+            target, fx, fy = blanked, 1.0, 1.0
+        else:
+            size = (max(1, round(w / scale)), max(1, round(h / scale)))
+            target = cv2.resize(blanked, size, interpolation=cv2.INTER_AREA if scale > 1 else cv2.INTER_LINEAR)
+            fx, fy = w / size[0], h / size[1]
+        matches = turned_matches(img, target, panel.x, panel.y, half)
+        if matches is None:
+            if scale == scales[0]:
+                return None
+            continue
+        px, py = (panel.x + 0.5) / fx - 0.5, (panel.y + 0.5) / fy - 0.5
+        for score, x, y, turn in match_peaks(matches, px, py, (extent + params.edge_margin) / max(fx, fy),
+                                             params.twin_match, params.twin_fits):
+            if scale != 1.0:
+                x, y = (x + 0.5) * fx - 0.5, (y + 0.5) * fy - 0.5
+            if inside is None or inside(x, y):
+                places.append((score, x, y, turn, scale))
+    return places
+
+
+TWIN_MIN_BLUR = 0.5
+"""Least blur (px) :func:`twin_shape` takes for the panel's: a fit of a sharp scan can end near 0."""
+
+
 def twin_shape(other: CrossFit, panel: CrossFit, params: AutoParams = AutoParams()) -> bool:
     """A fitted '+' is shaped like the panel when its stroke width and its longer bar are each within
-    ``second_size`` times the panel's (:func:`similar_size`): a crossing of two roads, 3 times as wide as a strongly
-    blurred panel beside it, correlated 0.57 with it and passed ``hough``'s verification (bench_marks.py, strong
-    blur).
+    ``second_size`` times the panel's (:func:`similar_size`), and it is blurred at most ``second_size`` times as much
+    (the panel's blur taken as at least :data:`TWIN_MIN_BLUR`): one scan blurs both panels of a survey alike. A
+    crossing of two roads, 3 times as wide as a strongly blurred panel beside it, correlated 0.57 with it and passed
+    ``hough``'s verification (bench_marks.py, strong blur). Matched at other sizes too
+    (:func:`aerofid.locate.box_twin`), blurred texture beside a lone panel was fitted as a '+' 0.8-1.6 times its size
+    with a blur of 1.4-2.5 px against the panel's 0.6, and 14 of a review's 100 boxes with one panel were "2 marks in
+    the box"; the second panels of its boxes with two were fitted with 0.64-0.73 px beside 0.54-0.65.
 
     Examples
     --------
     >>> from aerofid.detect.hough.cross_fit import CrossFit
     >>> panel = CrossFit(0, 0, .1, .1, 0, 90, 10.9, 10.5, 1.46, 1.48, .37, .01, .01, (.3, .3, .3, .3))
     >>> road = CrossFit(0, 0, .1, .1, 0, 90, 18.2, 20.0, 4.74, 1.55, .2, .01, .01, (.2, .2, .2, .2))
-    >>> twin_shape(road, panel), twin_shape(panel, panel)
-    (False, True)
+    >>> blurred = CrossFit(0, 0, .1, .1, 0, 90, 10.9, 10.5, 1.46, 3.1, .37, .01, .01, (.3, .3, .3, .3))
+    >>> twin_shape(road, panel), twin_shape(panel, panel), twin_shape(blurred, panel)
+    (False, True, False)
     """
     return similar_size(other.width, panel.width, params) and similar_size(
-        max(other.length1, other.length2), max(panel.length1, panel.length2), params)
+        max(other.length1, other.length2), max(panel.length1, panel.length2), params) \
+        and other.blur <= params.second_size * max(panel.blur, TWIN_MIN_BLUR)
 
 
 def answer_extent(img: np.ndarray, d: Detection, extent: float, noise: float,

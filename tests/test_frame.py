@@ -60,7 +60,7 @@ def test_a_synthetic_frame_in_any_lie_is_oriented_from_the_camera_file_alone(tmp
     truth = write_frame(spec, tmp_path / "frame.tif", "tiled")
     res = aerofid.orient_frame(tmp_path / "frame.tif", CAMERA)
     assert res.pixel_size_source == "tags" and res.pixel_size_mm == pytest.approx(COARSE_MM)
-    assert (res.rotation_deg, res.mirrored) == truth.lie
+    assert (res.rotation_deg, res.mirrored) == truth.lie and res.lie_source == "fiducials"
     err = _errors(res, truth.marks)
     assert len(err) >= 7 and max(err.values()) < 0.1, err
     assert res.status == "ok", res.reasons
@@ -867,11 +867,18 @@ def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     image = render_frame(spec)
     res = aerofid.orient_frame(image, nominal, pixel_size_mm=COARSE_MM)
-    assert res.status == "doubtful"
+    assert res.status == "doubtful" and res.lie_source == "assumed"
     assert any("lie cannot be told" in r for r in res.reasons)
     given = aerofid.orient_frame(image, nominal, pixel_size_mm=COARSE_MM, lie=(0, False))
     assert given.status == "ok", given.reasons
     assert (given.rotation_deg, given.mirrored) == (0, False)
+    # the lie given is taken, and the answer says that the fiducials could not check it: a wrong one (a helper's audit
+    # gave the real RC20 frame's turned lies) names every mark as another fiducial, the marks fitting it as well
+    wrong = aerofid.orient_frame(image, nominal, pixel_size_mm=COARSE_MM, lie=(90, False))
+    assert wrong.status == "ok" and (wrong.rotation_deg, wrong.mirrored) == (90, False), wrong.reasons
+    for r in (given, wrong):
+        assert r.lie_source == "given" and r.to_dict()["lie_source"] == "given"
+        assert "as given (the fiducials fit several lies equally and cannot check it)" in frame_text(r)
 
 
 def test_a_symmetric_layout_found_whole_without_its_pixel_size_ends_the_search_of_layouts(monkeypatch):
@@ -1068,6 +1075,7 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     assert len(err) == 4 and max(err.values()) < 0.3, err
     assert res.pixel_size_source == "tags"
     assert res.status == "ok", res.reasons
+    assert res.lie_source == "given"            # its 4 corners fit every lie alike: the lie given is not checked
     assert res.orientation is not None and res.orientation.rms_px < 0.6
     # the 4 midside marks the file does not list: where auto finds them in 120 px boxes (docs/benchmarks_rc20.md)
     boxes = {"midside_top": (3167.29, 99.30), "midside_bottom": (3162.33, 5302.24),
@@ -1342,9 +1350,9 @@ def test_four_midside_marks_alone_keep_their_names():
     rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
     px = cam.xy_mm[midsides] * [1, -1] @ rot.T / 0.021 + 5500                 # 21 um, y down, turned 1.5 degrees
     reasons: list[str] = []
-    io, _ = verdict_module._adjust(cam, px, "affine", "", None, reasons)
+    io, _, source = verdict_module._adjust(cam, px, "affine", "", None, reasons)
     named = {cam.names[k] for k in midsides}
-    assert {f.name for f in io.fiducials} == named, reasons
+    assert {f.name for f in io.fiducials} == named and source == "assumed", reasons
     with pytest.raises(AmbiguousCorrespondenceError) as e:    # a symmetric layout: the lie is not told, the names are
         aerofid.orient(cam, px, "affine", correspondence="auto")
     assert {cam.names[j] for j in e.value.correspondence.best.assignment} == named

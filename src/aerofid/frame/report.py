@@ -13,7 +13,15 @@ import cv2
 import numpy as np
 
 from aerofid.find import reduction_for
-from aerofid.frame.result import FOUND_MARK, MISSING_MARK, ROLL_AREAS, FiducialFinding, FrameOrientation
+from aerofid.frame.result import (
+    FOUND_MARK,
+    LIE_ASSUMED,
+    LIE_GIVEN,
+    MISSING_MARK,
+    ROLL_AREAS,
+    FiducialFinding,
+    FrameOrientation,
+)
 from aerofid.io.array import open_image
 from aerofid.io.raster import part_inside
 from aerofid.orientation.report import residual_plot_svg, to_text
@@ -31,10 +39,16 @@ COLOURS = {FOUND_MARK: (40, 200, 40), MISSING_MARK: (40, 40, 230)}
 """BGR colour of a fiducial by status (others, i.e. rejected: orange)."""
 
 
+LIE_NOTES = {LIE_GIVEN: " as given (the fiducials fit several lies equally and cannot check it)",
+             LIE_ASSUMED: " assumed"}
+"""What the text says of a lie the fiducials did not tell (``FrameOrientation.lie_source``)."""
+
+
 def frame_text(res: FrameOrientation) -> str:
     """The frame's verdict, a line per fiducial, then the orientation's report."""
     size = "-" if res.pixel_size_mm is None else f"{res.pixel_size_mm * 1000:.3f} um ({res.pixel_size_source})"
     lie = "-" if res.rotation_deg is None else f"rotation {res.rotation_deg} deg{' mirrored' if res.mirrored else ''}"
+    lie += LIE_NOTES.get(res.lie_source, "")
     L = [f"Frame {res.image or '(image)'} ({res.width} x {res.height}) with camera {res.camera!r}: {res.status}"]
     L += [f"  - {r}" for r in res.reasons]
     w = max([10] + [len(f.name) for f in (*res.fiducials, *res.extra_marks)])

@@ -50,6 +50,14 @@ class FiducialFinding:
                 "residual_px": finite_or_none(self.residual_px), "reason": self.reason, "method": self.method}
 
 
+LIE_TOLD = "fiducials"
+"""``FrameOrientation.lie_source`` of a lie the marks fit significantly better than every other."""
+LIE_GIVEN = "given"
+"""... of a lie taken as given (by the user or the roll's profile) where the marks fit several lies equally."""
+LIE_ASSUMED = "assumed"
+"""... of the nominal lie taken where the marks fit several equally and none was given (the frame is doubtful)."""
+
+
 @dataclass(frozen=True)
 class FrameOrientation:
     """A whole frame's fiducials and interior orientation.
@@ -66,7 +74,11 @@ class FrameOrientation:
     orientation : InteriorOrientation or None
         The adjustment of the found marks (None when failed).
     rotation_deg, mirrored : int or None, bool or None
-        The film's lie in the scanner (:data:`aerofid.orientation.correspondence.ARRANGEMENTS`).
+        The film's lie in the scanner (:data:`aerofid.orientation.correspondence.ARRANGEMENTS`), and how it was
+        decided (``lie_source``): :data:`LIE_TOLD` (the marks fit it significantly better than every other lie),
+        :data:`LIE_GIVEN` (the marks fit several lies equally, a symmetric layout: the lie given, by the user or the
+        roll's profile, was taken, and the fiducials cannot check it), :data:`LIE_ASSUMED` (the same, none given: the
+        nominal one, and the frame is doubtful), empty without an orientation.
     pixel_size_mm : float or None
         The pixel size the search assumed, and where it came from (``pixel_size_source``: "given", "tags",
         "camera" or "estimated" from the marks' layout).
@@ -95,6 +107,9 @@ class FrameOrientation:
     whose certificate calibrates its corners), found at their nominal positions by the orientation
     (``predicted_x, predicted_y``; ``residual_px``: the mark's distance from it); not used in the adjustment."""
 
+    lie_source: str = ""
+    """How the lie was decided (``rotation_deg``): :data:`LIE_TOLD`, :data:`LIE_GIVEN`, :data:`LIE_ASSUMED` or empty."""
+
     @property
     def ok(self) -> bool:
         return self.status == OK
@@ -107,12 +122,12 @@ class FrameOrientation:
         return {"image": self.image, "camera": self.camera, "width": self.width, "height": self.height,
                 "status": self.status, "reasons": list(self.reasons),
                 "fiducials": [f.to_dict() for f in self.fiducials],
-                "rotation_deg": self.rotation_deg, "mirrored": self.mirrored,
+                "rotation_deg": self.rotation_deg, "mirrored": self.mirrored, "lie_source": self.lie_source,
                 "pixel_size_mm": finite_or_none(self.pixel_size_mm), "pixel_size_source": self.pixel_size_source,
                 "screening": {"features": self.features, "reduction": self.reduction, "searched": self.searched},
                 "orientation": None if self.orientation is None else self.orientation.to_dict(),
                 "extra_marks": [f.to_dict() for f in self.extra_marks]}
 
 
-__all__ = ["DOUBTFUL", "FAILED", "FOUND_MARK", "MISSING_MARK", "OK", "REJECTED_MARK", "ROLL_AREAS", "WHOLE_FRAME",
-           "FiducialFinding", "FrameOrientation"]
+__all__ = ["DOUBTFUL", "FAILED", "FOUND_MARK", "LIE_ASSUMED", "LIE_GIVEN", "LIE_TOLD", "MISSING_MARK", "OK",
+           "REJECTED_MARK", "ROLL_AREAS", "WHOLE_FRAME", "FiducialFinding", "FrameOrientation"]

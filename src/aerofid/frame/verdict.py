@@ -16,6 +16,9 @@ from aerofid.frame.result import (
     DOUBTFUL,
     FAILED,
     FOUND_MARK,
+    LIE_ASSUMED,
+    LIE_GIVEN,
+    LIE_TOLD,
     MISSING_MARK,
     OK,
     REJECTED_MARK,
@@ -56,7 +59,7 @@ def verdict(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | 
     px = np.array([[located[k][0].x, located[k][0].y] for k in found])  # type: ignore[union-attr]
     reasons: list[str] = []
     try:
-        io, lie_fit = _adjust(cam, px, model, str(head["image"]), lie, reasons)
+        io, lie_fit, lie_source = _adjust(cam, px, model, str(head["image"]), lie, reasons)
     except AerofidInputError as e:
         return FrameOrientation(**common, status=FAILED, reasons=(f"adjustment: {e}",),
                                 fiducials=_by_layout(cam, layout, located), orientation=None, rotation_deg=None,
@@ -67,7 +70,7 @@ def verdict(cam: Camera, layout: LayoutMatch, located: Sequence[tuple[Located | 
         common["pixel_size_mm"] = adjusted_pixel_mm(io)
     return FrameOrientation(**common, status=DOUBTFUL if reasons else OK, reasons=tuple(reasons),
                             fiducials=findings, orientation=io, rotation_deg=lie_fit.rotation_deg,
-                            mirrored=lie_fit.mirrored)
+                            mirrored=lie_fit.mirrored, lie_source=lie_source)
 
 
 LIE_UNTOLD = "the film's lie cannot be told from the fiducials"
@@ -77,10 +80,11 @@ NOMINAL_LIE = (0, False)
 
 
 def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int, bool] | None,
-            reasons: list[str]) -> tuple[InteriorOrientation, ArrangementFit]:
-    """The adjustment with the film's lie decided by the arrangements' F test. When several lies fit equally (a
-    symmetric layout), the given ``lie`` is taken if it is among them, else the nominal one (then the frame is
-    doubtful: the reason says so); a given lie that fits worse than another is a reason too."""
+            reasons: list[str]) -> tuple[InteriorOrientation, ArrangementFit, str]:
+    """The adjustment with the film's lie decided by the arrangements' F test, and how it was decided
+    (``FrameOrientation.lie_source``). When several lies fit equally (a symmetric layout), the given ``lie`` is taken
+    if it is among them, else the nominal one (then the frame is doubtful: the reason says so); a given lie that fits
+    worse than another is a reason too."""
     try:
         io = orient(cam, px, model, correspondence="auto", image=image)
         assert io.correspondence is not None
@@ -88,11 +92,11 @@ def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int,
         if lie is not None and (best.rotation_deg, best.mirrored) != tuple(lie):
             reasons.append(f"the marks fit the lie rotation {best.rotation_deg} deg{_m(best.mirrored)} "
                            f"significantly better than the given rotation {lie[0]} deg{_m(lie[1])}")
-        return io, best
+        return io, best, LIE_TOLD
     except AmbiguousCorrespondenceError as e:
         corr = e.correspondence
     if lie is None and (cleared := _lie_without_a_blunder(cam, px, model, image, corr)) is not None:
-        return cleared
+        return (*cleared, LIE_TOLD)
     want = lie if lie is not None else NOMINAL_LIE
     chosen = next((f for f in corr.tied if (f.rotation_deg, f.mirrored) == tuple(want)), None)
     if chosen is None or lie is None:
@@ -101,7 +105,8 @@ def _adjust(cam: Camera, px: np.ndarray, model: str, image: str, lie: tuple[int,
         reasons.append(f"{LIE_UNTOLD} ({lies} fit equally well): assumed "
                        f"rotation {chosen.rotation_deg} deg{_m(chosen.mirrored)}; give the lie (--lie) if it is "
                        "not")
-    return _oriented_as(cam, px, model, image, chosen), chosen
+        return _oriented_as(cam, px, model, image, chosen), chosen, LIE_ASSUMED
+    return _oriented_as(cam, px, model, image, chosen), chosen, LIE_GIVEN
 
 
 def _oriented_as(cam: Camera, px: np.ndarray, model: str, image: str, fit: ArrangementFit) -> InteriorOrientation:

@@ -248,6 +248,13 @@ def panel_box(measurer: Measurer, region: Box, centre: Candidate,
     return _measured(measurer, region, (final,), (final,), screened), ()
 
 
+BOX_TWIN_SLACK = 1.0
+""":func:`box_twin`'s second panel passes ``hough``'s verification as a lone answer must (no ``twin_slack``): matched at
+other sizes over a whole box, a dark ring with a bright halo and blurred texture beside bench_peers.py's panels were
+fitted as a '+' with a centre sigma of 0.17-0.18 px, within the twins' slack (0.3 px); the second panels of a review's
+boxes, 0.03-0.05 px."""
+
+
 def box_twin(measurer: Measurer, region: Box, panel: Located) -> Located | None:
     """A second cloth panel in the box besides the one found (``auto`` with ``mark="panel"``): the panel's own image,
     turned and scaled, matched over the whole box and fitted (:func:`aerofid.detect.auto.twin_panels`), on a window
@@ -255,7 +262,7 @@ def box_twin(measurer: Measurer, region: Box, panel: Located) -> Located | None:
     own check of the panel looked only on the window it measured the panel on, which the box's search sizes by the
     candidate (a review's boxes with two panels: of 191 answered as one before session 54, 89 still were, the second
     panel without a screening candidate in 79 of them: the screen keeps the box's strongest few, and a panel's thin
-    strips screen weaker than aerial clutter). Returns the twin (its ``hough`` fit) or None."""
+    strips screen weaker than aerial clutter; 21 with this check). Returns the twin (its ``hough`` fit) or None."""
     det, auto = panel.detection, measurer.detector
     member = det.member if isinstance(det, AutoResult) else None
     if not (isinstance(auto, AutoDetector) and auto.params.mark == "panel" and member is not None
@@ -273,7 +280,8 @@ def box_twin(measurer: Measurer, region: Box, panel: Located) -> Located | None:
     at = replace(member, x=px, y=py)
     blanked = blank_disc(grey, px, py, extent + params.edge_margin, laplacian_noise_sigma(grey))
     twins = twin_panels(grey, blanked, at, extent, params, hough,
-                        inside=lambda x, y: in_box(x + box[0], y + box[1], region), scales=TWIN_SCALES)
+                        inside=lambda x, y: in_box(x + box[0], y + box[1], region), scales=TWIN_SCALES,
+                        slack=BOX_TWIN_SLACK)
     if not twins:
         return None
     return Located(twins[0].shifted(box[0], box[1]), panel.polarity, box, grey)

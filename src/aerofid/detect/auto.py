@@ -899,7 +899,7 @@ area over the scale squared (0.75: 1.8 times the panel's own)."""
 
 def twin_panels(img: np.ndarray, blanked: np.ndarray, panel: Detection, extent: float, params: AutoParams,
                 hp: HoughParams, inside: Callable[[float, float], bool] | None = None,
-                scales: tuple[float, ...] = (1.0,)) -> list[Detection] | None:
+                scales: tuple[float, ...] = (1.0,), slack: float | None = None) -> list[Detection] | None:
     """A second panel like ``panel`` (a ``hough`` answer with its :class:`CrossFit`) in ``blanked`` (``img`` with the
     panel blanked out), ``scales`` times the panel's size (the first: 1), whose centre satisfies ``inside`` (default:
     anywhere). The panel's own image (a square of half-size ``extent`` + :data:`TWIN_MARGIN` around its centre) is
@@ -910,8 +910,9 @@ def twin_panels(img: np.ndarray, blanked: np.ndarray, panel: Detection, extent: 
     at neighbouring scales alike), the ``twin_fits`` best of them, are fitted with the blurred-cross model started
     from the panel's own fit, turned and scaled (:func:`aerofid.detect.hough.detector.verify_like`); each '+' that
     passes ``hough``'s verification, shaped like the panel (:func:`twin_shape`) and clear of its disc (centres further
-    apart than the two extents), is a second panel (score: its correlation; the first found ends the search). None
-    when the panel is too near the window's edge (or flat) for its turned image; ``[]`` when no twin is found."""
+    apart than the two extents), is a second panel (score: its correlation; the first found ends the search).
+    ``slack``: of the verification's quality limits (default ``twin_slack``). None when the panel is too near the
+    window's edge (or flat) for its turned image; ``[]`` when no twin is found."""
     model = getattr(panel, "refinement", None)
     assert isinstance(model, CrossFit)
     places = _twin_places(img, blanked, panel, extent, params, inside, scales)
@@ -926,7 +927,7 @@ def twin_panels(img: np.ndarray, blanked: np.ndarray, panel: Detection, extent: 
         fitted.append((x, y, scale))
         like = model if scale == 1.0 else replace(model, length1=scale * model.length1,
                                                   length2=scale * model.length2, width=scale * model.width)
-        got = verify_like(blanked, x, y, like, turn, hp, params.twin_slack)
+        got = verify_like(blanked, x, y, like, turn, hp, params.twin_slack if slack is None else slack)
         if isinstance(got, Verified) and twin_shape(got.refinement, model, params):
             f = got.refinement
             twin = HoughResult(status=FOUND, x=got.x, y=got.y, score=score, sigma=f.sigma, sigma_x=f.sigma_x,

@@ -268,3 +268,21 @@ def test_the_predictions_on_their_own_features_answer_as_the_tree(seed, n, twice
         assert_as_the_tree(features, pred.reshape(-1, 2), tol, d.ravel(), idx.ravel())
         checked += len(pred)
     assert checked >= len(fiducials) * (len(fiducials) - 1) // 2 or twice     # every pair of marks, the right way
+
+
+def _layout(size: float, complete: bool) -> layout.LayoutMatch:
+    return mock.Mock(spec=layout.LayoutMatch, pixel_size_mm=size, complete=complete)
+
+
+def test_a_four_fiducial_camera_s_complete_layouts_are_taken_nearest_the_usual_span_first():
+    """Without a pixel size, a camera of 4 fiducials: the complete layouts, in the places they hold in the ranking,
+    nearest first to the size at which the fiducials span PRIOR_SPAN of the scan's longer side; an incomplete layout
+    keeps its place (a faded frame's true layout on 3 of its 4 fiducials)."""
+    fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0]])
+    scan = (5908, 5408)
+    prior = 212.0 / (layout.PRIOR_SPAN * 5908)                       # 0.0422 mm per px
+    ranked = [_layout(0.0768, True), _layout(0.0514, True), _layout(0.0420, False), _layout(0.0430, True),
+              _layout(0.0651, True)]
+    got = layout.by_prior(ranked, fid, scan)
+    assert [m.pixel_size_mm for m in got] == [0.0430, 0.0514, 0.0420, 0.0651, 0.0768]
+    assert abs(np.log(0.0430 / prior)) < abs(np.log(0.0514 / prior))

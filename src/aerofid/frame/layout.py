@@ -247,10 +247,10 @@ def by_prior(ranked: list[LayoutMatch], fiducials_mm: np.ndarray, scan_size: tup
     points near any square closely, and a frame's features form many such squares at other scales: on the real RC20
     frame (4 calibrated corners) without a pixel size, 11 of its 14 layouts were complete, and three chance ones at
     0.077, 0.051 and 0.051 mm per px (the fiducials spanning 47-70 % of the scan) fitted their features more closely
-    than the true one at 0.042 (86 %), and were each measured first (6.1 s against 0.5 s with the pixel size given).
-    An incomplete layout keeps its place: put after the complete ones, a faded frame's true layout, 3 of its 4
-    fiducials on features, fell behind 8 chance ones, beyond the layouts measured, and the frame went from ok to
-    doubtful (scratch ``/tmp/s49/ident.py``'s 4-fiducial frames, seed 7033)."""
+    than the true one at 0.042 (86 %), and were each measured first (4.7-4.9 s in a fresh process against 0.5 s with
+    the pixel size given). An incomplete layout keeps its place: put after the complete ones, a faded frame's true
+    layout, 3 of its 4 fiducials on features, fell behind 8 chance ones, beyond the layouts measured, and the frame
+    went from ok to doubtful (scratch ``/tmp/s49/ident.py``'s 4-fiducial frames, seed 7033)."""
     prior = float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size))
     complete = iter(sorted((m for m in ranked if m.complete), key=lambda m: abs(math.log(m.pixel_size_mm / prior))))
     return [next(complete) if m.complete else m for m in ranked]

@@ -881,14 +881,9 @@ def test_a_symmetric_layout_leaves_the_lie_open_unless_it_is_given():
         assert "as given (the fiducials fit several lies equally and cannot check it)" in frame_text(r)
 
 
-def test_a_symmetric_layout_found_whole_without_its_pixel_size_ends_the_search_of_layouts(monkeypatch):
-    """A camera file of symmetric (rounded) coordinates and no pixel size: the first layout measured finds every mark,
-    and the frame is doubtful for its lie alone; no other layout is measured (they can tell the lie no better: all 6
-    were, 7-15 s, before session 48)."""
-    symmetric = Camera.from_dict({"name": "symmetric", "fiducials": {
-        f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}})
-    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
-    measured = []
+def _layouts_measured(monkeypatch) -> list[int]:
+    """A list that gains an item for each layout whose marks ``orient_frame`` measures (``measure_marks`` calls)."""
+    measured: list[int] = []
     measure_marks = orient_module.measure_marks
 
     def counted(*a, **k):
@@ -896,6 +891,17 @@ def test_a_symmetric_layout_found_whole_without_its_pixel_size_ends_the_search_o
         return measure_marks(*a, **k)
 
     monkeypatch.setattr(orient_module, "measure_marks", counted)
+    return measured
+
+
+def test_a_symmetric_layout_found_whole_without_its_pixel_size_ends_the_search_of_layouts(monkeypatch):
+    """A camera file of symmetric (rounded) coordinates and no pixel size: the first layout measured finds every mark,
+    and the frame is doubtful for its lie alone; no other layout is measured (they can tell the lie no better: all 6
+    were, 7-15 s, before session 48)."""
+    symmetric = Camera.from_dict({"name": "symmetric", "fiducials": {
+        f.name: [round(f.x_mm), round(f.y_mm)] for f in CAMERA.fiducials}})
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
+    measured = _layouts_measured(monkeypatch)
     res = aerofid.orient_frame(render_frame(spec), symmetric)
     assert res.status == "doubtful" and res.reasons[0].startswith(verdict_module.LIE_UNTOLD), res.reasons
     assert len(res.found) == len(CAMERA.names) and len(measured) == 1
@@ -1099,14 +1105,7 @@ def test_the_real_rc20_frame_without_its_pixel_size_measures_its_true_layout_fir
     first (4 layouts measured; 4.7-4.9 s against 0.5 s given the pixel size). The complete layouts of a 4-fiducial
     camera are now taken nearest the usual span first (``layout.by_prior``): the true one is the first measured."""
     rgb = cv2.cvtColor(cv2.imread(str(RC20 / "15BCC02013_114.jpg")), cv2.COLOR_BGR2RGB)
-    measured = []
-    measure_marks = orient_module.measure_marks
-
-    def counted(*a, **k):
-        measured.append(1)
-        return measure_marks(*a, **k)
-
-    monkeypatch.setattr(orient_module, "measure_marks", counted)
+    measured = _layouts_measured(monkeypatch)
     res = aerofid.orient_frame(rgb, RC20 / "MeasuresCamera.xml", lie=(0, False))
     assert res.status == "ok" and res.pixel_size_source == "estimated" and len(measured) == 1, res.reasons
     boxes = {"P1": (5666.64, 5213.44), "P2": (648.34, 5201.38), "P3": (652.38, 189.11), "P4": (5671.92, 199.82)}

@@ -251,8 +251,8 @@ def by_prior(ranked: list[LayoutMatch], fiducials_mm: np.ndarray, scan_size: tup
     the pixel size given). An incomplete layout keeps its place: put after the complete ones, a faded frame's true
     layout, 3 of its 4 fiducials on features, fell behind 8 chance ones, beyond the layouts measured, and the frame
     went from ok to doubtful (scratch ``/tmp/s49/ident.py``'s 4-fiducial frames, seed 7033)."""
-    prior = float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size))
-    complete = iter(sorted((m for m in ranked if m.complete), key=lambda m: abs(math.log(m.pixel_size_mm / prior))))
+    prior = usual_pixel_size(fiducials_mm, scan_size)
+    complete = iter(sorted((m for m in ranked if m.complete), key=lambda m: ratio_distance(m.pixel_size_mm, prior)))
     return [next(complete) if m.complete else m for m in ranked]
 
 
@@ -272,7 +272,12 @@ def prior_order(scales: list[float], fiducials_mm: np.ndarray, scan_size: tuple[
     """
     if scan_size is None:
         return list(scales)
-    return nearest_first(scales, float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size)))
+    return nearest_first(scales, usual_pixel_size(fiducials_mm, scan_size))
+
+
+def usual_pixel_size(fiducials_mm: np.ndarray, scan_size: tuple[int, int]) -> float:
+    """The pixel size (mm/px) at which the fiducials span :data:`PRIOR_SPAN` of the scan's longer side."""
+    return float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size))
 
 
 def nearest_first(scales: list[float], prior: float) -> list[float]:
@@ -281,7 +286,12 @@ def nearest_first(scales: list[float], prior: float) -> list[float]:
     >>> nearest_first([0.02, 0.021, 0.022], 0.0218)
     [0.022, 0.021, 0.02]
     """
-    return sorted(scales, key=lambda s: abs(math.log(s / prior)))
+    return sorted(scales, key=lambda s: ratio_distance(s, prior))
+
+
+def ratio_distance(size: float, prior: float) -> float:
+    """How far the pixel size ``size`` lies from ``prior``, by ratio: ``|log(size / prior)|``."""
+    return abs(math.log(size / prior))
 
 
 def pixel_size_range(fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None) -> tuple[float, float]:

@@ -18,7 +18,8 @@ import cv2
 import numpy as np
 
 from aerofid import synth
-from aerofid.detect.noise import difference_noise_sigma, laplacian_noise_sigma
+from aerofid.detect.noise import laplacian_noise_sigma
+from aerofid.robust import difference_noise_sigma
 
 KINDS = ("white", "blurred 0.7 px", "JPEG q75", "film grain")
 SIGMAS = (0.01, 0.02, 0.04)

@@ -1095,7 +1095,9 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     again = aerofid.orient_frame(RC20 / "15BCC02013_114.jpg", RC20 / "MeasuresCamera.xml", profile=learn_profile(res))
     assert (again.status, again.searched) == ("ok", "roll areas"), again.reasons
     pairs = [*zip(res.fiducials, again.fiducials, strict=True), *zip(res.extra_marks, again.extra_marks, strict=True)]
-    assert max(math.hypot(f.x - g.x, f.y - g.y) for f, g in pairs) < 0.01
+    # the same centres to within the windows' difference: P4 is measured on a 67 px window with the profile and a
+    # 141 px one without (landscape beside it), 0.028 px apart in the red channel
+    assert max(math.hypot(f.x - g.x, f.y - g.y) for f, g in pairs) < 0.05
 
 
 @pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")

@@ -75,6 +75,15 @@ def robust_std(values: np.ndarray) -> float:
     return float(MAD_TO_SIGMA * _median_of(np.abs(deviations, out=deviations)))
 
 
+def difference_noise_sigma(window: np.ndarray) -> float:
+    """Robust estimate of the window's white-noise standard deviation: the robust std of the horizontal
+    and vertical first differences divided by sqrt(2) (edges are a minority of differences, so the MAD
+    ignores them). Where it holds and where it reads low (correlated noise): docs/noise.md."""
+    w = np.asarray(window, np.float64)
+    d = np.concatenate([np.diff(w, axis=0).ravel(), np.diff(w, axis=1).ravel()])
+    return robust_std(d) / np.sqrt(2.0)
+
+
 def percentile(values: np.ndarray, q: float) -> float:
     """``float(np.percentile(values, q))`` (numpy's default, linear interpolation) for a Python number ``q`` in [0,
     100] and values that are not empty, the same value to the bit: for floating values the same selection (numpy's
@@ -246,4 +255,4 @@ def _tied(v: np.ndarray, ranks: tuple[int, ...]) -> list[Any] | None:
     return None
 
 
-__all__ = ["MAD_TO_SIGMA", "median", "percentile", "percentiles", "robust_std"]
+__all__ = ["MAD_TO_SIGMA", "difference_noise_sigma", "median", "percentile", "percentiles", "robust_std"]

@@ -43,10 +43,10 @@ import numpy as np
 
 from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import distances, in_disc
-from aerofid.detect.noise import correlated_covariance, difference_noise_sigma
+from aerofid.detect.noise import correlated_covariance
 from aerofid.detect.params import MAX_PX, MAX_SIGMA_PX, MethodParams, check
 from aerofid.detect.result import Detection, Refused, unusable_window
-from aerofid.robust import median
+from aerofid.robust import difference_noise_sigma, median
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -35,10 +35,9 @@ from aerofid.conventions import FOUND
 from aerofid.detect.asymmetry import point_asymmetry
 from aerofid.detect.hough_lines import accumulate, intersection, theta_grid
 from aerofid.detect.lines_params import LinesParams
-from aerofid.detect.noise import difference_noise_sigma
 from aerofid.detect.result import Detection, Refused, unusable_window
 from aerofid.detect.threshold import local_dynamic_threshold
-from aerofid.robust import median, percentile, robust_std
+from aerofid.robust import difference_noise_sigma, median, percentile, robust_std
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

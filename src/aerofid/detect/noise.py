@@ -2,7 +2,8 @@
 
 Two estimators, with different names because they measure different things once the noise is not white:
 
-- :func:`difference_noise_sigma` (first differences): the robust std of horizontal and vertical first
+- :func:`~aerofid.robust.difference_noise_sigma` (first differences, in :mod:`aerofid.robust`: the colour policy
+  uses it too): the robust std of horizontal and vertical first
   differences / sqrt(2). Used by ``circles`` (a floor under its gradient-noise estimate), ``lines`` and the
   local dynamic threshold.
 - :func:`laplacian_noise_sigma` (Immerkaer 1996): the median response of a 3x3 Laplacian-difference kernel.
@@ -24,16 +25,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from aerofid.robust import median, robust_std
-
-
-def difference_noise_sigma(window: np.ndarray) -> float:
-    """Robust estimate of the window's white-noise standard deviation: the robust std of the horizontal
-    and vertical first differences divided by sqrt(2) (edges are a minority of differences, so the MAD
-    ignores them)."""
-    w = np.asarray(window, np.float64)
-    d = np.concatenate([np.diff(w, axis=0).ravel(), np.diff(w, axis=1).ravel()])
-    return robust_std(d) / np.sqrt(2.0)
+from aerofid.robust import median
 
 
 def laplacian_noise_sigma(img: np.ndarray) -> float:
@@ -110,4 +102,4 @@ def correlated_covariance(px: np.ndarray, py: np.ndarray, v: np.ndarray, rows: n
     return white + (vectors * np.maximum(values, 0.0)) @ vectors.T
 
 
-__all__ = ["CORRELATION_LAG", "correlated_covariance", "difference_noise_sigma", "laplacian_noise_sigma"]
+__all__ = ["CORRELATION_LAG", "correlated_covariance", "laplacian_noise_sigma"]

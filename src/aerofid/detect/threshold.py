@@ -17,7 +17,7 @@ from typing import Any, Literal, overload
 import cv2
 import numpy as np
 
-from aerofid.detect.noise import difference_noise_sigma
+from aerofid.robust import difference_noise_sigma
 
 N_BINS = 256
 """Histogram bins (thesis Appendix C, ``NBIN``)."""

@@ -10,7 +10,7 @@ import numpy as np
 
 from aerofid.conventions import POLARITIES, Polarity
 from aerofid.errors import AerofidInputError
-from aerofid.robust import MAD_TO_SIGMA, median, percentiles
+from aerofid.robust import difference_noise_sigma, percentiles
 
 __all__ = [
     "COLOUR_POLICIES",
@@ -63,17 +63,20 @@ def _noise_floor(dtype: np.dtype) -> float:
 
 
 def mark_contrast(grey: np.ndarray, polarity: Polarity = "bright", *, noise_floor: float) -> float:
-    """Contrast of a mark in a grey window relative to the window's robust noise.
+    """Contrast of a mark in a grey window relative to the window's noise.
 
     For ``polarity="bright"`` the signal is the 99th percentile minus the median; for ``"dark"`` it is the
-    median minus the 1st percentile. The noise is the median absolute deviation of the window, scaled to a
-    Gaussian sigma (x 1.4826) and floored at ``noise_floor`` so that a flat background does not divide by 0.
+    median minus the 1st percentile. The noise is the pixel noise from the first differences
+    (:func:`~aerofid.robust.difference_noise_sigma`), floored at ``noise_floor`` so that a flat background does not
+    divide by 0. The spread of the grey levels themselves (their MAD) is no measure of the noise where the mark fills
+    much of the window: a Wild RC20 ring 45 px across in the middle half of its box spreads the red channel's levels
+    3 times as wide as its noise, and with noise of 10 grey levels in every channel the channel without the mark
+    then scored highest.
     """
     _check_choice(polarity, POLARITIES, "polarity")
     low, middle, high = (np.float64(v) for v in percentiles(grey, (1.0, 50.0, 99.0)))   # as np.percentile's
     signal = high - middle if polarity == "bright" else middle - low
-    noise = MAD_TO_SIGMA * float(median(np.abs(grey - middle)))
-    return float(signal) / max(noise, noise_floor)
+    return float(signal) / max(difference_noise_sigma(grey), noise_floor)
 
 
 def channel_mix(rgb: np.ndarray, mix: str) -> np.ndarray:

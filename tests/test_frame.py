@@ -1572,3 +1572,17 @@ def test_a_mark_found_off_its_prediction_is_reported_with_its_distance():
     assert got is None and said is not None, why
     assert float(said[1]) == pytest.approx(truth.x, abs=0.1) and float(said[2]) == pytest.approx(truth.y, abs=0.1)
     assert said[3] == "20"
+
+
+def test_the_marks_of_a_frame_without_redundancy_are_not_confirmed(rc20_scan):
+    """The real RC20 frame with its lower right corner blacked out: 3 corners fit the affine exactly, so the frame is
+    doubtful and each of its marks says it is not checked (a helper's audit found such a frame, blurred, with two of its
+    3 "found" marks 500 px from any mark)."""
+    rgb, base = rc20_scan
+    rgb = rgb.copy()
+    rgb[4950:, 5450:] = 0
+    res = aerofid.orient_frame(rgb, RC20 / "MeasuresCamera.xml", lie=(0, False), pixel_size_mm=RC20_PX_MM)
+    assert res.status == "doubtful" and any("redundancy 0" in r for r in res.reasons), res.reasons
+    found = [f for f in res.fiducials if f.status == "found"]
+    assert len(found) == 3 and all(f.reason == verdict_module.UNCHECKED for f in found)
+    assert all(f.reason != verdict_module.UNCHECKED for f in base.fiducials)

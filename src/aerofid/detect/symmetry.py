@@ -1322,7 +1322,8 @@ def _check_determined(sigma_x: float, sigma_y: float, r: int) -> None:
     """Refuse a centre whose sigma exceeds the kernel radius ``r``: the gradients within ``r`` px of it are no
     stronger than the noise's (:func:`centre_covariance` nets the noise out of them), so the window does not fix
     where the centre is. Under noise of a quarter of its contrast, a real Wild RC20 ring's centre was answered with
-    a sigma of 161 436 px: its kernel square held the ring's faint middle, not the ring."""
+    a sigma of 161 436 px while the noise part was taken as 0.5 noise^2 a pixel (more than the spline grid holds,
+    :func:`gradient_noise_gains`); with the grid's own gain it is 0.15 px, and this check is the guard that remains."""
     if not max(sigma_x, sigma_y) <= r:
         raise Refused(f"the centre's sigma ({sigma_x:.3g}, {sigma_y:.3g}) px exceeds the kernel radius {r} px: the "
                       f"gradients about it are no stronger than the noise")

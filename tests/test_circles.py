@@ -454,8 +454,8 @@ def test_a_clean_window_refused_is_not_measured_again(monkeypatch):
     only cost time)."""
     runs = []
     real_run = circles._run
-    monkeypatch.setattr(circles, "_run",
-                        lambda w, p, t, start=None: runs.append(p.canny_sigma) or real_run(w, p, t, start))
+    monkeypatch.setattr(circles, "_run", lambda w, p, t, start=None, pixel_noise=None:
+                        runs.append(p.canny_sigma) or real_run(w, p, t, start, pixel_noise))
     s = synth.mark_scene("cross", 40, window=100, rng=np.random.default_rng(2), noise_sigma=0.02)
     d = circles.detect(s.image)
     assert not d.found and runs == [circles.CANNY_SIGMA], (d.reason, runs)

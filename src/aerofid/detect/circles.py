@@ -161,7 +161,8 @@ class EdgePoints:
 
 
 def edges(window: np.ndarray, canny_sigma: float = CANNY_SIGMA, canny_high: float = CANNY_HIGH,
-          canny_low_ratio: float = CANNY_LOW_RATIO, border: int = 2) -> EdgePoints:
+          canny_low_ratio: float = CANNY_LOW_RATIO, border: int = 2,
+          pixel_noise: float | None = None) -> EdgePoints:
     """Canny edges of ``window`` (seed 003 section 5) with sub-pixel positions.
 
     The window is smoothed with a Gaussian of ``canny_sigma`` px and differentiated with Sobel (scaled to grey
@@ -169,10 +170,11 @@ def edges(window: np.ndarray, canny_sigma: float = CANNY_SIGMA, canny_high: floa
     high threshold at ``canny_high`` standard deviations of the gradient noise. Each edge pixel is moved to the
     vertex of a parabola through the gradient magnitude at it and its two neighbours along the pixel axis
     closest to the gradient (Devernay 1995). Pixels within ``border`` of the window edge are dropped.
+    ``pixel_noise``: the window's :func:`~aerofid.robust.difference_noise_sigma`, where it is known already.
     """
     w = np.asarray(window, np.float32)
     h, wd = w.shape
-    noise = difference_noise_sigma(w)
+    noise = difference_noise_sigma(w) if pixel_noise is None else pixel_noise
     if canny_sigma > 0:
         k = int(2 * np.ceil(3 * canny_sigma) + 1)
         s = cv2.GaussianBlur(w, (k, k), canny_sigma, borderType=cv2.BORDER_REPLICATE)
@@ -877,27 +879,31 @@ def detect(window: np.ndarray, params: CirclesParams = DEFAULT) -> CirclesResult
     if bad is not None:
         return CirclesResult.not_found(METHOD, bad)
     t = _Trace(canny_sigma=p.canny_sigma)
+    pixel_noise = difference_noise_sigma(w)
     try:
-        cx, cy, sigma, score = _run(w, p, t)
+        cx, cy, sigma, score = _run(w, p, t, pixel_noise=pixel_noise)
     except Refused as f:
-        retry = _retry_from_centre_votes(w, p, t) or (_retry_smoother(w, p) if isinstance(f, Unseen) else None)
+        retry = _retry_from_centre_votes(w, p, t) or (
+            _retry_smoother(w, p, pixel_noise) if isinstance(f, Unseen) else None)
         if retry is None:
             return CirclesResult.not_found(METHOD, f.reason, **t.fields())
         t, (cx, cy, sigma, score) = retry
     return CirclesResult(status=FOUND, x=cx, y=cy, score=score, sigma=sigma, method=METHOD, **t.fields())
 
 
-def _retry_smoother(w: np.ndarray, p: CirclesParams) -> tuple[_Trace, tuple[float, float, float, float]] | None:
-    """In a noisy window (:data:`NOISY_CONTRAST`), the whole pipeline again with each wider smoothing of
+def _retry_smoother(w: np.ndarray, p: CirclesParams,
+                    pixel_noise: float) -> tuple[_Trace, tuple[float, float, float, float]] | None:
+    """In a noisy window (:data:`NOISY_CONTRAST`; ``pixel_noise``: its
+    :func:`~aerofid.robust.difference_noise_sigma`), the whole pipeline again with each wider smoothing of
     :data:`NOISY_CANNY_SIGMAS` in turn, until the circles are found or refused for another reason than want of edges;
     None if none finds them."""
     peak = float(cv2.GaussianBlur(w, (0, 0), NOISY_CANNY_SIGMAS[0], borderType=cv2.BORDER_REPLICATE).max())
-    if not peak - float(median(w)) < NOISY_CONTRAST * difference_noise_sigma(w):
+    if not peak - float(median(w)) < NOISY_CONTRAST * pixel_noise:
         return None
     for sigma in (s for s in NOISY_CANNY_SIGMAS if s > p.canny_sigma):
         t = _Trace(canny_sigma=sigma)
         try:
-            return t, _run(w, dataclasses.replace(p, canny_sigma=sigma), t)
+            return t, _run(w, dataclasses.replace(p, canny_sigma=sigma), t, pixel_noise=pixel_noise)
         except Unseen:
             continue
         except Refused:
@@ -929,12 +935,13 @@ def _retry_from_centre_votes(w: np.ndarray, p: CirclesParams,
         return None
 
 
-def _run(w: np.ndarray, p: CirclesParams, t: _Trace,
-         start: tuple[float, float] | None = None) -> tuple[float, float, float, float]:
+def _run(w: np.ndarray, p: CirclesParams, t: _Trace, start: tuple[float, float] | None = None,
+         pixel_noise: float | None = None) -> tuple[float, float, float, float]:
     """The steps of seed 003 section 5 and the checks; fills ``t``; returns (x, y, sigma, score). ``start``
-    replaces the Hough peak as the approximate centre (:func:`_retry_from_centre_votes`)."""
+    replaces the Hough peak as the approximate centre (:func:`_retry_from_centre_votes`); ``pixel_noise``: as
+    :func:`edges` takes it."""
     h, wd = w.shape
-    ep = edges(w, p.canny_sigma, p.canny_high, p.canny_low_ratio)
+    ep = edges(w, p.canny_sigma, p.canny_high, p.canny_low_ratio, pixel_noise=pixel_noise)
     t.edge_points, t.noise = ep, ep.noise
     if ep.x.size < 12:
         raise Unseen(f"too few edge pixels ({ep.x.size}) for circles")

@@ -1302,10 +1302,13 @@ def _gains(fx: float, fy: float) -> tuple[float, float]:
     n = 2 * GAIN_REACH + 1
     impulse = np.zeros((n, n))
     impulse[GAIN_REACH, GAIN_REACH] = 1.0
-    sub = square_grid(impulse, GAIN_REACH + fx, GAIN_REACH + fy, GAIN_REACH - 3, 3)
-    gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])
-    gy = 0.5 * (sub[2:, 1:-1] - sub[:-2, 1:-1])
+    gx, gy = _central_differences(square_grid(impulse, GAIN_REACH + fx, GAIN_REACH + fy, GAIN_REACH - 3, 3))
     return float((gx * gx).sum()), float((gy * gy).sum())
+
+
+def _central_differences(sub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The central differences (x, y) of a grid on its inner points (one point less on each side)."""
+    return 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2]), 0.5 * (sub[2:, 1:-1] - sub[:-2, 1:-1])
 
 
 def gradient_noise_gains(xc: float, yc: float) -> tuple[float, float]:
@@ -1367,9 +1370,7 @@ def centre_covariance(img: np.ndarray, xc: float, yc: float, r: int, noise: floa
         part, x0, y0 = near(img, xc, yc, r + 1 + NEAR_REACH)
         img, xc, yc = part, xc - x0, yc - y0
         grid = square_grid(img, xc, yc, r + 1, 3)
-    sub = grid.astype(np.float32).astype(np.float64)
-    gx = 0.5 * (sub[1:-1, 2:] - sub[1:-1, :-2])
-    gy = 0.5 * (sub[2:, 1:-1] - sub[:-2, 1:-1])
+    gx, gy = _central_differences(grid.astype(np.float32).astype(np.float64))
     gain_x, gain_y = gradient_noise_gains(xc, yc)
     ex = max(float((gx * gx).sum()) - gx.size * noise ** 2 * gain_x, 1e-12)
     ey = max(float((gy * gy).sum()) - gy.size * noise ** 2 * gain_y, 1e-12)

@@ -277,7 +277,12 @@ def prior_order(scales: list[float], fiducials_mm: np.ndarray, scan_size: tuple[
 
 def usual_pixel_size(fiducials_mm: np.ndarray, scan_size: tuple[int, int]) -> float:
     """The pixel size (mm/px) at which the fiducials span :data:`PRIOR_SPAN` of the scan's longer side."""
-    return float(np.ptp(fiducials_mm, axis=0).max()) / (PRIOR_SPAN * max(scan_size))
+    return fiducial_span(fiducials_mm) / (PRIOR_SPAN * max(scan_size))
+
+
+def fiducial_span(fiducials_mm: np.ndarray) -> float:
+    """The fiducials' larger extent (mm), along x or y."""
+    return float(np.ptp(fiducials_mm, axis=0).max())
 
 
 def nearest_first(scales: list[float], prior: float) -> list[float]:
@@ -301,7 +306,7 @@ def pixel_size_range(fiducials_mm: np.ndarray, scan_size: tuple[int, int] | None
     lo, hi = PIXEL_SIZE_RANGE_MM
     if scan_size is None:
         return lo, hi
-    extent = float(np.ptp(fiducials_mm, axis=0).max())
+    extent = fiducial_span(fiducials_mm)
     return max(lo, extent / max(scan_size)), min(hi, extent / (MIN_SPAN * min(scan_size)))
 
 

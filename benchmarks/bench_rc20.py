@@ -34,6 +34,7 @@ import numpy as np  # noqa: E402
 
 import aerofid  # noqa: E402
 from aerofid.formats.camera_file import read_camera  # noqa: E402
+from aerofid.io.array import ArrayRaster  # noqa: E402
 from aerofid.io.raster import open_raster  # noqa: E402
 from aerofid.orientation.adjustment import adjust  # noqa: E402
 
@@ -101,6 +102,7 @@ def main() -> int:
         return 0
     t0 = time.time()
     with open_raster(REAL) as r:
+        subsampled = r.chroma_subsampled         # 4:2:0: luminance preferred, as on the file (aerofid.io.colour)
         crops = {}
         for name, (x, y) in MARKS.items():
             box = (x - HALF, y - HALF, x + HALF, y + HALF)
@@ -116,7 +118,8 @@ def main() -> int:
             for oname, img, back in orientations(crop):
                 img = np.ascontiguousarray(img)
                 t = time.perf_counter()
-                loc = aerofid.locate(img, (0, 0, img.shape[1], img.shape[0]), mark="external", method=m)
+                loc = aerofid.locate(ArrayRaster(img, chroma_subsampled=subsampled),
+                                     (0, 0, img.shape[1], img.shape[0]), mark="external", method=m)
                 times[m].append(time.perf_counter() - t)
                 if oname == "as is":
                     if loc.found and m == "auto":
@@ -143,12 +146,15 @@ def main() -> int:
         mir.append(f"| {name} | " + " | ".join(mrow) + " |")
         print(f"{name} done ({time.time() - t0:.0f} s)", flush=True)
     trow = "| median ms per locate | " + " | ".join(f"{1000 * np.median(times[m]):.0f}" for m in METHODS) + " |"
+    colour = ("luminance, the one mix at the JPEG's full resolution, wherever it shows the mark with half the best "
+              "mix's contrast, `aerofid.io.colour.LUMA_SHARE`" if subsampled else "the mix that shows the mark best")
     parts = ["# The real Wild RC20 frame: every method on its 8 fiducial marks\n",
              f"Produced by `python benchmarks/bench_rc20.py` on {platform.machine()} / Python "
              f"{platform.python_version()}, one thread, in {time.time() - t0:.0f} s. Frame: "
              "`../shared/realdata/unbc_bc_wild_rc20/15BCC02013_114.jpg` (not in the repository).\n",
-             "Each mark is located with `aerofid.locate(crop, whole crop, mark=\"external\", method=M)` on the "
-             "120 x 120 RGB crop around its approximate centre (colour `auto`: the red channel mix is chosen, "
+             "Each mark is located with `aerofid.locate(ArrayRaster(crop, chroma_subsampled=...), whole crop, "
+             "mark=\"external\", method=M)` on the 120 x 120 RGB crop around its approximate centre, the crop "
+             f"declared {'4:2:0' if subsampled else 'not subsampled'} like its file (colour `auto`: {colour}, "
              "polarity bright). There is no ground truth for a real scan: the tables give the positions and how "
              "well each method agrees with itself under mirroring.\n",
              "## Positions (full-image pixels; s = sigma per axis in px, q = score)\n", *pos,

@@ -56,9 +56,9 @@ from aerofid.io.raster import Raster, open_raster  # noqa: E402
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "unbc_bc_wild_rc20" / "15BCC02013_114.jpg"
 REAL_SHOWN = "../shared/realdata/unbc_bc_wild_rc20/15BCC02013_114.jpg"
 REFERENCE = {  # auto's answers in centred 120 px boxes, docs/benchmarks_rc20.md (x, y)
-    "corner TL": (652.38, 189.11), "corner TR": (5671.92, 199.82), "corner BL": (648.34, 5201.38),
-    "corner BR": (5666.64, 5213.44), "midside T": (3167.29, 99.30), "midside B": (3162.33, 5302.24),
-    "midside L": (554.39, 2695.37), "midside R": (5763.65, 2706.94),
+    "corner TL": (652.66, 189.13), "corner TR": (5672.11, 199.90), "corner BL": (648.55, 5201.39),
+    "corner BR": (5666.64, 5213.44), "midside T": (3167.49, 99.37), "midside B": (3162.52, 5302.29),
+    "midside L": (554.71, 2695.41), "midside R": (5763.82, 2706.96),
 }
 APPROX = {  # bench_rc20.py's approximate centres: its 120 px crops, in which the reference was measured
     "corner TL": (665, 179), "corner TR": (5690, 202), "corner BL": (660, 5213), "corner BR": (5678, 5225),

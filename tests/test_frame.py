@@ -31,7 +31,7 @@ from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.frame.nominal import extra_marks, nominal_camera
 from aerofid.frame.profile import learn_profile
 from aerofid.frame.report import frame_html, frame_text
-from aerofid.io.array import open_image
+from aerofid.io.array import ArrayRaster, open_image
 from aerofid.io.raster import Raster, open_raster
 from aerofid.io.resolution import pixel_size_from_tags
 from aerofid.methods import make_detector
@@ -1072,20 +1072,25 @@ def test_a_png_s_screen_default_in_whole_dots_per_metre_is_no_scan_resolution(tm
     assert got is None if dpi is None else got == pytest.approx(25.4 / dpi, rel=1e-4)
 
 
+RC20_CORNERS = {"P1": (5666.64, 5213.44), "P2": (648.55, 5201.39), "P3": (652.66, 189.13), "P4": (5672.11, 199.90)}
+RC20_MIDSIDES = {"midside_top": (3167.49, 99.37), "midside_bottom": (3162.52, 5302.29),
+                 "midside_left": (554.71, 2695.41), "midside_right": (5763.82, 2706.96)}
+"""The centres ``auto`` finds in 120 px boxes around the RC20's corners and midside marks (docs/benchmarks_rc20.md):
+in luminance, the JPEG's one plane at full resolution (its chroma is 4:2:0, :data:`aerofid.io.colour.LUMA_SHARE`)."""
+
+
 @pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
 def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     res = aerofid.orient_frame(RC20 / "15BCC02013_114.jpg", RC20 / "MeasuresCamera.xml", lie=(0, False))
     # the centres auto finds in 120 px boxes around each corner (docs/benchmarks_rc20.md)
-    boxes = {"P1": (5666.64, 5213.44), "P2": (648.34, 5201.38), "P3": (652.38, 189.11), "P4": (5671.92, 199.82)}
-    err = _errors(res, boxes)
+    err = _errors(res, RC20_CORNERS)
     assert len(err) == 4 and max(err.values()) < 0.3, err
     assert res.pixel_size_source == "tags"
     assert res.status == "ok", res.reasons
     assert res.lie_source == "given"            # its 4 corners fit every lie alike: the lie given is not checked
     assert res.orientation is not None and res.orientation.rms_px < 0.6
     # the 4 midside marks the file does not list: where auto finds them in 120 px boxes (docs/benchmarks_rc20.md)
-    boxes = {"midside_top": (3167.29, 99.30), "midside_bottom": (3162.33, 5302.24),
-             "midside_left": (554.39, 2695.37), "midside_right": (5763.65, 2706.94)}
+    boxes = RC20_MIDSIDES
     extra = {f.name: f for f in res.extra_marks}
     assert sorted(extra) == sorted(boxes) and all(f.status == "found" for f in extra.values())
     assert max(math.hypot(extra[n].x - x, extra[n].y - y) for n, (x, y) in boxes.items()) < 0.3
@@ -1105,13 +1110,13 @@ def test_the_real_rc20_frame_without_its_pixel_size_measures_its_true_layout_fir
     """Its pixels without the JPEG's tags: of the layouts found over the sizes the scan allows, three chance ones at
     0.077, 0.051 and 0.051 mm per px fitted their features more closely than the true one (0.042) and were measured
     first (4 layouts measured; 4.7-4.9 s against 0.5 s given the pixel size). The complete layouts of a 4-fiducial
-    camera are now taken nearest the usual span first (``layout.by_prior``): the true one is the first measured."""
+    camera are now taken nearest the usual span first (``layout.by_prior``): the true one is the first measured. The
+    pixels are declared 4:2:0 like their file, to be measured in the same plane as the reference."""
     rgb = cv2.cvtColor(cv2.imread(str(RC20 / "15BCC02013_114.jpg")), cv2.COLOR_BGR2RGB)
     measured = _layouts_measured(monkeypatch)
-    res = aerofid.orient_frame(rgb, RC20 / "MeasuresCamera.xml", lie=(0, False))
+    res = aerofid.orient_frame(ArrayRaster(rgb, chroma_subsampled=True), RC20 / "MeasuresCamera.xml", lie=(0, False))
     assert res.status == "ok" and res.pixel_size_source == "estimated" and len(measured) == 1, res.reasons
-    boxes = {"P1": (5666.64, 5213.44), "P2": (648.34, 5201.38), "P3": (652.38, 189.11), "P4": (5671.92, 199.82)}
-    assert max(_errors(res, boxes).values()) < 0.3
+    assert max(_errors(res, RC20_CORNERS).values()) < 0.3
 
 
 RC20_PX_MM = 25.4 / 600

@@ -11,6 +11,7 @@ import pytest
 
 from aerofid.errors import AerofidInputError
 from aerofid.io import jpeg, jpeg_top
+from aerofid.io.array import ArrayRaster
 from aerofid.io.raster import open_raster
 
 
@@ -220,9 +221,11 @@ def _jpeg_with_a_bullseye(tmp_path):
 
 
 def _on_the_array_and_the_file(monkeypatch, path, call):
-    """``call`` on the whole decode's samples of the JPEG at ``path``, then on the file itself with no whole decode
-    allowed (and none started, :func:`_no_whole_decode`): (expected, got)."""
-    expected = call(_whole(path))
+    """``call`` on the whole decode's samples of the JPEG at ``path`` (declared 4:2:0 like the file, whose windows are
+    then measured in luminance), then on the file itself with no whole decode allowed (and none started,
+    :func:`_no_whole_decode`): (expected, got)."""
+    subsampled = jpeg.read_header(path, "jpeg").chroma_subsampled
+    expected = call(ArrayRaster(_whole(path), chroma_subsampled=subsampled))
     _no_whole_decode(monkeypatch)
     try:
         got = call(path)

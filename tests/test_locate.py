@@ -50,6 +50,27 @@ def test_array_and_path_agree(scan):
     assert (a.x, a.y) == pytest.approx((b.x, b.y), abs=1e-9)
 
 
+def test_a_red_mark_in_a_4_2_0_jpeg_is_measured_in_its_luminance_to_its_true_centre(tmp_path):
+    """A 4:2:0 JPEG keeps luminance at full resolution and the chroma on a grid of 2 x 2 px: a red ring and X in one
+    is measured in luminance (the file says its chroma is subsampled), within 0.03 px of its true centre. The same
+    pixels as an array, which keep no trace of their file, are measured in the red channel."""
+    rng = np.random.default_rng(8)
+    scene = synth.mark_scene("ring_cross", size=40, window=160, rng=rng, noise_sigma=0.0)
+    noise = rng.normal(0, 0.01, scene.image.shape)
+    film = float(np.median(scene.image))
+    rgb = np.stack([scene.image + noise, film + noise, film + noise], axis=-1)
+    path = tmp_path / "red.jpg"
+    assert cv2.imwrite(str(path), synth.to_uint8(rgb)[:, :, ::-1], [cv2.IMWRITE_JPEG_QUALITY, 90])
+    decoded = cv2.imread(str(path))[:, :, ::-1]
+    box = (20, 20, 140, 140)
+    got = aerofid.locate(path, box)
+    in_luminance = aerofid.locate(decoded, box, colour="luminance")
+    assert got.found and (got.x, got.y) == (in_luminance.x, in_luminance.y)
+    assert np.hypot(got.x - scene.marks[0].x, got.y - scene.marks[0].y) < 0.03
+    as_array, in_red = aerofid.locate(decoded, box), aerofid.locate(decoded, box, colour="red")
+    assert (as_array.x, as_array.y) == (in_red.x, in_red.y) != (got.x, got.y)
+
+
 def test_box_partly_outside_is_clipped_and_said(scan):
     path, (cx, cy) = scan
     r = aerofid.locate(path, (180, 90, 450, 350), mark="external")

@@ -15,8 +15,11 @@ from hypothesis import strategies as st
 
 from aerofid.errors import AerofidInputError
 from aerofid.io import raster as raster_module
+from aerofid.io.array import ArrayRaster
 from aerofid.io.colour import MIX_WEIGHTS, choose_channel_mix, mark_contrast, normalise, to_grey
+from aerofid.io.jpeg import subsampled_components
 from aerofid.io.raster import Raster, check_window_size, clip_box, open_raster, segment_indices
+from aerofid.io.reduce import ReducedView
 from conftest import realdata_path
 from raster_checks import HEIGHT, WIDTH, random_image, record_decoded_segments, write_tiff
 
@@ -278,6 +281,44 @@ def test_jpeg_windows_match_the_decoded_file_in_rgb_order(tmp_path, bands):
         window = raster.read_window((31, 47, 97, 150))
     np.testing.assert_array_equal(window, decoded[47:150, 31:97])
     assert np.abs(window.astype(int) - image[47:150, 31:97]).mean() < 3
+
+
+@pytest.mark.parametrize(("bands", "sampling", "subsampled"), [
+    (3, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_420, True), (3, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_422, True),
+    (3, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_444, False), (1, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_420, False)])
+def test_a_jpeg_says_whether_its_chroma_is_subsampled(tmp_path, bands, sampling, subsampled):
+    """Its start of frame's sampling factors: chroma on a coarser grid than luma (4:2:0, 4:2:2) or not (4:4:4, grey);
+    a view reduced by 2 or more has the chroma at its own resolution."""
+    image = smooth_image(bands)
+    path = tmp_path / "scan.jpg"
+    pixels = image[:, :, ::-1] if bands == 3 else image
+    assert cv2.imwrite(str(path), pixels, [cv2.IMWRITE_JPEG_SAMPLING_FACTOR, sampling])
+    with open_raster(path) as raster:
+        assert raster.chroma_subsampled is subsampled
+        assert ReducedView(raster, 1).chroma_subsampled is subsampled
+        assert ReducedView(raster, 2).chroma_subsampled is False
+
+
+@pytest.mark.parametrize(("compression", "subsampled"), [("jpeg", True), ("zlib", False)])
+def test_a_tiff_says_whether_its_chroma_is_subsampled(tmp_path, compression, subsampled):
+    """tifffile stores an RGB JPEG-compressed TIFF as YCbCr with its chroma on a grid of 2 x 2 px."""
+    path = write_tiff(tmp_path / "scan.tif", smooth_image(3), compression=compression, tile=(32, 32))
+    with open_raster(path) as raster:
+        assert raster.chroma_subsampled is subsampled
+    with open_raster(write_tiff(tmp_path / "grey.tif", smooth_image(1), compression=compression)) as raster:
+        assert raster.chroma_subsampled is False
+
+
+@given(st.binary(max_size=40))
+def test_any_start_of_frame_reads_as_subsampled_or_not(body):
+    assert subsampled_components(body) in (True, False)
+
+
+def test_an_array_is_subsampled_only_as_declared():
+    rgb = smooth_image(3)
+    assert ArrayRaster(rgb).chroma_subsampled is False
+    assert ArrayRaster(rgb, chroma_subsampled=True).chroma_subsampled is True
+    assert ArrayRaster(rgb[:, :, 0], chroma_subsampled=True).chroma_subsampled is False
 
 
 def test_format_comes_from_content_not_name(tmp_path):
@@ -625,6 +666,35 @@ def test_real_wild_rc20_red_corner_marks_keep_their_contrast_with_auto(rc20, cen
     luminance = mark_contrast(to_grey(window, "luminance"), "bright", noise_floor=floor)
     assert choose_channel_mix(window) == "red"
     assert auto > 1.5 * luminance
+
+
+def test_a_file_with_subsampled_chroma_has_its_marks_measured_in_luminance_where_it_shows_them():
+    """Where the chroma is subsampled, luminance is the one mix at full resolution: taken where it shows the mark with
+    :data:`LUMA_SHARE` of the best mix's contrast (a red ring through libjpeg's 4:2:0: 0.53-0.59 of red's), not for a
+    blue one (0.31-0.33 of blue's)."""
+    y, x = np.mgrid[:91, :91]
+    ring = np.abs(np.hypot(x - 45, y - 45) - 18) < 4
+    for seed in range(3):
+        for channel, mix in [(0, "luminance"), (2, "blue")]:
+            window = np.full((91, 91, 3), 30.0) + np.random.default_rng(seed).normal(0, 3, (91, 91, 1))
+            window[ring, channel] = 200
+            ok, jpeg = cv2.imencode(".jpg", window.round().astype(np.uint8)[:, :, ::-1],
+                                    [cv2.IMWRITE_JPEG_QUALITY, 90, cv2.IMWRITE_JPEG_SAMPLING_FACTOR,
+                                     cv2.IMWRITE_JPEG_SAMPLING_FACTOR_420])
+            decoded = cv2.imdecode(jpeg, cv2.IMREAD_COLOR)[:, :, ::-1]
+            assert choose_channel_mix(decoded) == ("red", "blue")[channel // 2]
+            assert choose_channel_mix(decoded, chroma_subsampled=True) == mix
+            np.testing.assert_array_equal(to_grey(decoded, chroma_subsampled=True), to_grey(decoded, mix))
+
+
+def test_real_wild_rc20_jpeg_is_4_2_0_and_its_red_marks_are_measured_in_luminance(rc20):
+    """Its luminance shows the red corner marks with more than half red's contrast: taken, the JPEG's one plane at full
+    resolution (:data:`aerofid.io.colour.LUMA_SHARE`)."""
+    assert rc20.chroma_subsampled
+    for x, y in [(653, 190), (648, 5201), (5667, 5213)]:
+        window = rc20.read_window((x - 34, y - 34, x + 35, y + 35))
+        assert choose_channel_mix(window, chroma_subsampled=True) == "luminance"
+        assert choose_channel_mix(window) == "red"
 
 
 def test_auto_judges_the_channels_on_the_middle_of_the_box():

@@ -214,7 +214,7 @@ class Measurer:
 
     def _grey(self, samples: np.ndarray, pol: Polarity) -> np.ndarray:
         """The window's grey levels, the mark bright for polarity ``pol``."""
-        grey = to_grey(samples, self.colour, pol)
+        grey = to_grey(samples, self.colour, pol, chroma_subsampled=self.source.chroma_subsampled)
         return 1.0 - grey if pol == "dark" else grey
 
     def candidate(self, c: Candidate, blank: tuple[float, float, float] | None = None,

@@ -227,7 +227,8 @@ def _echo_text(located: Located) -> None:
 @click.option("--polarity", type=click.Choice(POLARITY_CHOICES), default="bright", show_default=True,
               help="Mark brighter (bright) or darker (dark) than its ground, or try both (auto).")
 @click.option("--colour", type=click.Choice(COLOUR_POLICIES), default="auto", show_default=True,
-              help="How RGB becomes grey.")
+              help="How RGB becomes grey: auto takes the channel mix that shows the mark best (luminance, the "
+                   "one full-resolution plane of a 4:2:0 JPEG, wherever the mark shows in it).")
 @click.option("--param", "params", multiple=True, metavar="NAME=VALUE",
               help="A method parameter, e.g. window_size=24 or rho_step=0.5 (repeatable; with --method auto "
                    "each goes to the methods that take it).")

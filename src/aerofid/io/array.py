@@ -98,6 +98,10 @@ class ArrayRaster:
     ----------
     array : array_like
         ``(h, w)`` grey or ``(h, w, 3)`` RGB (RGBA: alpha dropped), integers or floats (:func:`as_image_array`).
+    chroma_subsampled : bool, optional
+        Whether the array was decoded from a file that stores its chroma subsampled (a 4:2:0 JPEG: the file's
+        :attr:`Raster.chroma_subsampled <aerofid.io.raster.Raster>`): the colour policy then prefers luminance as it
+        does on the file (:data:`~aerofid.io.colour.LUMA_SHARE`). An array keeps no trace of its file: default False.
 
     Attributes
     ----------
@@ -113,6 +117,8 @@ class ArrayRaster:
         The array's dtype (native byte order), that :meth:`read_window` returns.
     tiled : bool
         False.
+    chroma_subsampled : bool
+        As given.
 
     Examples
     --------
@@ -128,8 +134,9 @@ class ArrayRaster:
     format = "array"
     tiled = False
 
-    def __init__(self, array: Any):
+    def __init__(self, array: Any, *, chroma_subsampled: bool = False):
         a = as_image_array(array)
+        self.chroma_subsampled = bool(chroma_subsampled) and a.ndim == 3
         self.height, self.width = a.shape[:2]
         self.bands = 1 if a.ndim == 2 else 3
         self.dtype = a.dtype.newbyteorder("=")

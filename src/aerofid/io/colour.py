@@ -90,20 +90,36 @@ def channel_mix(rgb: np.ndarray, mix: str) -> np.ndarray:
 MIX_CENTRE_MIN = 32
 """Windows at least this many px across judge the channel mixes on their central half (below: the whole)."""
 
+LUMA_SHARE = 0.4
+"""Where the file stores its chroma subsampled (a 4:2:0 JPEG), luminance is taken whenever it gives the mark at
+least this share of the best mix's contrast (:func:`mark_contrast`). Luminance is then the one mix at the file's full
+resolution (the BT.601 weights of :data:`MIX_WEIGHTS` are the JPEG's own Y); the red, green and blue channels carry
+the chroma planes, sampled on a grid of 2 x 2 px by the encoder and interpolated back by the decoder, each after its
+own convention of where a chroma sample sits. On the real Wild RC20 JPEG (4:2:0) the red marks' centres in the red
+channel lie 0.16-0.33 px left of their centres in luminance at all 8 marks (in y 0.01-0.08 px), and in the Cr plane
+0.3-0.5 px left; the affine fit of its 4 corners to their calibration leaves 0.46 px (RMS of the vectors' lengths) in
+luminance against 0.48 in red (docs/benchmarks_frames.md). Luminance had 0.66-0.98 of red's contrast there; a red
+ring on black through libjpeg's 4:2:0 at quality 90 has 0.53-0.59, a blue one 0.31-0.33 (blue's weight in
+luminance is 0.114): that one is still measured in blue."""
 
-def _best_mix(rgb: np.ndarray, polarity: Polarity, noise_floor: float) -> str:
+
+def _best_mix(rgb: np.ndarray, polarity: Polarity, noise_floor: float, chroma_subsampled: bool = False) -> str:
     """Name of the mix in :data:`MIX_WEIGHTS` whose grey window gives the mark the most contrast, judged on
     the window's central half (each side a quarter in) when it is at least :data:`MIX_CENTRE_MIN` px across:
     the user boxes the mark, and the box's margins may hold the bright aerial image area beside a notch,
     which is brightest in whichever channel its colour favours (a red RC20 midside mark next to cyan water
-    picked blue on the whole box)."""
+    picked blue on the whole box). With ``chroma_subsampled``, luminance wherever it has :data:`LUMA_SHARE` of the
+    best contrast."""
     h, w = rgb.shape[:2]
     if min(h, w) >= MIX_CENTRE_MIN:
         rgb = rgb[h // 4:h - h // 4, w // 4:w - w // 4]
     scores = [
         mark_contrast(channel_mix(rgb, mix), polarity, noise_floor=noise_floor) for mix in MIX_WEIGHTS
     ]
-    return list(MIX_WEIGHTS)[int(np.argmax(scores))]
+    mixes = list(MIX_WEIGHTS)
+    if chroma_subsampled and scores[mixes.index("luminance")] >= LUMA_SHARE * max(scores):
+        return "luminance"
+    return mixes[int(np.argmax(scores))]
 
 
 def _rgb_window(window: np.ndarray) -> np.ndarray:
@@ -117,18 +133,20 @@ def _rgb_window(window: np.ndarray) -> np.ndarray:
     return array
 
 
-def choose_channel_mix(window: np.ndarray, polarity: Polarity = "bright") -> str:
+def choose_channel_mix(window: np.ndarray, polarity: Polarity = "bright", *, chroma_subsampled: bool = False) -> str:
     """The channel mix (``"luminance"``, ``"red"``, ``"green"`` or ``"blue"``) that ``to_grey(window,
-    "auto", polarity)`` uses for an RGB window: the one with the largest :func:`mark_contrast`, the noise
-    floored at one quantisation step of the window's dtype. Ties go to luminance."""
+    "auto", polarity, chroma_subsampled=...)`` uses for an RGB window: the one with the largest
+    :func:`mark_contrast`, the noise floored at one quantisation step of the window's dtype (ties go to luminance);
+    with ``chroma_subsampled`` luminance wherever it has :data:`LUMA_SHARE` of the largest."""
     _check_choice(polarity, POLARITIES, "polarity")
     array = _rgb_window(window)
     if array.ndim == 2:
         raise AerofidInputError("window is grey; a channel mix needs an RGB (h, w, 3) window")
-    return _best_mix(normalise(array), polarity, _noise_floor(array.dtype))
+    return _best_mix(normalise(array), polarity, _noise_floor(array.dtype), chroma_subsampled)
 
 
-def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "bright") -> np.ndarray:
+def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "bright", *,
+            chroma_subsampled: bool = False) -> np.ndarray:
     """Turn a window into float32 grey levels in [0, 1] by a colour policy.
 
     Args:
@@ -139,6 +157,9 @@ def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "brig
             contrast. ``"max"`` takes the brightest channel of each pixel. Grey windows ignore the policy.
         polarity: ``"bright"`` (mark brighter than its surround, most fiducials) or ``"dark"``; only
             ``"auto"`` uses it.
+        chroma_subsampled: whether the window comes from a file that stores its chroma at a lower resolution than
+            its luma (:attr:`Raster.chroma_subsampled <aerofid.io.raster.Raster>`, a 4:2:0 JPEG); ``"auto"`` then
+            takes luminance wherever it shows the mark with :data:`LUMA_SHARE` of the best mix's contrast.
     """
     _check_choice(policy, COLOUR_POLICIES, "colour policy")
     _check_choice(polarity, POLARITIES, "polarity")
@@ -146,7 +167,7 @@ def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "brig
     grey = normalise(array)
     if array.ndim == 2:
         return grey
-    mix = _best_mix(grey, polarity, _noise_floor(array.dtype)) if policy == "auto" else policy
+    mix = _best_mix(grey, polarity, _noise_floor(array.dtype), chroma_subsampled) if policy == "auto" else policy
     return channel_mix(grey, mix)
 
 

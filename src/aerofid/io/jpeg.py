@@ -91,6 +91,9 @@ class ImageHeader(NamedTuple):
     itemsize: int
     scalable: bool = True
     """Whether libjpeg can decode it reduced (a DCT JPEG; not a lossless one, nor a PNG)."""
+    chroma_subsampled: bool = False
+    """Whether a colour JPEG stores its second and third components (the chroma, Cb and Cr) at a lower resolution
+    than its first (the luma, Y): 4:2:0 or 4:2:2 (:func:`subsampled_components`)."""
 
     @property
     def decoded_bytes(self) -> int:
@@ -148,7 +151,20 @@ def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
     if width == 0 or height == 0:
         raise AerofidInputError(f"{path} declares a {width} x {height} JPEG; re-export the scan")
     return ImageHeader(width, height, 3 if components >= 3 else components, 1 if precision <= 8 else 2,
-                       scalable=marker not in _LOSSLESS_MARKERS)
+                       scalable=marker not in _LOSSLESS_MARKERS, chroma_subsampled=subsampled_components(body))
+
+
+def subsampled_components(frame: bytes) -> bool:
+    """Whether a start-of-frame segment's body (ITU-T T.81 B.2.2: precision, height, width, the number of
+    components, then 3 bytes per component: its id, its horizontal and vertical sampling factors in one byte, its
+    quantisation table) samples a later component more coarsely than the first, in either direction: a colour
+    JPEG's chroma subsampled (4:2:0, 4:2:2). A truncated list of components reads as not subsampled."""
+    count = frame[5] if len(frame) > 5 else 0
+    factors = [(b >> 4, b & 15) for b in frame[7:6 + 3 * count:3]]
+    if count < 3 or len(factors) < count:
+        return False
+    (h0, v0), rest = factors[0], factors[1:]
+    return any(h < h0 or v < v0 for h, v in rest)
 
 
 def _png_header(file: BinaryIO, path: Path) -> ImageHeader:

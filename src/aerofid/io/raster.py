@@ -389,6 +389,8 @@ class Raster:
         bands: 1 (grey) or 3 (RGB; an alpha band is dropped).
         dtype: numpy dtype of the samples that :meth:`read_window` returns (native byte order).
         tiled: whether the file stores tiles (only TIFF can).
+        chroma_subsampled: whether the file stores a colour image's chroma at a lower resolution than its luma (a
+            JPEG's, or a JPEG-compressed TIFF's, 4:2:0 or 4:2:2): only its luminance then has the full resolution.
     """
 
     def __init__(self, path: str | os.PathLike[str], rows: int | None = None):
@@ -409,6 +411,7 @@ class Raster:
         :func:`open_raster`."""
         header = jpeg.read_header(self.path, self.format)
         self.tiled = False
+        self.chroma_subsampled = header.chroma_subsampled
         if jpeg.decodes_whole(header):
             st = self.path.stat()
             key = (str(self.path.resolve()), st.st_mtime_ns, st.st_size)
@@ -481,6 +484,7 @@ class Raster:
         self.bands = _bands_for_samples(page.samplesperpixel, self.path)
         self.dtype = _check_dtype(page.dtype, self.path)
         self.tiled = bool(page.is_tiled)
+        self.chroma_subsampled = self.bands == 3 and bool(page.is_subsampled)
         photometric = page.photometric
         jpeg = page.compression in _JPEG_COMPRESSIONS
         usable = photometric in (_MINISBLACK, _RGB) or (photometric == _YCBCR and jpeg)

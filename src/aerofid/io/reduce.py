@@ -355,12 +355,15 @@ class ReducedView:
     height: int = field(init=False)
     dtype: np.dtype = field(init=False)
     path: Any = field(init=False)
+    chroma_subsampled: bool = field(init=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "width", math.ceil(self.source.width / self.factor))
         object.__setattr__(self, "height", math.ceil(self.source.height / self.factor))
         object.__setattr__(self, "dtype", np.dtype(np.float32))
         object.__setattr__(self, "path", self.source.path)
+        # a 4:2:0 file's chroma has one sample per 2 x 2 px: reduced by 2 or more, the view has it at its own resolution
+        object.__setattr__(self, "chroma_subsampled", self.source.chroma_subsampled and self.factor < 2)
 
     def read_window(self, box: Sequence[int]) -> np.ndarray:
         """The reduced window ``box`` (reduced pixels, x1 and y1 exclusive), float32 on [0, 1]."""

@@ -1106,6 +1106,23 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
 
 
 @pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
+def test_the_real_rc20_frame_mirrored_is_measured_on_its_marks_layout_alone(tmp_path, monkeypatch):
+    """The frame flipped left-right and saved as a JPEG again, at its 600 dpi: the corner marks merged with their
+    number dots at the screening's scale, 68-80 px outside each mark, form a layout 2.1 % larger than 600 dpi, which
+    ended the search and was measured first (3-4 s of failed searches before the format's 8 marks found the corners).
+    Off the declared scale, it ends nothing now (:func:`aerofid.frame.layout.on_declared_scale`): the marks' own
+    layout is the one measured."""
+    bgr = cv2.imread(str(RC20 / "15BCC02013_114.jpg"))
+    path = tmp_path / "mirrored.jpg"
+    assert cv2.imwrite(str(path), np.ascontiguousarray(bgr[:, ::-1]), [cv2.IMWRITE_JPEG_QUALITY, 95])
+    measured = _layouts_measured(monkeypatch)
+    res = aerofid.orient_frame(path, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM)
+    assert len(measured) == 1 and len(res.found) == 4, res.reasons
+    mirrored = [(bgr.shape[1] - 1 - x, y) for x, y in RC20_CORNERS.values()]
+    assert max(min(math.hypot(f.x - x, f.y - y) for x, y in mirrored) for f in res.fiducials) < 0.05
+
+
+@pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
 def test_the_real_rc20_frame_without_its_pixel_size_measures_its_true_layout_first(monkeypatch):
     """Its pixels without the JPEG's tags: of the layouts found over the sizes the scan allows, three chance ones at
     0.077, 0.051 and 0.051 mm per px fitted their features more closely than the true one (0.042) and were measured

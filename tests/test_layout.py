@@ -286,3 +286,24 @@ def test_a_four_fiducial_camera_s_complete_layouts_are_taken_nearest_the_usual_s
     got = layout.by_prior(ranked, fid, scan)
     assert [m.pixel_size_mm for m in got] == [0.0430, 0.0514, 0.0420, 0.0651, 0.0768]
     assert abs(np.log(0.0430 / prior)) < abs(np.log(0.0514 / prior))
+
+
+@pytest.mark.parametrize("larger", [1.021, 0.979])
+def test_at_a_declared_pixel_size_a_layout_of_features_off_its_scale_ends_no_search(larger):
+    """Four strong features beside each of a 4-fiducial camera's marks, outwards alike (the real RC20 frame's corner
+    marks merged with their number dots at the screening's scale), form a complete layout 2.1 % off the scan's
+    declared pixel size; the marks themselves, weaker, form it on that scale. The first ended the search; it ends none
+    now, and the marks' layout is the one found (:func:`aerofid.frame.layout.on_declared_scale`); with the pixel
+    size unknown, both are found."""
+    fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0]])
+    s = 0.04233
+    centre = np.array([2954.0, 2704.0])
+    marks = centre + fid * [1.0, -1.0] / s + [2.0, -1.5]
+    blobs = centre + (marks - centre) * larger
+    features = np.vstack([blobs, marks])                       # the strong ones first: their pairs are tried first
+    got = layout.layout_candidates(features, fid, pixel_size_mm=s, position_error_px=24.0, scan_size=(5908, 5408),
+                                   first_complete=True)
+    assert got and sorted(got[0].matched) == [4, 5, 6, 7]
+    assert abs(got[0].pixel_size_mm / s - 1) < 1e-9
+    assert layout.on_declared_scale(got[0].predicted, got[0].pixel_size_mm, s, 24.0)
+    assert not layout.on_declared_scale(blobs, s / larger, s, 24.0)

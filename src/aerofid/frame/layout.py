@@ -27,6 +27,7 @@ import functools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -95,6 +96,10 @@ own corners at another scale."""
 FIT_TOLERANCE_MM = 0.3
 """How far (film mm) a fiducial may lie from the prediction of the transformation fitted to the matches, beyond
 the features' own position error: the scanner's and the film's residual distortion, a few hundredths of a mm."""
+DECLARED_SCALE_ERROR = 0.005
+"""How far (relative) a frame's scale may depart from the pixel size the scan declares or the user gives, beyond what
+its features' position error allows (:func:`on_declared_scale`): a film's shrinkage and a scanner's calibration, a
+few tenths of a per cent."""
 
 
 @dataclass(frozen=True)
@@ -226,7 +231,7 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     pairs = _Pairs.of(features)
     for s in scales:
         got = _best_hypothesis(features, pairs, fiducials_mm, y_axis, s, tolerance_mm / s + position_error_px,
-                               position_error_px, nearly, turns)
+                               position_error_px, nearly, turns, declared=pixel_size_mm is not None)
         if got is None or got[1].n_matched < MIN_MATCHED:
             continue
         if settle and got[1].decisive:
@@ -432,7 +437,7 @@ def _hypothesis_chunks(pairs: _Pairs, fiducials_mm: np.ndarray, s: float) -> Ite
 
 def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarray, y_axis: str, s: float,
                      tol: float, position_error_px: float, nearly: bool,
-                     turns: tuple[float, float] = USUAL_TURNS
+                     turns: tuple[float, float] = USUAL_TURNS, declared: bool = False
                      ) -> tuple[tuple[float, float], LayoutMatch] | None:
     """The best hypothesis at pixel size ``s`` (module docstring, step 3). The :data:`SHORTLIST` hypotheses with
     the most fiducials on a feature within ``tol`` (then the least mean distance), one per set of matches, are
@@ -443,9 +448,11 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
     while the true features fit a transformation to a few reduced pixels. The hypotheses are scored a chunk at
     a time, pairs of strong features first; a refined hypothesis that puts every fiducial within that tight
     tolerance of a feature ends the search (:data:`DECISIVE`), as does, with ``nearly``, one that puts all but one
-    there, closely (:data:`NEARLY_COMPLETE`)."""
+    there, closely (:data:`NEARLY_COMPLETE`); with ``s`` ``declared`` (the scan's or the user's pixel size), only on
+    that scale (:func:`on_declared_scale`)."""
     near: _NearFeatures | None = None
     fit_tol = FIT_TOLERANCE_MM / s + position_error_px
+    scale = _DeclaredScale(s, position_error_px) if declared else None
     turned = [fiducials_mm @ np.linalg.inv(arrangement_matrix(rot, mir, y_axis)).T / s  # layout in scan axes, px
               for rot, mir in ARRANGEMENTS]
     j, l = _fiducial_pairs(len(fiducials_mm))
@@ -456,7 +463,7 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
         near = near or _NearFeatures(features, tol, pairs)
         fid_pair = _pair_index(hyp[:, 2], hyp[:, 3], len(fiducials_mm))
         feature_directions = pairs.directions(pair)
-        decisive: list[tuple[int, float, int, np.ndarray]] = []
+        decisive: list[tuple[int, float, int, np.ndarray, tuple[int, ...]]] = []
         for a, cp in enumerate(turned):
             turning = np.compress(_may_turn_within(feature_directions, directions[a][fid_pair], turns[1]), hyp,
                                   axis=0)
@@ -475,15 +482,15 @@ def _best_hypothesis(features: np.ndarray, pairs: _Pairs, fiducials_mm: np.ndarr
                 if key not in shortlist or (c, md, a) < shortlist[key][:3]:
                     shortlist[key] = (c, md, a, pred[h])
                 if c <= enough:
-                    decisive.append((c, md, a, pred[h]))
-        ended = _decisive(features, fiducials_mm, decisive, y_axis, tol, fit_tol, nearly)
+                    decisive.append((c, md, a, pred[h], tuple(match)))
+        ended = _decisive(features, fiducials_mm, decisive, y_axis, tol, fit_tol, nearly, scale)
         if ended is not None:
             return ended
     if near is None:                                            # no hypotheses
         return None
     best: tuple[tuple[float, float], LayoutMatch] | None = None
     for _, _, a, pred_h in sorted(shortlist.values(), key=lambda g: g[:3])[:SHORTLIST]:
-        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol, False)   # decisive: complete
+        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol, False, scale)  # decisive: complete
         if best is None or scored[0] > best[0]:      # ties: the first lie
             best = scored
     return best
@@ -495,19 +502,34 @@ def _decisive_count(n: int, nearly: bool) -> int:
     return n - 1 if nearly and n - 1 >= NEARLY_COMPLETE else n
 
 
-def _decisive(features: np.ndarray, fiducials_mm: np.ndarray, decisive: list[tuple[int, float, int, np.ndarray]],
-              y_axis: str, tol: float, fit_tol: float, nearly: bool
+def _decisive(features: np.ndarray, fiducials_mm: np.ndarray,
+              decisive: list[tuple[int, float, int, np.ndarray, tuple[int, ...]]], y_axis: str, tol: float,
+              fit_tol: float, nearly: bool, scale: _DeclaredScale | None = None
               ) -> tuple[tuple[float, float], LayoutMatch] | None:
     """What ends :func:`_best_hypothesis`'s search in a chunk: of its hypotheses with enough fiducials on a feature
-    within ``tol`` (:func:`_decisive_count`; ``decisive``: minus their count, mean distance, lie and prediction), the
-    :data:`DECISIVE` first, those with the most first, then the closest, refined: the first complete one, else the
-    best scored :attr:`~LayoutMatch.decisive` one (``nearly``: :func:`_decisive_count`); else None."""
+    within ``tol`` (:func:`_decisive_count`; ``decisive``: minus their count, mean distance, lie, prediction and
+    matches), the :data:`DECISIVE` first, those with the most first, then the closest, refined: the first complete
+    one, else the best scored :attr:`~LayoutMatch.decisive` one (``nearly``: :func:`_decisive_count`); else None.
+    Off a declared ``scale`` none is decisive, and none counts among the :data:`DECISIVE`: nor does any other of the
+    same features in another lie (a square's 8 lies match its 4 features alike, and its hypotheses come in eights,
+    of which the first four filled the places)."""
     closest: tuple[tuple[float, float], LayoutMatch] | None = None
-    for _, _, a, pred_h in sorted(decisive, key=lambda c: c[:3])[:DECISIVE]:
-        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol, nearly)
-        if scored[1].complete:
+    off_scale: set[frozenset[int]] = set()
+    refined = 0
+    for _, _, a, pred_h, match in sorted(decisive, key=lambda c: c[:3]):
+        if refined == DECISIVE:
+            break
+        if frozenset(match) in off_scale:
+            continue
+        scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol, nearly, scale)
+        m = scored[1]
+        if scale is not None and not on_declared_scale(m.predicted, m.pixel_size_mm, *scale):
+            off_scale.add(frozenset(match))
+            continue
+        refined += 1
+        if m.complete:
             return scored
-        if scored[1].decisive and (closest is None or scored[0] > closest[0]):
+        if m.decisive and (closest is None or scored[0] > closest[0]):
             closest = scored
     return closest
 
@@ -572,10 +594,12 @@ class _NearFeatures:
 
 
 def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a: int, y_axis: str, tol: float,
-            fit_tol: float, nearly: bool) -> tuple[tuple[float, float], LayoutMatch]:
+            fit_tol: float, nearly: bool, scale: _DeclaredScale | None = None
+            ) -> tuple[tuple[float, float], LayoutMatch]:
     """A hypothesis of lie ``ARRANGEMENTS[a]`` refined (:func:`_refine`) and its score: the support of the fiducials
     within ``fit_tol`` of a feature (:func:`support`), then minus the RMS of those distances; whether it is
-    :attr:`~LayoutMatch.complete` and :attr:`~LayoutMatch.decisive` (with ``nearly``: else decisive when complete)."""
+    :attr:`~LayoutMatch.complete` and :attr:`~LayoutMatch.decisive` (with ``nearly``: else decisive when complete;
+    never off a declared ``scale``, :func:`on_declared_scale`)."""
     rot, mir = ARRANGEMENTS[a]
     m = _refine(features, fiducials_mm, pred, rot, mir, y_axis, tol, fit_tol)
     d = np.array([math.hypot(*(features[k] - m.predicted[f])) for f, k in enumerate(m.matched) if k is not None])
@@ -583,8 +607,39 @@ def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a:
     held = round(support(d, fit_tol), 6)
     n = len(fiducials_mm)
     closely = len(close) >= _decisive_count(n, nearly) and held >= len(close) - NEARLY_SHORTFALL
+    on_scale = scale is None or on_declared_scale(m.predicted, m.pixel_size_mm, scale.pixel_size_mm,
+                                                  scale.position_error_px)
     return ((held, -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0),
-            replace(m, complete=len(close) == n, decisive=len(close) == n or closely))
+            replace(m, complete=len(close) == n, decisive=on_scale and (len(close) == n or closely)))
+
+
+class _DeclaredScale(NamedTuple):
+    """The pixel size the scan declares or the user gives, and the features' position error (px)."""
+
+    pixel_size_mm: float
+    position_error_px: float
+
+
+def on_declared_scale(predicted: np.ndarray, pixel_size_mm: float, declared_mm: float,
+                      position_error_px: float) -> bool:
+    """Whether a layout refitted to features, its fiducials at ``predicted`` (n x 2 px) and its scale ``pixel_size_mm``,
+    lies on the scale ``declared_mm`` (the scan's resolution tags, or the user's): within
+    :data:`DECLARED_SCALE_ERROR` and what features ``position_error_px`` off their marks can make of the fiducials'
+    span (twice the error over the largest distance between two of them). Features that are not the marks but lie
+    beside each alike can form the layout too, on another scale: on the real RC20 frame mirrored, or turned by a
+    quarter, the marks merged with their number dots at the screening's scale (68-80 px off each mark, outwards) made
+    a layout 2.1 % larger than the scan's 600 dpi, which ended the search; the marks themselves, 0.4 % off (the
+    tolerance there: 1.2 %), were then sought 71-82 px from their predictions and not found, 3 s of failed searches
+    before the format's layout of 8 marks found them (scratch ``/tmp/s57/tr3.py``).
+
+    >>> square = np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]])
+    >>> on_declared_scale(square, 0.1008, 0.1, 3.0), on_declared_scale(square, 0.1012, 0.1, 3.0)
+    (True, False)
+    """
+    p = np.asarray(predicted, float)
+    span = float(np.max(np.hypot(*(p[:, None, :] - p[None, :, :]).transpose(2, 0, 1))))
+    allowed = DECLARED_SCALE_ERROR + (2.0 * position_error_px / span if span > 0 else math.inf)
+    return abs(pixel_size_mm / declared_mm - 1.0) <= allowed
 
 
 def support(distances: np.ndarray, tol: float) -> float:
@@ -750,4 +805,5 @@ def _apply(A: np.ndarray, mm: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["LayoutMatch", "MIN_MATCHED", "MIN_SPREAD", "fit_points", "layout_at", "layout_candidates", "match_layout",
-           "USUAL_TURNS", "nearest_first", "pixel_size_range", "can_end_early", "prior_order", "scale_grid"]
+           "USUAL_TURNS", "nearest_first", "pixel_size_range", "can_end_early", "prior_order", "scale_grid",
+           "on_declared_scale"]

@@ -1105,6 +1105,32 @@ def test_the_real_rc20_frame_gives_its_four_calibrated_corners():
     assert max(math.hypot(f.x - g.x, f.y - g.y) for f, g in pairs) < 0.05
 
 
+@pytest.fixture(scope="module")
+def rc20_q15(tmp_path_factory):
+    """The real RC20 frame saved again as a JPEG of quality 15 (4:2:0): blocks that hide half its red rings in
+    luminance."""
+    if not RC20.exists():
+        pytest.skip("../shared/realdata is absent")
+    path = tmp_path_factory.mktemp("q15") / "q15.jpg"
+    assert cv2.imwrite(str(path), cv2.imread(str(RC20 / "15BCC02013_114.jpg")), [cv2.IMWRITE_JPEG_QUALITY, 15])
+    return path
+
+
+def test_a_heavily_compressed_colour_jpeg_whose_luminance_hides_marks_is_measured_in_colour_again(rc20_q15):
+    """Luminance, the 4:2:0 JPEG's full-resolution plane, is taken first; at quality 15 its blocks hide 2 of the 4
+    corner rings (the frame failed: 2 marks), which the red channel, where they have 3 times the contrast, still shows:
+    the frame and a box that find too little in luminance are searched again by the mix that shows each mark best
+    (:func:`aerofid.find.colour_again`), and the 4 corners are found where they are."""
+    res = aerofid.orient_frame(rc20_q15, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM)
+    assert res.status == "doubtful" and len(res.found) == 4, res.reasons
+    assert max(_errors(res, RC20_CORNERS).values()) < 0.5
+    x, y = RC20_CORNERS["P2"]
+    box = (x - 60, y - 60, x + 60, y + 60)
+    assert not aerofid.locate(rc20_q15, box, colour="luminance").found
+    got, red = aerofid.locate(rc20_q15, box), aerofid.locate(rc20_q15, box, colour="red")
+    assert got.found and (got.x, got.y) == (red.x, red.y) and math.hypot(got.x - x, got.y - y) < 0.5
+
+
 @pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
 def test_the_real_rc20_frame_mirrored_is_measured_on_its_marks_layout_alone(tmp_path, monkeypatch):
     """The frame flipped left-right and saved as a JPEG again, at its 600 dpi: the corner marks merged with their

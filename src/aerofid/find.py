@@ -159,6 +159,10 @@ class Measurer:
     detector: Detector
     polarities: tuple[Polarity, ...]
     colour: str = "auto"
+    luma_first: bool = True
+    """Whether ``colour="auto"`` takes luminance first in a file whose chroma is subsampled
+    (:data:`~aerofid.io.colour.LUMA_SHARE`); false: the mix that shows the mark best, the search that follows one
+    in luminance that found too little (:func:`colour_again`)."""
 
     def at(self, x: float, y: float, half: float, candidate: Candidate | None = None,
            blank: tuple[float, float, float] | None = None) -> Located:
@@ -214,7 +218,7 @@ class Measurer:
 
     def _grey(self, samples: np.ndarray, pol: Polarity) -> np.ndarray:
         """The window's grey levels, the mark bright for polarity ``pol``."""
-        grey = to_grey(samples, self.colour, pol, chroma_subsampled=self.source.chroma_subsampled)
+        grey = to_grey(samples, self.colour, pol, chroma_subsampled=self.luma_first and self.source.chroma_subsampled)
         return 1.0 - grey if pol == "dark" else grey
 
     def candidate(self, c: Candidate, blank: tuple[float, float, float] | None = None,
@@ -325,6 +329,17 @@ def window_ladder(radius: float, inner: float) -> list[float]:
     while out[-1] * LADDER_STEP >= low * 0.9:
         out.append(out[-1] * LADDER_STEP)
     return out
+
+
+def colour_again(measurer: Measurer) -> Measurer | None:
+    """The measurer of the search that follows one in luminance that found too little: by the mix that shows the mark
+    best (:attr:`Measurer.luma_first` false); None where the first was no such search (not ``colour="auto"``, or the
+    file's chroma not subsampled). Luminance is a 4:2:0 JPEG's one plane at full resolution, but quantised like the
+    rest: on the real RC20 frame saved again at JPEG quality 15 its blocks hid 2 of the 4 red corner rings, which the
+    red channel, with 3 times their contrast in luminance, still showed (a helper's audit, session 57)."""
+    if measurer.colour != "auto" or not measurer.luma_first or not measurer.source.chroma_subsampled:
+        return None
+    return replace(measurer, luma_first=False)
 
 
 def better(a: Detection, b: Detection) -> bool:

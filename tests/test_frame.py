@@ -31,6 +31,7 @@ from aerofid.frame.layout import layout_candidates, match_layout
 from aerofid.frame.nominal import extra_marks, nominal_camera
 from aerofid.frame.profile import learn_profile
 from aerofid.frame.report import frame_html, frame_text
+from aerofid.io import colour as colour_module
 from aerofid.io.array import ArrayRaster, open_image
 from aerofid.io.raster import Raster, open_raster
 from aerofid.io.resolution import pixel_size_from_tags
@@ -1116,19 +1117,36 @@ def rc20_q15(tmp_path_factory):
     return path
 
 
-def test_a_heavily_compressed_colour_jpeg_whose_luminance_hides_marks_is_measured_in_colour_again(rc20_q15):
-    """Luminance, the 4:2:0 JPEG's full-resolution plane, is taken first; at quality 15 its blocks hide 2 of the 4
-    corner rings (the frame failed: 2 marks), which the red channel, where they have 3 times the contrast, still shows:
-    the frame and a box that find too little in luminance are searched again by the mix that shows each mark best
-    (:func:`aerofid.find.colour_again`), and the 4 corners are found where they are."""
+def test_a_heavily_compressed_colour_jpeg_is_measured_in_the_mix_that_shows_its_marks_best(rc20_q15, monkeypatch):
+    """Luminance, the 4:2:0 JPEG's full-resolution plane, is quantised like the rest: at quality 15 (a step of 44 grey
+    levels in its lowest frequencies, :data:`aerofid.io.colour.LUMA_STEP_MAX` 20) its blocks hide 2 of the 4 red
+    corner rings, which the red channel, where they have 3 times the contrast, still shows. Such a file goes to the
+    mix that shows each mark best first, and its 4 corners are found where they are."""
+    fallbacks = []
+    colour_again = orient_module.colour_again
+    monkeypatch.setattr(orient_module, "colour_again", lambda m: fallbacks.append(colour_again(m)) or fallbacks[-1])
     res = aerofid.orient_frame(rc20_q15, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM)
     assert res.status == "doubtful" and len(res.found) == 4, res.reasons
     assert max(_errors(res, RC20_CORNERS).values()) < 0.5
+    assert fallbacks == [None]                               # red first: no search in luminance to fall back from
     x, y = RC20_CORNERS["P2"]
     box = (x - 60, y - 60, x + 60, y + 60)
     assert not aerofid.locate(rc20_q15, box, colour="luminance").found
     got, red = aerofid.locate(rc20_q15, box), aerofid.locate(rc20_q15, box, colour="red")
     assert got.found and (got.x, got.y) == (red.x, red.y) and math.hypot(got.x - x, got.y - y) < 0.5
+
+
+def test_a_frame_or_box_that_luminance_finds_too_little_in_is_searched_again_in_colour(rc20_q15, monkeypatch):
+    """The fallback behind the quantisation's rule: the same file taken in luminance first (the rule lifted) fails
+    with 2 marks and finds nothing in the box; the frame and the box are then searched again by the mix that shows
+    each mark best (:func:`aerofid.find.colour_again`), and the 4 corners are found."""
+    monkeypatch.setattr(colour_module, "LUMA_STEP_MAX", 1.0)
+    res = aerofid.orient_frame(rc20_q15, RC20 / "MeasuresCamera.xml", pixel_size_mm=RC20_PX_MM)
+    assert res.status == "doubtful" and len(res.found) == 4, res.reasons
+    assert max(_errors(res, RC20_CORNERS).values()) < 0.5
+    x, y = RC20_CORNERS["P2"]
+    got = aerofid.locate(rc20_q15, (x - 60, y - 60, x + 60, y + 60))
+    assert got.found and math.hypot(got.x - x, got.y - y) < 0.5
 
 
 @pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from aerofid.errors import AerofidInputError
 from aerofid.io import raster as raster_module
 from aerofid.io.array import ArrayRaster
-from aerofid.io.colour import MIX_WEIGHTS, choose_channel_mix, mark_contrast, normalise, to_grey
+from aerofid.io.colour import MIX_WEIGHTS, choose_channel_mix, luminance_first, mark_contrast, normalise, to_grey
 from aerofid.io.jpeg import subsampled_components
 from aerofid.io.raster import Raster, check_window_size, clip_box, open_raster, segment_indices
 from aerofid.io.reduce import ReducedView
@@ -297,6 +297,21 @@ def test_a_jpeg_says_whether_its_chroma_is_subsampled(tmp_path, bands, sampling,
         assert raster.chroma_subsampled is subsampled
         assert ReducedView(raster, 1).chroma_subsampled is subsampled
         assert ReducedView(raster, 2).chroma_subsampled is False
+
+
+@pytest.mark.parametrize("quality", [95, 75, 40, 33, 20, 15])
+def test_a_jpeg_says_how_coarsely_its_luminance_is_quantised(tmp_path, quality):
+    """The mean step of the luma table's 10 lowest frequencies, from the file's header, is libjpeg's (IJG) scaling of
+    the standard table (ITU-T T.81 K.1) at the quality written; luminance goes first up to 20 grey levels."""
+    path = tmp_path / "scan.jpg"
+    assert cv2.imwrite(str(path), smooth_image(3)[:, :, ::-1], [cv2.IMWRITE_JPEG_QUALITY, quality])
+    scale = 5000 // quality if quality < 50 else 200 - 2 * quality
+    lowest = [16, 11, 12, 14, 12, 10, 16, 14, 13, 14]                # K.1 in zigzag order
+    steps = [min(max((q * scale + 50) // 100, 1), 255) for q in lowest]
+    with open_raster(path) as raster:
+        assert raster.luma_step == pytest.approx(sum(steps) / 10 / 255)
+        assert luminance_first(raster.chroma_subsampled, raster.luma_step) is (sum(steps) / 10 <= 20)
+    assert luminance_first(True, None) and not luminance_first(False, 0.0)
 
 
 @pytest.mark.parametrize(("compression", "subsampled"), [("jpeg", True), ("zlib", False)])
@@ -683,8 +698,8 @@ def test_a_file_with_subsampled_chroma_has_its_marks_measured_in_luminance_where
                                      cv2.IMWRITE_JPEG_SAMPLING_FACTOR_420])
             decoded = cv2.imdecode(jpeg, cv2.IMREAD_COLOR)[:, :, ::-1]
             assert choose_channel_mix(decoded) == ("red", "blue")[channel // 2]
-            assert choose_channel_mix(decoded, chroma_subsampled=True) == mix
-            np.testing.assert_array_equal(to_grey(decoded, chroma_subsampled=True), to_grey(decoded, mix))
+            assert choose_channel_mix(decoded, luma_first=True) == mix
+            np.testing.assert_array_equal(to_grey(decoded, luma_first=True), to_grey(decoded, mix))
 
 
 def test_real_wild_rc20_jpeg_is_4_2_0_and_its_red_marks_are_measured_in_luminance(rc20):
@@ -693,7 +708,7 @@ def test_real_wild_rc20_jpeg_is_4_2_0_and_its_red_marks_are_measured_in_luminanc
     assert rc20.chroma_subsampled
     for x, y in [(653, 190), (648, 5201), (5667, 5213)]:
         window = rc20.read_window((x - 34, y - 34, x + 35, y + 35))
-        assert choose_channel_mix(window, chroma_subsampled=True) == "luminance"
+        assert choose_channel_mix(window, luma_first=True) == "luminance"
         assert choose_channel_mix(window) == "red"
 
 

@@ -36,7 +36,7 @@ from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate, merge_candidates, screen
 from aerofid.errors import AerofidInputError
 from aerofid.io.array import open_image
-from aerofid.io.colour import COLOUR_POLICIES, to_grey
+from aerofid.io.colour import COLOUR_POLICIES, luminance_first, to_grey
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import read_reduced_levels
 from aerofid.io.source import ImageSource
@@ -160,9 +160,9 @@ class Measurer:
     polarities: tuple[Polarity, ...]
     colour: str = "auto"
     luma_first: bool = True
-    """Whether ``colour="auto"`` takes luminance first in a file whose chroma is subsampled
-    (:data:`~aerofid.io.colour.LUMA_SHARE`); false: the mix that shows the mark best, the search that follows one
-    in luminance that found too little (:func:`colour_again`)."""
+    """Whether ``colour="auto"`` takes luminance first in a file that calls for it (:meth:`takes_luminance_first`);
+    false: the mix that shows the mark best, the search that follows one in luminance that found too little
+    (:func:`colour_again`)."""
 
     def at(self, x: float, y: float, half: float, candidate: Candidate | None = None,
            blank: tuple[float, float, float] | None = None) -> Located:
@@ -218,8 +218,13 @@ class Measurer:
 
     def _grey(self, samples: np.ndarray, pol: Polarity) -> np.ndarray:
         """The window's grey levels, the mark bright for polarity ``pol``."""
-        grey = to_grey(samples, self.colour, pol, chroma_subsampled=self.luma_first and self.source.chroma_subsampled)
+        grey = to_grey(samples, self.colour, pol, luma_first=self.luma_first and self.takes_luminance_first())
         return 1.0 - grey if pol == "dark" else grey
+
+    def takes_luminance_first(self) -> bool:
+        """Whether the source is a file whose marks go to luminance first
+        (:func:`~aerofid.io.colour.luminance_first`)."""
+        return luminance_first(self.source.chroma_subsampled, self.source.luma_step)
 
     def candidate(self, c: Candidate, blank: tuple[float, float, float] | None = None,
                   settle: bool = True) -> Located:
@@ -333,11 +338,13 @@ def window_ladder(radius: float, inner: float) -> list[float]:
 
 def colour_again(measurer: Measurer) -> Measurer | None:
     """The measurer of the search that follows one in luminance that found too little: by the mix that shows the mark
-    best (:attr:`Measurer.luma_first` false); None where the first was no such search (not ``colour="auto"``, or the
-    file's chroma not subsampled). Luminance is a 4:2:0 JPEG's one plane at full resolution, but quantised like the
-    rest: on the real RC20 frame saved again at JPEG quality 15 its blocks hid 2 of the 4 red corner rings, which the
-    red channel, with 3 times their contrast in luminance, still showed (a helper's audit, session 57)."""
-    if measurer.colour != "auto" or not measurer.luma_first or not measurer.source.chroma_subsampled:
+    best (:attr:`Measurer.luma_first` false); None where the first was no such search (not ``colour="auto"``, or no
+    file whose marks go to luminance first). Luminance is a 4:2:0 JPEG's one plane at full resolution, but quantised
+    like the rest: on the real RC20 frame saved again at JPEG quality 15 its blocks hid 2 of the 4 red corner rings,
+    which the red channel, with 3 times their contrast in luminance, still showed (a helper's audit, session 57).
+    Such a file goes to the best mix first (:data:`~aerofid.io.colour.LUMA_STEP_MAX`); this is the net behind that
+    rule."""
+    if measurer.colour != "auto" or not measurer.luma_first or not measurer.takes_luminance_first():
         return None
     return replace(measurer, luma_first=False)
 

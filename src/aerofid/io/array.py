@@ -119,6 +119,8 @@ class ArrayRaster:
         False.
     chroma_subsampled : bool
         As given.
+    luma_step : None
+        An array's quantisation is not known.
 
     Examples
     --------
@@ -133,6 +135,7 @@ class ArrayRaster:
     path: None = None
     format = "array"
     tiled = False
+    luma_step = None
 
     def __init__(self, array: Any, *, chroma_subsampled: bool = False):
         a = as_image_array(array)

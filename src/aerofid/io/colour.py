@@ -17,6 +17,7 @@ __all__ = [
     "MIX_WEIGHTS",
     "channel_mix",
     "choose_channel_mix",
+    "luminance_first",
     "mark_contrast",
     "normalise",
     "to_grey",
@@ -100,17 +101,37 @@ channel lie 0.16-0.33 px left of their centres in luminance at all 8 marks (in y
 0.3-0.5 px left; the affine fit of its 4 corners to their calibration leaves 0.46 px (RMS of the vectors' lengths) in
 luminance against 0.48 in red (docs/benchmarks_frames.md). Luminance had 0.66-0.98 of red's contrast there; a red
 ring on black through libjpeg's 4:2:0 at quality 90 has 0.53-0.59, a blue one 0.31-0.33 (blue's weight in
-luminance is 0.114): that one is still measured in blue. Luminance is quantised like the rest: a search that finds too
-little in it is made again by the mix that shows each mark best (:func:`aerofid.find.colour_again`)."""
+luminance is 0.114): that one is still measured in blue. Luminance is quantised like the rest (:data:`LUMA_STEP_MAX`),
+and a search that finds too little in it is made again by the mix that shows each mark best
+(:func:`aerofid.find.colour_again`)."""
+
+LUMA_STEP_MAX = 20.0 / 255.0
+"""Luminance goes first only in a file whose luminance is quantised finely enough to keep a coloured mark: the mean step
+of its lowest frequencies (:func:`aerofid.io.jpeg.luma_quantisation`) at most this share of the samples' range
+(libjpeg's quality 33 or better). The RC20's red rings stand 28-48 grey levels above the border in luminance; at
+quality 40 (a step of 16.7 levels) luminance found all 4 corners as at 75 (6.7), at 20 (33.1) all 4 but 3 times as
+slowly, at 15 (44.0) 2 (a helper's audit, session 57), where red found them: there the mix that shows the mark best
+goes first."""
 
 
-def _best_mix(rgb: np.ndarray, polarity: Polarity, noise_floor: float, chroma_subsampled: bool = False) -> str:
+def luminance_first(chroma_subsampled: bool, luma_step: float | None) -> bool:
+    """Whether ``to_grey(..., "auto")`` takes luminance first (``luma_first``) for a file: its chroma subsampled
+    (:data:`LUMA_SHARE`) and its luminance quantised no more coarsely than :data:`LUMA_STEP_MAX` (None: not known,
+    taken as fine).
+
+    >>> luminance_first(True, 6.7 / 255), luminance_first(True, 44 / 255), luminance_first(False, None)
+    (True, False, False)
+    """
+    return chroma_subsampled and (luma_step is None or luma_step <= LUMA_STEP_MAX)
+
+
+def _best_mix(rgb: np.ndarray, polarity: Polarity, noise_floor: float, luma_first: bool = False) -> str:
     """Name of the mix in :data:`MIX_WEIGHTS` whose grey window gives the mark the most contrast, judged on
     the window's central half (each side a quarter in) when it is at least :data:`MIX_CENTRE_MIN` px across:
     the user boxes the mark, and the box's margins may hold the bright aerial image area beside a notch,
     which is brightest in whichever channel its colour favours (a red RC20 midside mark next to cyan water
-    picked blue on the whole box). With ``chroma_subsampled``, luminance wherever it has :data:`LUMA_SHARE` of the
-    best contrast."""
+    picked blue on the whole box). With ``luma_first``, luminance wherever it has :data:`LUMA_SHARE` of the best
+    contrast."""
     h, w = rgb.shape[:2]
     if min(h, w) >= MIX_CENTRE_MIN:
         rgb = rgb[h // 4:h - h // 4, w // 4:w - w // 4]
@@ -118,7 +139,7 @@ def _best_mix(rgb: np.ndarray, polarity: Polarity, noise_floor: float, chroma_su
         mark_contrast(channel_mix(rgb, mix), polarity, noise_floor=noise_floor) for mix in MIX_WEIGHTS
     ]
     mixes = list(MIX_WEIGHTS)
-    if chroma_subsampled and scores[mixes.index("luminance")] >= LUMA_SHARE * max(scores):
+    if luma_first and scores[mixes.index("luminance")] >= LUMA_SHARE * max(scores):
         return "luminance"
     return mixes[int(np.argmax(scores))]
 
@@ -134,20 +155,20 @@ def _rgb_window(window: np.ndarray) -> np.ndarray:
     return array
 
 
-def choose_channel_mix(window: np.ndarray, polarity: Polarity = "bright", *, chroma_subsampled: bool = False) -> str:
+def choose_channel_mix(window: np.ndarray, polarity: Polarity = "bright", *, luma_first: bool = False) -> str:
     """The channel mix (``"luminance"``, ``"red"``, ``"green"`` or ``"blue"``) that ``to_grey(window,
-    "auto", polarity, chroma_subsampled=...)`` uses for an RGB window: the one with the largest
-    :func:`mark_contrast`, the noise floored at one quantisation step of the window's dtype (ties go to luminance);
-    with ``chroma_subsampled`` luminance wherever it has :data:`LUMA_SHARE` of the largest."""
+    "auto", polarity, luma_first=...)`` uses for an RGB window: the one with the largest :func:`mark_contrast`, the
+    noise floored at one quantisation step of the window's dtype (ties go to luminance); with ``luma_first``
+    luminance wherever it has :data:`LUMA_SHARE` of the largest."""
     _check_choice(polarity, POLARITIES, "polarity")
     array = _rgb_window(window)
     if array.ndim == 2:
         raise AerofidInputError("window is grey; a channel mix needs an RGB (h, w, 3) window")
-    return _best_mix(normalise(array), polarity, _noise_floor(array.dtype), chroma_subsampled)
+    return _best_mix(normalise(array), polarity, _noise_floor(array.dtype), luma_first)
 
 
 def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "bright", *,
-            chroma_subsampled: bool = False) -> np.ndarray:
+            luma_first: bool = False) -> np.ndarray:
     """Turn a window into float32 grey levels in [0, 1] by a colour policy.
 
     Args:
@@ -158,9 +179,9 @@ def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "brig
             contrast. ``"max"`` takes the brightest channel of each pixel. Grey windows ignore the policy.
         polarity: ``"bright"`` (mark brighter than its surround, most fiducials) or ``"dark"``; only
             ``"auto"`` uses it.
-        chroma_subsampled: whether the window comes from a file that stores its chroma at a lower resolution than
-            its luma (:attr:`Raster.chroma_subsampled <aerofid.io.raster.Raster>`, a 4:2:0 JPEG); ``"auto"`` then
-            takes luminance wherever it shows the mark with :data:`LUMA_SHARE` of the best mix's contrast.
+        luma_first: whether the window comes from a file whose luminance alone has its full resolution and keeps the
+            mark (:func:`luminance_first`: a 4:2:0 JPEG of a fair quality); ``"auto"`` then takes luminance wherever
+            it shows the mark with :data:`LUMA_SHARE` of the best mix's contrast.
     """
     _check_choice(policy, COLOUR_POLICIES, "colour policy")
     _check_choice(polarity, POLARITIES, "polarity")
@@ -168,7 +189,7 @@ def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "brig
     grey = normalise(array)
     if array.ndim == 2:
         return grey
-    mix = _best_mix(grey, polarity, _noise_floor(array.dtype), chroma_subsampled) if policy == "auto" else policy
+    mix = _best_mix(grey, polarity, _noise_floor(array.dtype), luma_first) if policy == "auto" else policy
     return channel_mix(grey, mix)
 
 

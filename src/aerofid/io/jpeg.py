@@ -73,6 +73,7 @@ DECODED_CACHE = 2
 
 _SOF_MARKERS = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}  # start of frame: not DHT, JPG, DAC
 _LOSSLESS_MARKERS = frozenset({0xC3, 0xC7, 0xCB, 0xCF})  # lossless frames: libjpeg decodes them at full size only
+_DQT = 0xDB  # define quantisation tables
 _STANDALONE = frozenset({0x01, *range(0xD0, 0xD8)})  # TEM and RSTn carry no length
 _PNG_SAMPLES = {0: 1, 2: 3, 3: 3, 4: 2, 6: 4}  # colour type -> decoded samples per pixel (palette -> RGB)
 _REDUCED_FLAGS = {
@@ -94,6 +95,9 @@ class ImageHeader(NamedTuple):
     chroma_subsampled: bool = False
     """Whether a colour JPEG stores its second and third components (the chroma, Cb and Cr) at a lower resolution
     than its first (the luma, Y): 4:2:0 or 4:2:2 (:func:`subsampled_components`)."""
+    luma_step: float | None = None
+    """The quantisation step of the first component's lowest frequencies, as a share of the samples' range
+    (:func:`luma_quantisation`); None where the header does not say it before the frame."""
 
     @property
     def decoded_bytes(self) -> int:
@@ -140,10 +144,18 @@ def header_segments(file: BinaryIO) -> Iterator[tuple[int, bytes]]:
 def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
     """Read the frame's size from a JPEG's first start-of-frame segment (:func:`header_segments`)."""
     bad = AerofidInputError(f"cannot decode {path}: its JPEG header is corrupt or truncated; re-export the scan")
+    tables: list[bytes] = []
+    marker, body = 0, b""
     try:
-        marker, body = next((m, b) for m, b in header_segments(file) if m in _SOF_MARKERS)
+        for marker, body in header_segments(file):
+            if marker == _DQT:
+                tables.append(body)
+            elif marker in _SOF_MARKERS:
+                break
     except ValueError:
         raise bad from None
+    if marker not in _SOF_MARKERS:
+        raise bad
     if len(body) < 6:
         raise bad
     precision, components = body[0], body[5]
@@ -151,7 +163,41 @@ def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
     if width == 0 or height == 0:
         raise AerofidInputError(f"{path} declares a {width} x {height} JPEG; re-export the scan")
     return ImageHeader(width, height, 3 if components >= 3 else components, 1 if precision <= 8 else 2,
-                       scalable=marker not in _LOSSLESS_MARKERS, chroma_subsampled=subsampled_components(body))
+                       scalable=marker not in _LOSSLESS_MARKERS, chroma_subsampled=subsampled_components(body),
+                       luma_step=luma_quantisation(tables, body))
+
+
+LOW_FREQUENCIES = 10
+"""The first so many coefficients of a quantisation table in its zigzag order (the DC term and the lowest
+frequencies) whose mean step :func:`luma_quantisation` gives: those that carry a mark's edges of a few pixels."""
+
+
+def luma_quantisation(tables: list[bytes], frame: bytes) -> float | None:
+    """The mean quantisation step of the :data:`LOW_FREQUENCIES` lowest frequencies of the table the frame's first
+    component (the luma, Y) uses, divided by the largest sample (255 for 8 bits): from the define-quantisation-table
+    segments' bodies ``tables`` (ITU-T T.81 B.2.4.1: per table a byte of precision and id, then 64 steps of 1 or 2
+    bytes in zigzag order) and the start of frame's body ``frame``. None where no such table precedes the frame or a
+    segment is truncated. libjpeg's quality 75 gives 6.7 / 255, 40 gives 16.7, 20 gives 33.1, 15 gives 44.0.
+
+    >>> frame = bytes([8, 0, 8, 0, 8, 3, 1, 0x22, 0, 2, 0x11, 1, 3, 0x11, 1])
+    >>> round(luma_quantisation([bytes([0]) + bytes(range(1, 65))], frame) * 255, 2)
+    5.5
+    """
+    if len(frame) < 9:
+        return None
+    wanted, precision = frame[8], frame[0]
+    for body in tables:
+        i = 0
+        while i < len(body):
+            size, table = 2 if body[i] >> 4 else 1, body[i] & 15
+            steps = body[i + 1:i + 1 + 64 * size]
+            if len(steps) < 64 * size:
+                return None
+            if table == wanted:
+                low = [int.from_bytes(steps[k * size:(k + 1) * size], "big") for k in range(LOW_FREQUENCIES)]
+                return sum(low) / LOW_FREQUENCIES / float(2 ** precision - 1)
+            i += 1 + 64 * size
+    return None
 
 
 def subsampled_components(frame: bytes) -> bool:

@@ -391,6 +391,8 @@ class Raster:
         tiled: whether the file stores tiles (only TIFF can).
         chroma_subsampled: whether the file stores a colour image's chroma at a lower resolution than its luma (a
             JPEG's, or a JPEG-compressed TIFF's, 4:2:0 or 4:2:2): only its luminance then has the full resolution.
+        luma_step: a JPEG's quantisation step of its luma's lowest frequencies, as a share of the samples' range
+            (:func:`aerofid.io.jpeg.luma_quantisation`); None where the file does not say it (TIFF, PNG).
     """
 
     def __init__(self, path: str | os.PathLike[str], rows: int | None = None):
@@ -412,6 +414,7 @@ class Raster:
         header = jpeg.read_header(self.path, self.format)
         self.tiled = False
         self.chroma_subsampled = header.chroma_subsampled
+        self.luma_step = header.luma_step
         if jpeg.decodes_whole(header):
             st = self.path.stat()
             key = (str(self.path.resolve()), st.st_mtime_ns, st.st_size)
@@ -485,6 +488,7 @@ class Raster:
         self.dtype = _check_dtype(page.dtype, self.path)
         self.tiled = bool(page.is_tiled)
         self.chroma_subsampled = self.bands == 3 and bool(page.is_subsampled)
+        self.luma_step = None
         photometric = page.photometric
         jpeg = page.compression in _JPEG_COMPRESSIONS
         usable = photometric in (_MINISBLACK, _RGB) or (photometric == _YCBCR and jpeg)

@@ -356,6 +356,7 @@ class ReducedView:
     dtype: np.dtype = field(init=False)
     path: Any = field(init=False)
     chroma_subsampled: bool = field(init=False)
+    luma_step: float | None = field(init=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "width", math.ceil(self.source.width / self.factor))
@@ -364,6 +365,7 @@ class ReducedView:
         object.__setattr__(self, "path", self.source.path)
         # a 4:2:0 file's chroma has one sample per 2 x 2 px: reduced by 2 or more, the view has it at its own resolution
         object.__setattr__(self, "chroma_subsampled", self.source.chroma_subsampled and self.factor < 2)
+        object.__setattr__(self, "luma_step", self.source.luma_step if self.factor < 2 else None)
 
     def read_window(self, box: Sequence[int]) -> np.ndarray:
         """The reduced window ``box`` (reduced pixels, x1 and y1 exclusive), float32 on [0, 1]."""

@@ -33,7 +33,6 @@ from aerofid.find import (
     Located,
     MarkSearch,
     Measurer,
-    colour_again,
     configure,
     in_box,
     rows_read,
@@ -185,11 +184,7 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
     requested = _box_tuple(box)
     with open_image(image, rows_read(requested)) as source:
         region, was_clipped = clip_box(requested, source.width, source.height)
-        measurer = Measurer(source, detector, polarities, colour)
-        found = search_box(measurer, region)
-        again = colour_again(measurer)
-        if not found.marks and again is not None:      # luminance found nothing: the mix that shows the mark best
-            found = search_box(again, region)
+        found = search_box(Measurer(source, detector, polarities, colour), region)
     return one_mark(found, mark, requested, was_clipped)
 
 

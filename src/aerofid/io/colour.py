@@ -102,7 +102,7 @@ channel lie 0.16-0.33 px left of their centres in luminance at all 8 marks (in y
 luminance against 0.48 in red (docs/benchmarks_frames.md). Luminance had 0.66-0.98 of red's contrast there; a red
 ring on black through libjpeg's 4:2:0 at quality 90 has 0.53-0.59, a blue one 0.31-0.33 (blue's weight in
 luminance is 0.114): that one is still measured in blue. Luminance is quantised like the rest (:data:`LUMA_STEP_MAX`),
-and a search that finds too little in it is made again by the mix that shows each mark best
+and a frame whose search fails in it is searched again by the mix that shows each mark best
 (:func:`aerofid.find.colour_again`)."""
 
 LUMA_STEP_MAX = 20.0 / 255.0

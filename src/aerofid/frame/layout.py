@@ -523,7 +523,7 @@ def _decisive(features: np.ndarray, fiducials_mm: np.ndarray,
             continue
         scored = _scored(features, fiducials_mm, pred_h, a, y_axis, tol, fit_tol, nearly, scale)
         m = scored[1]
-        if scale is not None and not on_declared_scale(m.predicted, m.pixel_size_mm, *scale):
+        if not _on_scale(m, scale):
             off_scale.add(frozenset(match))
             continue
         refined += 1
@@ -607,10 +607,8 @@ def _scored(features: np.ndarray, fiducials_mm: np.ndarray, pred: np.ndarray, a:
     held = round(support(d, fit_tol), 6)
     n = len(fiducials_mm)
     closely = len(close) >= _decisive_count(n, nearly) and held >= len(close) - NEARLY_SHORTFALL
-    on_scale = scale is None or on_declared_scale(m.predicted, m.pixel_size_mm, scale.pixel_size_mm,
-                                                  scale.position_error_px)
     return ((held, -round(float(np.sqrt(np.mean(close ** 2))), 6) if len(close) else 0.0),
-            replace(m, complete=len(close) == n, decisive=on_scale and (len(close) == n or closely)))
+            replace(m, complete=len(close) == n, decisive=_on_scale(m, scale) and (len(close) == n or closely)))
 
 
 class _DeclaredScale(NamedTuple):
@@ -618,6 +616,11 @@ class _DeclaredScale(NamedTuple):
 
     pixel_size_mm: float
     position_error_px: float
+
+
+def _on_scale(m: LayoutMatch, scale: _DeclaredScale | None) -> bool:
+    """Whether refined layout ``m`` lies on the declared ``scale`` (:func:`on_declared_scale`; None: none declared)."""
+    return scale is None or on_declared_scale(m.predicted, m.pixel_size_mm, *scale)
 
 
 def on_declared_scale(predicted: np.ndarray, pixel_size_mm: float, declared_mm: float,

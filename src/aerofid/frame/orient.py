@@ -257,24 +257,24 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         best = frame.search(extras, declared)
         if not best.fiducials:                  # no layout among the features: its reasons say all (_no_layout)
             return best
-        frame, best = _in_colour_again(frame, best, extras, declared)
-        best = frame.finished(best, extras)
+        best = _finished_in_its_colour(frame, best, extras, declared)
     if nominal is not None:
         return _uncalibrated(best, str(fmt), *declared)
     return _hinted(best, size, size_source)
 
 
-def _in_colour_again(frame: _Frame, best: FrameOrientation, extras: dict[str, tuple[float, float]],
-                     declared: tuple[float | None, str]) -> tuple[_Frame, FrameOrientation]:
-    """``frame`` and its answer ``best``, or where that failed on a file whose chroma is subsampled (its marks measured
-    in luminance first), the frame searched again by the mix that shows each mark best
-    (:func:`aerofid.find.colour_again`) and its answer, where that stands better (:func:`_standing`)."""
+def _finished_in_its_colour(frame: _Frame, best: FrameOrientation, extras: dict[str, tuple[float, float]],
+                            declared: tuple[float | None, str]) -> FrameOrientation:
+    """``frame``'s answer ``best`` finished (:meth:`_Frame.finished`), or where that failed on a file whose marks were
+    measured in luminance first, the frame searched again by the mix that shows each mark best
+    (:func:`aerofid.find.colour_again`) and finished, where that stands better (:func:`_standing`)."""
     again = colour_again(frame.measurer)
-    if best.status != FAILED or again is None:
-        return frame, best
-    other_frame = replace(frame, measurer=again)
-    other = other_frame.search(extras, declared)
-    return (other_frame, other) if _standing(other) > _standing(best) else (frame, best)
+    if best.status == FAILED and again is not None:
+        other_frame = replace(frame, measurer=again)
+        other = other_frame.search(extras, declared)
+        if _standing(other) > _standing(best):
+            return other_frame.finished(other, extras)
+    return frame.finished(best, extras)
 
 
 def _hinted(res: FrameOrientation, size: float | None, size_source: str) -> FrameOrientation:

@@ -144,18 +144,13 @@ def header_segments(file: BinaryIO) -> Iterator[tuple[int, bytes]]:
 def _jpeg_header(file: BinaryIO, path: Path) -> ImageHeader:
     """Read the frame's size from a JPEG's first start-of-frame segment (:func:`header_segments`)."""
     bad = AerofidInputError(f"cannot decode {path}: its JPEG header is corrupt or truncated; re-export the scan")
-    tables: list[bytes] = []
-    marker, body = 0, b""
+    tables: list[bytes] = []                          # the quantisation tables defined before the frame
     try:
-        for marker, body in header_segments(file):
+        for marker, body in header_segments(file):      # ends at the first start of frame, or raises
             if marker == _DQT:
                 tables.append(body)
-            elif marker in _SOF_MARKERS:
-                break
     except ValueError:
         raise bad from None
-    if marker not in _SOF_MARKERS:
-        raise bad
     if len(body) < 6:
         raise bad
     precision, components = body[0], body[5]

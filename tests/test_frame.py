@@ -1179,6 +1179,22 @@ def test_the_real_rc20_frame_without_its_pixel_size_measures_its_true_layout_fir
     assert max(_errors(res, RC20_CORNERS).values()) < 0.3
 
 
+@pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
+def test_the_real_rc20_frame_turned_without_its_pixel_size_measures_its_true_layout_second(monkeypatch):
+    """Its pixels turned by 270 degrees, without the JPEG's tags: at the screening's scale its true layout has 3 of its
+    4 corners on features (the corner marks merge with their number dots), 1 % from the usual size; 4 complete chance
+    layouts 10-45 % from it were measured first (6 layouts, 6.8 s). A fiducial on no feature now counts as 6 % of
+    scale (``layout.UNMATCHED_RATIO``): an incomplete chance layout at 2 % is measured first, then the true one."""
+    rgb = cv2.cvtColor(cv2.imread(str(RC20 / "15BCC02013_114.jpg")), cv2.COLOR_BGR2RGB)
+    turned = np.ascontiguousarray(np.rot90(rgb, 3))                 # (x, y) -> (h - 1 - y, x)
+    measured = _layouts_measured(monkeypatch)
+    res = aerofid.orient_frame(ArrayRaster(turned, chroma_subsampled=True), RC20 / "MeasuresCamera.xml",
+                               lie=(0, False))
+    assert res.status == "ok" and len(res.found) == 4 and len(measured) <= 2, (res.reasons, len(measured))
+    corners = [(rgb.shape[0] - 1 - y, x) for x, y in RC20_CORNERS.values()]
+    assert max(min(math.hypot(f.x - x, f.y - y) for x, y in corners) for f in res.found) < 0.3
+
+
 RC20_PX_MM = 25.4 / 600
 """The RC20 scan's pixel size (its JPEG's 600 dpi)."""
 

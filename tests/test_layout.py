@@ -270,22 +270,36 @@ def test_the_predictions_on_their_own_features_answer_as_the_tree(seed, n, twice
     assert checked >= len(fiducials) * (len(fiducials) - 1) // 2 or twice     # every pair of marks, the right way
 
 
-def _layout(size: float, complete: bool) -> layout.LayoutMatch:
-    return mock.Mock(spec=layout.LayoutMatch, pixel_size_mm=size, complete=complete)
+def _layout(size: float, matched: int) -> layout.LayoutMatch:
+    return mock.Mock(spec=layout.LayoutMatch, pixel_size_mm=size, n_matched=matched, complete=matched == 4)
 
 
-def test_a_four_fiducial_camera_s_complete_layouts_are_taken_nearest_the_usual_span_first():
-    """Without a pixel size, a camera of 4 fiducials: the complete layouts, in the places they hold in the ranking,
-    nearest first to the size at which the fiducials span PRIOR_SPAN of the scan's longer side; an incomplete layout
-    keeps its place (a faded frame's true layout on 3 of its 4 fiducials)."""
+def test_a_four_fiducial_camera_s_layouts_are_taken_nearest_the_usual_span_of_its_features_first():
+    """Without a pixel size, a camera of 4 fiducials: its layouts nearest first to the size at which the fiducials span
+    PRIOR_SPAN of the features' extent, one with a fiducial on no feature as if UNMATCHED_RATIO further (the RC20
+    frame turned by 270 degrees: its true layout on 3 of its 4 corners, 1 % from the usual size, came after complete
+    chance ones 10-55 % from it); of equals, the better fit (the ranking's order) first."""
     fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0]])
-    scan = (5908, 5408)
-    prior = 212.0 / (layout.PRIOR_SPAN * 5908)                       # 0.0422 mm per px
-    ranked = [_layout(0.0768, True), _layout(0.0514, True), _layout(0.0420, False), _layout(0.0430, True),
-              _layout(0.0651, True)]
-    got = layout.by_prior(ranked, fid, scan)
-    assert [m.pixel_size_mm for m in got] == [0.0430, 0.0514, 0.0420, 0.0651, 0.0768]
-    assert abs(np.log(0.0430 / prior)) < abs(np.log(0.0514 / prior))
+    extent = (5828.0, 5344.0)
+    prior = 212.0 / (layout.PRIOR_SPAN * 5828)                       # 0.0428 mm per px
+    ranked = [_layout(0.0768, 4), _layout(0.0514, 4), _layout(0.0428, 3), _layout(0.0420, 4), _layout(0.0651, 4),
+              _layout(0.0470, 4), _layout(0.0455, 3), _layout(0.0651, 4)]
+    got = layout.by_prior(ranked, fid, extent)
+    assert [(m.pixel_size_mm, m.n_matched) for m in got] == [(0.0420, 4), (0.0428, 3), (0.0470, 4), (0.0455, 3),
+                                                             (0.0514, 4), (0.0651, 4), (0.0651, 4), (0.0768, 4)]
+    assert got[5] is ranked[4] and got[6] is ranked[7]
+    assert np.log(0.0428 / prior) + np.log(layout.UNMATCHED_RATIO) < np.log(0.0470 / prior)
+
+
+def test_the_features_extent_is_the_picture_s_not_the_padded_scan_s():
+    """A scan padded by 300 px of its scanner's bed: the features lie on the picture, whose extent sets the usual pixel
+    size (the padded scan's longer side put it 10 % low)."""
+    rng = np.random.default_rng(4)
+    picture = rng.uniform([300.0, 300.0], [300.0 + 5908.0, 300.0 + 5408.0], size=(400, 2))
+    picture[:2] = [[300.0, 300.0], [6207.0, 5707.0]]
+    assert layout.features_extent(picture) == pytest.approx((5907.0, 5407.0))
+    fid = np.array([[-106.0, -106.0], [106.0, 106.0]])
+    assert layout.usual_pixel_size(fid, layout.features_extent(picture)) == pytest.approx(212.0 / (0.85 * 5907.0))
 
 
 @pytest.mark.parametrize("larger", [1.021, 0.979])

@@ -88,7 +88,16 @@ their refit, and one along a frame's border on the benchmark's frame with a mark
 many chance layouts, not all (straight border edges: 0.3-0.8, session 32's review)."""
 PRIOR_SPAN = 0.85
 """Share of a scan's longer side that its fiducials usually span (a 23 cm frame's marks 212-226 mm apart, scanned
-with a margin): the pixel size tried first when the scan says none (:func:`prior_order`)."""
+with a margin): the pixel size tried first when the scan says none (:func:`prior_order`); of the features' extent,
+the one a camera of few fiducials measures first (:func:`by_prior`)."""
+UNMATCHED_RATIO = 1.06
+"""A layout of a camera of fewer than :data:`SETTLING_FIDUCIALS` fiducials with one of them on no feature ranks as a
+complete one whose pixel size lies this ratio further from the usual one (:func:`by_prior`). The RC20 frame's corner
+marks merge with their number dots at the screening's scale, and on 3 of 19 files of it (a quality-40 JPEG, one
+turned by 270 degrees, one of half its area) the true layout had 3 of its 4 corners on features, 1 % from the usual
+size, behind 4-6 complete chance ones 10-55 % from it: 7 layouts were measured, in 4.4-8.7 s, where the first is
+now, in 0.9-1.4 s (scratch ``/tmp/s58/audit``). Put after every complete one, as until session 58, a faded frame's
+true layout, 3 of its 4 fiducials on features, fell behind 8 chance ones beyond the layouts measured (session 49)."""
 SETTLING_FIDUCIALS = 5
 """Fewest fiducials for a layout with every one of them on a feature (:attr:`LayoutMatch.complete`, or
 :attr:`LayoutMatch.decisive`) to end the search over unknown pixel sizes: four corners can be mimicked by the image's
@@ -240,25 +249,32 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
         if key not in found or got[0] > found[key][0]:
             found[key] = got
     ranked = [m for _, m in sorted(found.values(), key=lambda g: g[0], reverse=True)]
-    if pixel_size_mm is None and len(fiducials_mm) < SETTLING_FIDUCIALS and scan_size is not None:
-        return by_prior(ranked, fiducials_mm, scan_size)
+    if pixel_size_mm is None and len(fiducials_mm) < SETTLING_FIDUCIALS:
+        return by_prior(ranked, fiducials_mm, features_extent(features))
     return ranked
 
 
-def by_prior(ranked: list[LayoutMatch], fiducials_mm: np.ndarray, scan_size: tuple[int, int]) -> list[LayoutMatch]:
-    """Layouts of a camera of fewer than :data:`SETTLING_FIDUCIALS` fiducials found over unknown pixel sizes, ``ranked``
-    by their fit: the complete ones among them (in the places they hold) taken nearest first (by ratio) to the pixel
-    size at which the fiducials span :data:`PRIOR_SPAN` of the scan's longer side. An affine transformation fits four
-    points near any square closely, and a frame's features form many such squares at other scales: on the real RC20
-    frame (4 calibrated corners) without a pixel size, 11 of its 14 layouts were complete, and three chance ones at
-    0.077, 0.051 and 0.051 mm per px (the fiducials spanning 47-70 % of the scan) fitted their features more closely
-    than the true one at 0.042 (86 %), and were each measured first (4.7-4.9 s in a fresh process against 0.5 s with
-    the pixel size given). An incomplete layout keeps its place: put after the complete ones, a faded frame's true
-    layout, 3 of its 4 fiducials on features, fell behind 8 chance ones, beyond the layouts measured, and the frame
-    went from ok to doubtful (scratch ``/tmp/s49/ident.py``'s 4-fiducial frames, seed 7033)."""
-    prior = usual_pixel_size(fiducials_mm, scan_size)
-    complete = iter(sorted((m for m in ranked if m.complete), key=lambda m: ratio_distance(m.pixel_size_mm, prior)))
-    return [next(complete) if m.complete else m for m in ranked]
+def by_prior(ranked: list[LayoutMatch], fiducials_mm: np.ndarray, extent: tuple[float, float]) -> list[LayoutMatch]:
+    """Layouts of a camera of fewer than :data:`SETTLING_FIDUCIALS` fiducials found over unknown pixel sizes,
+    ``ranked`` by their fit, taken nearest first (by ratio) to the pixel size at which the fiducials span
+    :data:`PRIOR_SPAN` of the features' ``extent`` (:func:`features_extent`), those with a fiducial on no feature as
+    if :data:`UNMATCHED_RATIO` further (of equals, the better fit first). An affine transformation fits four points
+    near any square closely, and a frame's features form many such squares at other scales: on the real RC20 frame
+    (4 calibrated corners) without a pixel size, 11 of its 14 layouts were complete, and three chance ones at 0.077,
+    0.051 and 0.051 mm per px (the fiducials spanning 47-70 % of the scan) fitted their features more closely than
+    the true one at 0.042 (86 %), and were each measured first (4.7-4.9 s in a fresh process against 0.5 s with the
+    pixel size given)."""
+    prior = usual_pixel_size(fiducials_mm, extent)
+    unmatched = math.log(UNMATCHED_RATIO)
+    n = len(fiducials_mm)
+    return sorted(ranked, key=lambda m: ratio_distance(m.pixel_size_mm, prior) + unmatched * (n - m.n_matched))
+
+
+def features_extent(features: np.ndarray) -> tuple[float, float]:
+    """The extent (px, along x and y) of the mark-like features screened on a frame: its picture's, where the scan
+    has margins (a scanner's bed, padding), which hold none."""
+    width, height = np.ptp(features, axis=0)
+    return float(width), float(height)
 
 
 def can_end_early(fiducials_mm: np.ndarray, pixel_size_mm: float | None) -> bool:
@@ -280,9 +296,10 @@ def prior_order(scales: list[float], fiducials_mm: np.ndarray, scan_size: tuple[
     return nearest_first(scales, usual_pixel_size(fiducials_mm, scan_size))
 
 
-def usual_pixel_size(fiducials_mm: np.ndarray, scan_size: tuple[int, int]) -> float:
-    """The pixel size (mm/px) at which the fiducials span :data:`PRIOR_SPAN` of the scan's longer side."""
-    return fiducial_span(fiducials_mm) / (PRIOR_SPAN * max(scan_size))
+def usual_pixel_size(fiducials_mm: np.ndarray, size: tuple[float, float]) -> float:
+    """The pixel size (mm/px) at which the fiducials span :data:`PRIOR_SPAN` of the longer side of ``size`` (px: a
+    scan's, or its features' extent)."""
+    return fiducial_span(fiducials_mm) / (PRIOR_SPAN * max(size))
 
 
 def fiducial_span(fiducials_mm: np.ndarray) -> float:

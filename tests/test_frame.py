@@ -25,6 +25,7 @@ from aerofid.batch.gallery import crop_sheet_png
 from aerofid.detect.screen import Candidate
 from aerofid.find import RECENTRED_WINDOW, Measurer, recentred_half
 from aerofid.formats.camera_file import read_camera, write_camera
+from aerofid.frame import marks as marks_module
 from aerofid.frame import orient as orient_module
 from aerofid.frame import verdict as verdict_module
 from aerofid.frame.layout import layout_candidates, match_layout
@@ -313,7 +314,7 @@ def test_of_two_frames_standing_alike_the_whole_searchs_is_kept_after_a_nearly_e
 
     monkeypatch.setattr(orient_module, "_layouts", layouts)
     monkeypatch.setattr(orient_module, "measure_marks", lambda *args: [])
-    monkeypatch.setattr(orient_module, "_second_look", lambda measurer, layout, fid_mm, located, res, judged: res)
+    monkeypatch.setattr(orient_module, "second_look", lambda measurer, layout, fid_mm, located, res, judged: res)
     judged = {id(first): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="first",
                                                fiducials=(), reasons=("doubt",)),
               id(whole): types.SimpleNamespace(ok=False, status="doubtful", found=(1, 2, 3), name="whole",
@@ -452,14 +453,14 @@ def test_a_mark_the_frames_method_misses_is_sought_at_least_as_large_as_its_feat
     makes a third of the ring's radius; here all marks seem 3 px): the marks are measured, the frame ok."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     sized: list[Candidate] = []
-    first_window = orient_module._first_window
+    first_window = marks_module._first_window
 
     def recorded(c: Candidate) -> Candidate:
         sized.append(first_window(c))
         return sized[-1]
 
     later: list[tuple[Candidate, Candidate, tuple[float, float]]] = []
-    coarse_first = orient_module._coarse_first
+    coarse_first = marks_module._coarse_first
     windows_seen = [0]
 
     def seen(measurer, start, at, tolerance):
@@ -468,10 +469,10 @@ def test_a_mark_the_frames_method_misses_is_sought_at_least_as_large_as_its_feat
         windows_seen[0] = len(sized)
         return coarse_first(measurer, start, at, tolerance)
 
-    monkeypatch.setattr(orient_module, "_first_window", recorded)
-    monkeypatch.setattr(orient_module, "_coarse_first", seen)
-    monkeypatch.setattr(orient_module, "_by_method", lambda *args, **kwargs: None)
-    monkeypatch.setattr(orient_module, "_median_extent", lambda out, done: 3.0)
+    monkeypatch.setattr(marks_module, "_first_window", recorded)
+    monkeypatch.setattr(marks_module, "_coarse_first", seen)
+    monkeypatch.setattr(marks_module, "_by_method", lambda *args, **kwargs: None)
+    monkeypatch.setattr(marks_module, "_median_extent", lambda out, done: 3.0)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     assert res.status == "ok" and len(res.found) >= 7, res.reasons
     assert len(later) >= 5            # the layout's features: a corner's lies 23 px off its mark, unmatched
@@ -485,20 +486,20 @@ def test_a_mark_missed_once_three_are_found_is_sought_no_larger_than_the_feature
     3 marks, or with none of its kind found, its own feature sizes the search; never below the marks' extent."""
     fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0], [0.0, -110.0],
                     [110.0, 0.0], [0.0, 110.0], [-110.0, 0.0]])
-    assert orient_module.fiducial_kinds(fid) == [1, 1, 1, 1, 0, 0, 0, 0]
+    assert marks_module.fiducial_kinds(fid) == [1, 1, 1, 1, 0, 0, 0, 0]
     features = tuple(Candidate(0.0, 0.0, r, 1.0, r) for r in (100.0, 110.0, 96.0, 260.0, 90.0, 90.0, 95.0, 240.0))
 
     class Layout:
         matched = list(range(8))
 
     start = Candidate(500.0, 500.0, 94.0, 0.0)
-    kinds = orient_module.fiducial_kinds(fid)
-    sought = [orient_module._fallback_start(start, k, done, Layout(), kinds, features).radius
+    kinds = marks_module.fiducial_kinds(fid)
+    sought = [marks_module._fallback_start(start, k, done, Layout(), kinds, features).radius
               for k, done in ((3, [0, 1, 2]), (3, [0, 1]), (7, [0, 1, 2]), (7, [0, 1, 4, 5]), (3, []))]
     assert sought == [100.0, 260.0, 240.0, 94.0, 94.0]
     small = Candidate(500.0, 500.0, 150.0, 0.0)            # the marks' extent is the floor
-    assert orient_module._fallback_start(small, 3, [0, 1, 2], Layout(), kinds, features).radius == 150.0
-    assert orient_module.fiducial_kinds(fid + 116.0) == kinds   # a certificate whose origin is a corner
+    assert marks_module._fallback_start(small, 3, [0, 1, 2], Layout(), kinds, features).radius == 150.0
+    assert marks_module.fiducial_kinds(fid + 116.0) == kinds   # a certificate whose origin is a corner
 
 
 def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monkeypatch):
@@ -514,7 +515,7 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
     calls: list[tuple[str, int, float]] = []
 
     def sought(k, *args):
-        return orient_module._Sought((100.0 * k, 50.0), Candidate(100.0 * k, 50.0, 94.0, 0.0), 40.0, 10.0, "symmetry")
+        return marks_module._Sought((100.0 * k, 50.0), Candidate(100.0 * k, 50.0, 94.0, 0.0), 40.0, 10.0, "symmetry")
 
     windowed: list[int | None] = []             # the windows the frame's method alone may try
 
@@ -531,7 +532,7 @@ def test_a_mark_missed_before_any_of_its_kind_is_found_is_sought_after_them(monk
                      ("_at_start", lambda *a: (by_auto(*a), "no mark")),
                      ("_probed_area", lambda *a, **k: (None, "no mark")),
                      ("_outside", lambda *a: ""), ("_coarse", lambda measurer, name, start, *a: start)):
-        monkeypatch.setattr(orient_module, name, fn)
+        monkeypatch.setattr(marks_module, name, fn)
     measurer = types.SimpleNamespace(polarities=("light",))
     lone = fid.copy()
     lone[5:] = [[50.0, 52.0], [-50.0, 49.0], [51.0, -50.0]]    # 4 the only midside: nothing of its kind to wait for
@@ -579,7 +580,7 @@ def test_a_fiducial_missed_where_the_layout_put_it_is_sought_where_the_orientati
         return out
 
     sought: list[tuple[float, float]] = []
-    where_oriented = orient_module._sought_where_oriented
+    where_oriented = marks_module._sought_where_oriented
 
     def recorded(measurer, res, at, tolerance):
         sought.append(at)
@@ -587,7 +588,7 @@ def test_a_fiducial_missed_where_the_layout_put_it_is_sought_where_the_orientati
 
     monkeypatch.setattr(orient_module, "_layouts", moved)
     monkeypatch.setattr(orient_module, "measure_marks", missed)
-    monkeypatch.setattr(orient_module, "_sought_where_oriented", recorded)
+    monkeypatch.setattr(marks_module, "_sought_where_oriented", recorded)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     missing = [f for f in res.fiducials if f.status == "not_found"]
     if displaced:
@@ -618,8 +619,8 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
         """The first fiducial's measurements by ``name`` are refused the first time (and always: ``refused_again``)."""
         return near_first(calls[-1][1]) and (refused_again or [c for c, _ in calls].count(name) == 1)
 
-    coarse_first, at_start, by_method = (orient_module._coarse_first, orient_module._at_start,
-                                         orient_module._by_method)
+    coarse_first, at_start, by_method = (marks_module._coarse_first, marks_module._at_start,
+                                         marks_module._by_method)
 
     def refused_coarse(measurer, start, at, tolerance):
         first[:] = first or [at]
@@ -635,16 +636,16 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
         return by_method(measurer, name, start, at, tolerance, windows)
 
     areas: list[tuple[tuple[float, float], float, tuple[str, ...]]] = []
-    in_area = orient_module._in_area
+    in_area = marks_module._in_area
 
     def recorded(measurer, start, at, tolerance, why):
         areas.append((at, tolerance, measurer.polarities))
         return in_area(measurer, start, at, tolerance, why)
 
-    monkeypatch.setattr(orient_module, "_coarse_first", refused_coarse)
-    monkeypatch.setattr(orient_module, "_at_start", refused_start)
-    monkeypatch.setattr(orient_module, "_by_method", method_alone)
-    monkeypatch.setattr(orient_module, "_in_area", recorded)
+    monkeypatch.setattr(marks_module, "_coarse_first", refused_coarse)
+    monkeypatch.setattr(marks_module, "_at_start", refused_start)
+    monkeypatch.setattr(marks_module, "_by_method", method_alone)
+    monkeypatch.setattr(marks_module, "_in_area", recorded)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     assert res.status == "ok" and len(res.found) == len(CAMERA.names), res.reasons
     assert max(_errors(res, frame_truth(spec).marks).values()) < 0.1
@@ -657,8 +658,8 @@ def test_a_first_mark_not_found_at_its_feature_is_sought_in_its_area_only_after_
         return
     (at, tolerance, polarities), = areas                     # once, after the marks that refine the prediction
     assert near_first(at)
-    assert tolerance == pytest.approx(max(orient_module.REFINED_TOLERANCE_MM / COARSE_MM,
-                                          orient_module.MIN_TOLERANCE_PX), rel=0.01)   # the layout's pixel size
+    assert tolerance == pytest.approx(max(marks_module.REFINED_TOLERANCE_MM / COARSE_MM,
+                                          marks_module.MIN_TOLERANCE_PX), rel=0.01)   # the layout's pixel size
     assert len(polarities) == 1
 
 
@@ -696,18 +697,18 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
     film sought turned further), and the other fiducials say why theirs were not."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
-    monkeypatch.setattr(orient_module, "VAIN_STARTS", len(CAMERA.names) + 1)
-    monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
-    monkeypatch.setattr(orient_module, "_by_method", lambda *a, **k: None)
-    monkeypatch.setattr(orient_module, "_at_start", lambda *a: refused)
+    monkeypatch.setattr(marks_module, "VAIN_STARTS", len(CAMERA.names) + 1)
+    monkeypatch.setattr(marks_module, "_coarse_first", lambda *a: None)
+    monkeypatch.setattr(marks_module, "_by_method", lambda *a, **k: None)
+    monkeypatch.setattr(marks_module, "_at_start", lambda *a: refused)
     areas: list[tuple[float, float]] = []
-    in_area = orient_module._in_area
+    in_area = marks_module._in_area
 
     def recorded(measurer, start, at, tolerance, why):
         areas.append(at)
         return in_area(measurer, start, at, tolerance, why) if areas_hold_marks else refused
 
-    monkeypatch.setattr(orient_module, "_in_area", recorded)
+    monkeypatch.setattr(marks_module, "_in_area", recorded)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     if areas_hold_marks:
         assert res.status == "ok" and len(res.found) >= len(CAMERA.names) - 1, res.reasons
@@ -724,7 +725,7 @@ def test_a_layout_whose_features_hold_no_mark_has_few_areas_searched(monkeypatch
 def test_a_mark_cut_by_its_features_window_is_measured_on_a_window_sized_by_its_extent(monkeypatch):
     """A thin 40 px '+' screened as a feature of radius 3 px beside its crossing (as synth.demo_frame's marks are):
     ``auto`` on the feature's window refuses the mark as cut by the window's edge; the fiducial is then measured on
-    a window centred where the refusal puts it and sized by its extent (:func:`orient._in_a_larger_box`), to its true
+    a window centred where the refusal puts it and sized by its extent (:func:`marks._in_a_larger_box`), to its true
     centre, without its area's search (refused by the test). Not so where that centre lies beyond the tolerance, nor
     for a mark the scan's edge cuts."""
     rng = np.random.default_rng(5)
@@ -734,20 +735,20 @@ def test_a_mark_cut_by_its_features_window_is_measured_on_a_window_sized_by_its_
     for c in (truth, edge):
         img = synth.paint(img, synth.coverage((300, 300), c, synth.cross_shape(40.0, 2.0, 0.3), 8, extent=22), 0.9)
     img = synth.add_grain(synth.blur(img, 0.7), 0.012, rng).astype(np.float32)
-    monkeypatch.setattr(orient_module, "_in_area", lambda *a: (None, "refused (test)"))
+    monkeypatch.setattr(marks_module, "_in_area", lambda *a: (None, "refused (test)"))
     start = Candidate(truth[0] + 5.0, truth[1] - 5.0, 3.0, 0.0)
     with open_image(img) as source:
         measurer = Measurer(source, make_detector("auto", "external", {}), ("bright",))
         refused = measurer.candidate(start)
         assert not refused.found and "cut by the box edge" in refused.detection.reason
-        got, why = orient_module.measure_fiducial(measurer, start, truth, 20.0)
+        got, why = marks_module.measure_fiducial(measurer, start, truth, 20.0)
         assert got is not None and why == "", why
         assert math.hypot(got.x - truth[0], got.y - truth[1]) < 0.05
-        far = orient_module.measure_fiducial(measurer, start, (truth[0] + 30.0, truth[1]), 20.0)
-        assert orient_module._in_a_larger_box(measurer, refused, (truth[0] + 30.0, truth[1]), 20.0) is refused
+        far = marks_module.measure_fiducial(measurer, start, (truth[0] + 30.0, truth[1]), 20.0)
+        assert marks_module._in_a_larger_box(measurer, refused, (truth[0] + 30.0, truth[1]), 20.0) is refused
         cut = measurer.candidate(Candidate(edge[0] + 5.0, edge[1] - 5.0, 3.0, 0.0))
         assert cut.detection.cut_at is not None
-        assert orient_module._in_a_larger_box(measurer, cut, edge, 20.0) is cut
+        assert marks_module._in_a_larger_box(measurer, cut, edge, 20.0) is cut
     assert far == (None, "refused (test)")
 
 
@@ -757,8 +758,8 @@ def test_a_layout_is_left_once_vain_starts_held_no_mark(monkeypatch):
     before session 47, then the first one's area before session 48); each fiducial says why it is not found."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(3))
     refused = (None, "refused (test)")
-    monkeypatch.setattr(orient_module, "_coarse_first", lambda *a: None)
-    monkeypatch.setattr(orient_module, "_by_method", lambda *a, **k: None)
+    monkeypatch.setattr(marks_module, "_coarse_first", lambda *a: None)
+    monkeypatch.setattr(marks_module, "_by_method", lambda *a, **k: None)
     sought: list[list[tuple[float, float]]] = []
     areas: list[list[tuple[float, float]]] = []
     measure_marks = orient_module.measure_marks
@@ -777,23 +778,23 @@ def test_a_layout_is_left_once_vain_starts_held_no_mark(monkeypatch):
         return refused
 
     monkeypatch.setattr(orient_module, "measure_marks", measured)
-    monkeypatch.setattr(orient_module, "_at_start", at_start)
-    monkeypatch.setattr(orient_module, "_in_area", in_area)
+    monkeypatch.setattr(marks_module, "_at_start", at_start)
+    monkeypatch.setattr(marks_module, "_in_area", in_area)
     res = aerofid.orient_frame(render_frame(spec), CAMERA, pixel_size_mm=COARSE_MM)
     assert res.status == "failed" and not res.found
-    assert sought and all(len(s) == orient_module.VAIN_STARTS for s in sought)
+    assert sought and all(len(s) == marks_module.VAIN_STARTS for s in sought)
     assert not any(areas)
     reasons = [f.reason for f in res.fiducials]
-    vain = f"{orient_module.VAIN_STARTS} fiducials held no mark at their predicted places and none was found"
+    vain = f"{marks_module.VAIN_STARTS} fiducials held no mark at their predicted places and none was found"
     assert all(vain in r for r in reasons), reasons
-    assert sum("refused (test)); its area was not searched" in r for r in reasons) == orient_module.VAIN_STARTS, reasons
+    assert sum("refused (test)); its area was not searched" in r for r in reasons) == marks_module.VAIN_STARTS, reasons
     assert sum("not sought at the predicted" in r and "nor in its area" in r for r in reasons) == (
-        len(CAMERA.names) - orient_module.VAIN_STARTS), reasons
+        len(CAMERA.names) - marks_module.VAIN_STARTS), reasons
 
 
 @pytest.mark.parametrize("starts_vain", [False, True])
 def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
-    """Before 3 marks are found, fiducials' areas are searched until :data:`~aerofid.frame.orient.AREA_PROBES` of
+    """Before 3 marks are found, fiducials' areas are searched until :data:`~aerofid.frame.marks.AREA_PROBES` of
     them held no mark (a roll's layout, whose film may have moved), or one while no mark is found (no fiducial's
     predicted place held one), none once VAIN_STARTS fiducials held none there; then no more, and the fiducial says
     why; an area that holds a mark does not count, and from 3 marks found on every area is searched."""
@@ -803,22 +804,22 @@ def test_areas_are_probed_until_enough_held_no_mark(monkeypatch, starts_vain):
         searched.append(int(at[0]))
         return ("mark", "") if int(at[0]) == 1 else (None, "no mark (test)")     # fiducial 1's area holds its mark
 
-    monkeypatch.setattr(orient_module, "_in_area", in_area)
-    assert orient_module.AREA_PROBES == 2
+    monkeypatch.setattr(marks_module, "_in_area", in_area)
+    assert marks_module.AREA_PROBES == 2
     vain: list[int] = []
-    probe = orient_module._probed_area
+    probe = marks_module._probed_area
     start = Candidate(0.0, 0.0, 5.0, 0.0)
-    few = orient_module.VAIN_STARTS - 1            # fiducials put off (a camera of 3)
+    few = marks_module.VAIN_STARTS - 1            # fiducials put off (a camera of 3)
     got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, vain, k, not starts_vain, few) for k in range(5)]
     assert searched == ([0] if starts_vain else [0, 1, 2])
     assert vain == ([0] if starts_vain else [0, 2])
     assert all("its area was not searched" in why for _, why in got[len(searched):])
     searched.clear()
-    many, fresh = orient_module.VAIN_STARTS, []
+    many, fresh = marks_module.VAIN_STARTS, []
     got = [probe(None, start, (float(k), 0.0), 10.0, "why", 0, fresh, k, not starts_vain, many) for k in range(5)]
     assert searched == ([] if starts_vain else [0, 1, 2])
     assert all("its area was not searched" in why for _, why in got[len(searched):])
-    refit = orient_module.MIN_REFIT                 # from 3 marks found on, every area is searched
+    refit = marks_module.MIN_REFIT                 # from 3 marks found on, every area is searched
     assert probe(None, start, (9.0, 0.0), 10.0, "why", refit, vain, 9, not starts_vain, many)[1] == "no mark (test)"
 
 
@@ -1479,7 +1480,7 @@ def test_the_frames_method_of_a_tie_does_not_depend_on_the_process():
     """Two marks found, one by each method: the frame's method is the first fiducial's, the same in every process
     (a set's order follows the string hashing, which Python seeds per process: a batch's frames then differed
     between its worker processes)."""
-    code = ("from aerofid.frame.orient import _frame_method\n"
+    code = ("from aerofid.frame.marks import _frame_method\n"
             "from types import SimpleNamespace as N\n"
             "out = [(N(detection=N(method=m)), '') for m in ('hough', 'symmetry', 'circles', 'symmetry', 'hough')]\n"
             "print(_frame_method(out, [0, 1]), _frame_method(out, [1, 0]), _frame_method(out, [2, 3, 4, 1]))")
@@ -1510,16 +1511,16 @@ def test_a_first_mark_refused_beside_its_number_dots_is_measured_in_a_tighter_bo
     img, xy = _corner_beside_its_number_dots()
     start = Candidate(xy[0] - 25.0, xy[1] - 40.0, 96.0, 1.0, 96.0)
     refusals: list[str] = []
-    tighter = orient_module._in_a_tighter_box
+    tighter = marks_module._in_a_tighter_box
 
     def seen(measurer, refused, at):
         refusals.append(refused.detection.reason)
         return tighter(measurer, refused, at)
 
-    monkeypatch.setattr(orient_module, "_in_a_tighter_box", seen)
+    monkeypatch.setattr(marks_module, "_in_a_tighter_box", seen)
     with open_image(img) as source:
         measurer = Measurer(source, make_detector("auto", "auto", {}), ("bright", "dark"))
-        got = orient_module._coarse_first(measurer, start, (start.x, start.y), 71.0)
+        got = marks_module._coarse_first(measurer, start, (start.x, start.y), 71.0)
         refused = measurer.candidate(start, settle=False)           # the same refusal at full resolution
         kept = [tighter(measurer, refused, at) for at in ((start.x, start.y), (256.0, 275.0))]
     assert len(refusals) == 1 and refusals[0].startswith("a second mark-like feature"), refusals
@@ -1553,11 +1554,11 @@ def test_a_mark_wider_windows_refuse_is_measured_by_the_frames_method_on_the_tig
         alone = measurer.alone("symmetry")
         for window in ((1.5, 8.0), RECENTRED_WINDOW):
             assert not alone.at(start.x, start.y, recentred_half(start.radius, window), start).found
-        got = orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0)
+        got = marks_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0)
         assert got is not None and got.detection.method == "symmetry"
         assert math.hypot(got.x - xy[0], got.y - xy[1]) < 0.05
-        monkeypatch.setattr(orient_module, "ALONE_WINDOWS", ((1.5, 8.0),))
-        assert orient_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0) is None
+        monkeypatch.setattr(marks_module, "ALONE_WINDOWS", ((1.5, 8.0),))
+        assert marks_module._by_method(measurer, "symmetry", start, (start.x, start.y), 13.0) is None
 
 
 def test_a_jpeg_frame_whose_whole_decode_fails_is_an_error(tmp_path, monkeypatch):
@@ -1648,7 +1649,7 @@ def test_a_mark_found_off_its_prediction_is_reported_with_its_distance():
     with open_image(sc.image) as source:
         measurer = Measurer(source, make_detector("auto", "auto", {}), ("bright",))
         start = Candidate(truth.x, truth.y, 15.0, 0.0)
-        got, why = orient_module._at_start(measurer, start, (truth.x + 20.0, truth.y), 5.0, None)
+        got, why = marks_module._at_start(measurer, start, (truth.x + 20.0, truth.y), 5.0, None)
     said = re.fullmatch(r"the mark found there, at \(([\d.]+), ([\d.]+)\), lies (\d+) px from the prediction", why)
     assert got is None and said is not None, why
     assert float(said[1]) == pytest.approx(truth.x, abs=0.1) and float(said[2]) == pytest.approx(truth.y, abs=0.1)

@@ -16,7 +16,7 @@ import tifffile
 import aerofid
 from aerofid.errors import AerofidInputError
 from aerofid.formats.camera_file import write_camera
-from aerofid.frame import orient
+from aerofid.frame import marks as marks_module
 from aerofid.frame.profile import RollProfile, read_profile
 from aerofid.frame.report import frame_text
 from aerofid.orientation.camera import Camera
@@ -102,22 +102,22 @@ def test_the_first_marks_are_sought_where_their_templates_correlate(roll, learnt
     folder, truths = roll
     marks = truths["b.tif"].marks
     places = []
-    real = orient.match_template
+    real = marks_module.match_template
 
     def recorded(area, template):
         got = real(area, template)
         places.append(got)
         return got
 
-    monkeypatch.setattr(orient, "match_template", recorded)
+    monkeypatch.setattr(marks_module, "match_template", recorded)
     res = aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt)
     monkeypatch.undo()
     assert (res.status, res.searched) == ("ok", "roll areas"), res.reasons
     assert places and all(p is not None and p[2] > 0.9 for p in places), places
     # where the templates placed the first marks: within a pixel of each
     starts = []
-    real_matched = orient._matched
-    monkeypatch.setattr(orient, "_matched", lambda *a: starts.append(got := real_matched(*a)) or got)
+    real_matched = marks_module._matched
+    monkeypatch.setattr(marks_module, "_matched", lambda *a: starts.append(got := real_matched(*a)) or got)
     aerofid.orient_frame(folder / "b.tif", CAMERA, profile=learnt)
     monkeypatch.undo()
     assert len(starts) == len(places)
@@ -127,7 +127,7 @@ def test_the_first_marks_are_sought_where_their_templates_correlate(roll, learnt
     noise = tuple((n, replace(t, levels=rng.integers(0, 256, len(t.levels), np.uint8).tobytes()))
                   for n, t in learnt.mark_templates)
     nowhere = []
-    monkeypatch.setattr(orient, "match_template", lambda area, t: nowhere.append(real(area, t)) or nowhere[-1])
+    monkeypatch.setattr(marks_module, "match_template", lambda area, t: nowhere.append(real(area, t)) or nowhere[-1])
     aerofid.orient_frame(folder / "b.tif", CAMERA, profile=replace(learnt, mark_templates=noise))
     monkeypatch.undo()
     assert nowhere and all(p is None for p in nowhere)

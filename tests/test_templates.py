@@ -15,7 +15,7 @@ from aerofid import synth
 from aerofid.detect.screen import Candidate
 from aerofid.errors import AerofidInputError
 from aerofid.find import Measurer
-from aerofid.frame import orient
+from aerofid.frame import marks as marks_module
 from aerofid.frame.templates import MarkTemplate, cut_template, match_template, reduction_keeping
 from aerofid.io.array import open_image
 from aerofid.methods import make_detector
@@ -63,7 +63,7 @@ def test_a_roll_frame_is_sought_on_the_reduced_scan_where_the_template_correlate
     start = Candidate(centre[0] + 120.0, centre[1] - 90.0, SIZE / 2, 0.0)
     with open_image(scene.image) as source:
         measurer = Measurer(source, make_detector("symmetry", "auto", {}), ("bright",))
-        got = orient._matched(measurer, t, start, reach=200.0)
+        got = marks_module._matched(measurer, t, start, reach=200.0)
     assert got is not None and got.radius == start.radius
     assert math.hypot(got.x - centre[0], got.y - centre[1]) < 0.25, (got.x, got.y)
 

@@ -268,7 +268,7 @@ class Measurer:
         that stage 1. A new measurement there then gives the centre within 1e-3 px, or, rarely, refuses the mark
         (its search ends on the range's limit: 1 of 188 faint crosses beside aerial texture in a review of session
         17), so the frames' search, whose geometry checks every mark, takes it as re-centred
-        (:func:`aerofid.frame.orient._alone`), and the search of a box does not. False where the detector does not
+        (:func:`aerofid.frame.marks._alone`), and the search of a box does not. False where the detector does not
         remeasure."""
         if self._remeasurer() is None:
             return False

@@ -129,5 +129,11 @@ class FrameOrientation:
                 "extra_marks": [f.to_dict() for f in self.extra_marks]}
 
 
+def standing(res: FrameOrientation) -> tuple[int, int]:
+    """How good a frame's answer is, for comparing two (larger is better): ok, doubtful, failed; then the more
+    fiducials found."""
+    return (res.ok + (res.status != FAILED), len(res.found))
+
+
 __all__ = ["DOUBTFUL", "FAILED", "FOUND_MARK", "LIE_ASSUMED", "LIE_GIVEN", "LIE_TOLD", "MISSING_MARK", "OK",
-           "REJECTED_MARK", "ROLL_AREAS", "WHOLE_FRAME", "FiducialFinding", "FrameOrientation"]
+           "REJECTED_MARK", "ROLL_AREAS", "WHOLE_FRAME", "FiducialFinding", "FrameOrientation", "standing"]

@@ -6,7 +6,7 @@ The frames of one roll lie in the scanner alike, up to the film's placement: a f
 of a degree of turn (150 mm from the centre, 1 degree moves a corner mark 2.6 mm). Each fiducial is sought within
 :data:`ROLL_SHIFT_MM` of its learnt position (taken from the scan's centre, so that scans cropped to different
 sizes around the film agree; scaled by the pixel sizes): the marks are measured as on a layout found by the
-screening (:func:`aerofid.frame.orient.measure_marks`: the first ones near their learnt positions, else in their
+screening (:func:`aerofid.frame.marks.measure_marks`: the first ones near their learnt positions, else in their
 areas searched like a region; the later ones where the marks found put them), and adjusted and judged alike. A
 frame placed farther off, or one that is not ok this way, is searched whole
 (:func:`aerofid.frame.orient.orient_frame`).

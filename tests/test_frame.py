@@ -1170,8 +1170,8 @@ def test_the_real_rc20_frame_mirrored_is_measured_on_its_marks_layout_alone(tmp_
 def test_the_real_rc20_frame_without_its_pixel_size_measures_its_true_layout_first(monkeypatch):
     """Its pixels without the JPEG's tags: of the layouts found over the sizes the scan allows, three chance ones at
     0.077, 0.051 and 0.051 mm per px fitted their features more closely than the true one (0.042) and were measured
-    first (4 layouts measured; 4.7-4.9 s against 0.5 s given the pixel size). The complete layouts of a 4-fiducial
-    camera are now taken nearest the usual span first (``layout.by_prior``): the true one is the first measured. The
+    first (4 layouts measured; 4.7-4.9 s against 0.5 s given the pixel size). The layouts of a 4-fiducial camera are
+    now taken nearest the usual span first (``layout.by_prior``): the true one is the first measured. The
     pixels are declared 4:2:0 like their file, to be measured in the same plane as the reference."""
     rgb = cv2.cvtColor(cv2.imread(str(RC20 / "15BCC02013_114.jpg")), cv2.COLOR_BGR2RGB)
     measured = _layouts_measured(monkeypatch)
@@ -1180,12 +1180,30 @@ def test_the_real_rc20_frame_without_its_pixel_size_measures_its_true_layout_fir
     assert max(_errors(res, RC20_CORNERS).values()) < 0.3
 
 
+@pytest.mark.parametrize("bits", [8, 10])
+def test_a_frame_in_16_bits_that_holds_fewer_is_oriented_as_in_8(tmp_path, bits):
+    """A synthetic frame stored as a 16-bit TIFF holding ``bits`` bits (a 10-bit scanner's, or an 8-bit scan widened
+    without scaling): every window spanned under 2 % of 65535 and the frame failed, no mark found. Read on the
+    scale of its bits (``io.colour.significant_white``) it is oriented as its 8-bit pixels are."""
+    spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(2))
+    image, truth = render_frame(spec), frame_truth(spec)
+    wide = (image.astype(np.uint32) * (2 ** bits - 1) // 255).astype(np.uint16)
+    tifffile.imwrite(tmp_path / "frame.tif", wide, tile=(256, 256))
+    res = aerofid.orient_frame(tmp_path / "frame.tif", CAMERA, pixel_size_mm=COARSE_MM)
+    base = aerofid.orient_frame(image, CAMERA, pixel_size_mm=COARSE_MM)
+    assert res.status == base.status == "ok" and len(res.found) == len(base.found) == 8, res.reasons
+    assert max(_errors(res, truth.marks).values()) < 0.05
+    assert max(abs(a - b) for a, b in zip(_errors(res, truth.marks).values(), _errors(base, truth.marks).values(),
+                                          strict=True)) < 0.005
+
+
 @pytest.mark.skipif(not RC20.exists(), reason="../shared/realdata is absent")
 def test_the_real_rc20_frame_turned_without_its_pixel_size_measures_its_true_layout_second(monkeypatch):
     """Its pixels turned by 270 degrees, without the JPEG's tags: at the screening's scale its true layout has 3 of its
-    4 corners on features (the corner marks merge with their number dots), 1 % from the usual size; 4 complete chance
-    layouts 10-45 % from it were measured first (6 layouts, 6.8 s). A fiducial on no feature now counts as 6 % of
-    scale (``layout.UNMATCHED_RATIO``): an incomplete chance layout at 2 % is measured first, then the true one."""
+    4 corners on features (the corner marks merge with their number dots), 2.3 % from the usual size of the features'
+    extent; 4 complete chance layouts 8.8-45 % from it were measured first (6 layouts, 6.8 s). A fiducial on no
+    feature now counts as 4 % of scale (``layout.UNMATCHED_RATIO``): an incomplete chance layout at 1.6 % is measured
+    first, then the true one."""
     rgb = cv2.cvtColor(cv2.imread(str(RC20 / "15BCC02013_114.jpg")), cv2.COLOR_BGR2RGB)
     turned = np.ascontiguousarray(np.rot90(rgb, 3))                 # (x, y) -> (h - 1 - y, x)
     measured = _layouts_measured(monkeypatch)

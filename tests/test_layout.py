@@ -291,15 +291,30 @@ def test_a_four_fiducial_camera_s_layouts_are_taken_nearest_the_usual_span_of_it
     assert np.log(0.0428 / prior) + np.log(layout.UNMATCHED_RATIO) < np.log(0.0470 / prior)
 
 
-def test_the_features_extent_is_the_picture_s_not_the_padded_scan_s():
-    """A scan padded by 300 px of its scanner's bed: the features lie on the picture, whose extent sets the usual pixel
-    size (the padded scan's longer side put it 10 % low)."""
-    rng = np.random.default_rng(4)
-    picture = rng.uniform([300.0, 300.0], [300.0 + 5908.0, 300.0 + 5408.0], size=(400, 2))
-    picture[:2] = [[300.0, 300.0], [6207.0, 5707.0]]
-    assert layout.features_extent(picture) == pytest.approx((5907.0, 5407.0))
-    fid = np.array([[-106.0, -106.0], [106.0, 106.0]])
-    assert layout.usual_pixel_size(fid, layout.features_extent(picture)) == pytest.approx(212.0 / (0.85 * 5907.0))
+def test_a_padded_scan_s_layouts_are_taken_by_the_usual_span_of_its_picture():
+    """A 4-fiducial camera's marks in a picture of 5908 x 5408 px padded by 300 px (a scanner's bed), and 4 clutter
+    features that form a complete square at 0.0395 mm per px: the padded scan's longer side puts the usual size at
+    0.0383, nearer the chance square (3 %) than the marks (10 %); the features lie on the picture, whose extent puts
+    it at 0.0422, and the marks' layout is taken first. By the scan's size the chance square would be."""
+    fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0]])
+
+    def square(s: float, cx: float, cy: float) -> np.ndarray:
+        return np.array([[cx + x / s, cy - y / s] for x, y in fid])
+
+    clutter = np.random.default_rng(1).uniform([300.0, 300.0], [6208.0, 5708.0], (30, 2))
+    clutter[:2] = [[300.0, 300.0], [6208.0, 5708.0]]                 # the picture's corners
+    features = np.vstack([square(0.0395, 3314.0, 2964.0), clutter, square(0.04233, 3254.0, 3004.0)])
+    assert layout.features_extent(features) == pytest.approx((5908.0, 5427.5), abs=0.1)
+    got = layout.layout_candidates(features, fid, position_error_px=24.0, scan_size=(6508, 6008))
+    assert got[0].matched == (34, 35, 36, 37) and got[0].complete
+    assert layout.by_prior(got, fid, (6508.0, 6008.0))[0].matched == (0, 1, 2, 3)
+
+
+def test_a_layout_search_without_layouts_or_extent_ranks_nothing():
+    """Coincident features hold no layout and have no extent: nothing to rank, no division by it."""
+    fid = np.array([[-106.0, -106.0], [106.0, -106.0], [106.0, 106.0], [-106.0, 106.0]])
+    assert layout.layout_candidates(np.array([[5.0, 5.0], [5.0, 5.0]]), fid) == []
+    assert layout.by_prior([_layout(0.0420, 4)], fid, (0.0, 0.0))[0].pixel_size_mm == 0.0420
 
 
 @pytest.mark.parametrize("larger", [1.021, 0.979])

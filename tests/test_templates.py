@@ -55,9 +55,9 @@ def test_a_template_finds_the_mark_again_to_a_reduced_pixel(x, y, seed):
 
 @pytest.mark.parametrize("centre", [(700.4, 612.7), (75.2, 1118.9)])
 def test_a_roll_frame_is_sought_on_the_reduced_scan_where_the_template_correlates(centre):
-    """orient's step for a roll's first marks (``_matched``): the scan read reduced by the template's factor (2)
-    around a prediction 150 px off, the area clipped by the scan's edge for the second mark; the place it gives
-    (full px) within 0.25 px of the mark, the prediction's radius kept."""
+    """The marks' step for a roll's first marks (``marks._matched``): the scan read reduced by the template's
+    factor (2) around a prediction 150 px off, the area clipped by the scan's edge for the second mark; the place it
+    gives (full px) within 0.25 px of the mark, the prediction's radius kept."""
     t = _learnt()
     scene = synth.mark_scene("ring_x_dot", SIZE, window=1200, centre=centre, rng=np.random.default_rng(7))
     start = Candidate(centre[0] + 120.0, centre[1] - 90.0, SIZE / 2, 0.0)

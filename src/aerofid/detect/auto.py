@@ -299,12 +299,12 @@ class AutoResult(Detection):
     ambiguous_at : (x, y) or None
         The centre (in the window ``auto`` saw) of the mark it verified but refused for the second mark-like
         feature beside it (step 3, uniqueness): where the tighter box that the refusal asks for would lie (the search
-        of a whole frame, whose geometry judges which feature is the fiducial, draws it: :mod:`aerofid.frame.orient`).
+        of a whole frame, whose geometry judges which feature is the fiducial, draws it: :mod:`aerofid.frame.marks`).
         None when no mark was refused so.
     cut_at : (x, y) or None
         The centre (in the window ``auto`` saw) of the mark its verification refused as cut by the window's edge
         (:attr:`Check.cut`): where the larger box that the refusal asks for would be centred, for a mark of radius
-        :attr:`mark_extent` (:mod:`aerofid.frame.orient` draws it where the frame's geometry expects a mark). None
+        :attr:`mark_extent` (:mod:`aerofid.frame.marks` draws it where the frame's geometry expects a mark). None
         when no mark was refused so.
     """
 

@@ -90,14 +90,18 @@ PRIOR_SPAN = 0.85
 """Share of a scan's longer side that its fiducials usually span (a 23 cm frame's marks 212-226 mm apart, scanned
 with a margin): the pixel size tried first when the scan says none (:func:`prior_order`); of the features' extent,
 the one a camera of few fiducials measures first (:func:`by_prior`)."""
-UNMATCHED_RATIO = 1.06
-"""A layout of a camera of fewer than :data:`SETTLING_FIDUCIALS` fiducials with one of them on no feature ranks as a
-complete one whose pixel size lies this ratio further from the usual one (:func:`by_prior`). The RC20 frame's corner
-marks merge with their number dots at the screening's scale, and on 3 of 19 files of it (a quality-40 JPEG, one
-turned by 270 degrees, one of half its area) the true layout had 3 of its 4 corners on features, 1 % from the usual
-size, behind 4-6 complete chance ones 10-55 % from it: 7 layouts were measured, in 4.4-8.7 s, where the first is
-now, in 0.9-1.4 s (scratch ``/tmp/s58/audit``). Put after every complete one, as until session 58, a faded frame's
-true layout, 3 of its 4 fiducials on features, fell behind 8 chance ones beyond the layouts measured (session 49)."""
+UNMATCHED_RATIO = 1.04
+"""A layout of a camera of fewer than :data:`SETTLING_FIDUCIALS` fiducials with one of them on no feature (or not on
+one closely, :func:`_shortfall`) ranks as a complete one whose pixel size lies this ratio further from the usual one
+(:func:`by_prior`). On the RC20 frame's 18 file variants of session 57's audit without their pixel size (scratch
+``/tmp/s58/pen.py``), the true layouts lay 0.1-3.3 % from the usual size of their features' extent, complete, or
+1.8-2.3 % with 3 of their 4 corners on features (the corner marks merge with their number dots at the screening's
+scale: at quality 40, turned by 270 degrees, at half the area); complete chance layouts 4.3 % from it or further
+(8.4-9.6 % on those three), incomplete ones 0.3 % or further. The ratio lies between what the first needs (above
+1.015: a chance layout of 3 corners 0.3 % off must not come before a complete true one 1.8 % off) and what the
+second allows (below 1.065), with a margin of 2.4 % of scale either way. Before session 58 the complete layouts took
+the places of complete ones nearest the usual size first and the incomplete ones kept theirs: on those three files
+4-6 complete chance layouts were measured before the true one (4.4-8.7 s)."""
 SETTLING_FIDUCIALS = 5
 """Fewest fiducials for a layout with every one of them on a feature (:attr:`LayoutMatch.complete`, or
 :attr:`LayoutMatch.decisive`) to end the search over unknown pixel sizes: four corners can be mimicked by the image's
@@ -217,7 +221,8 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
     With ``first_complete``, unknown sizes are tried nearest the usual one first (:func:`prior_order`; nearest the
     middle of a ``size_range`` given) and the search ends at the first :attr:`~LayoutMatch.decisive` layout of at
     least :data:`SETTLING_FIDUCIALS` fiducials, which is then the one returned (the frame's measurement asks for the
-    whole search when its marks do not make the frame ok).
+    whole search when its marks do not make the frame ok). A camera of fewer fiducials at an unknown size has its
+    layouts ranked by :func:`by_prior` (nearest the usual size of the features' extent first).
 
     ``turns``: the frame's rotation beyond its lie's multiple of 90 degrees is more than the first and at most the
     second (degrees; each hypothesis that turns it otherwise is dropped, step 2 of the module docstring).
@@ -257,17 +262,25 @@ def layout_candidates(features: np.ndarray, fiducials_mm: np.ndarray, y_axis: st
 def by_prior(ranked: list[LayoutMatch], fiducials_mm: np.ndarray, extent: tuple[float, float]) -> list[LayoutMatch]:
     """Layouts of a camera of fewer than :data:`SETTLING_FIDUCIALS` fiducials found over unknown pixel sizes,
     ``ranked`` by their fit, taken nearest first (by ratio) to the pixel size at which the fiducials span
-    :data:`PRIOR_SPAN` of the features' ``extent`` (:func:`features_extent`), those with a fiducial on no feature as
-    if :data:`UNMATCHED_RATIO` further (of equals, the better fit first). An affine transformation fits four points
-    near any square closely, and a frame's features form many such squares at other scales: on the real RC20 frame
-    (4 calibrated corners) without a pixel size, 11 of its 14 layouts were complete, and three chance ones at 0.077,
-    0.051 and 0.051 mm per px (the fiducials spanning 47-70 % of the scan) fitted their features more closely than
-    the true one at 0.042 (86 %), and were each measured first (4.7-4.9 s in a fresh process against 0.5 s with the
-    pixel size given)."""
+    :data:`PRIOR_SPAN` of the features' ``extent`` (:func:`features_extent`; the scan's size until session 58: 10 %
+    off on a padded scan), those with a fiducial on no feature as if :data:`UNMATCHED_RATIO` further (of equals, the
+    better fit first). An affine transformation fits four points near any square closely, and a frame's features form
+    many such squares at other scales: on the real RC20 frame (4 calibrated corners) without a pixel size, 11 of its
+    14 layouts were complete, and three chance ones at 0.077, 0.051 and 0.051 mm per px (the fiducials spanning 47-70 %
+    of the scan) fitted their features more closely than the true one at 0.042 (86 %), and were each measured first
+    (4.7-4.9 s in a fresh process against 0.5 s with the pixel size given)."""
+    if not ranked or max(extent) <= 0.0:
+        return ranked
     prior = usual_pixel_size(fiducials_mm, extent)
     unmatched = math.log(UNMATCHED_RATIO)
     n = len(fiducials_mm)
-    return sorted(ranked, key=lambda m: ratio_distance(m.pixel_size_mm, prior) + unmatched * (n - m.n_matched))
+    return sorted(ranked, key=lambda m: ratio_distance(m.pixel_size_mm, prior) + unmatched * _shortfall(m, n))
+
+
+def _shortfall(m: LayoutMatch, n: int) -> int:
+    """How many of a layout's ``n`` fiducials lie on no feature, at least one where it is not complete (its refit can
+    keep loose matches: :func:`_scored`)."""
+    return max(n - m.n_matched, 0 if m.complete else 1)
 
 
 def features_extent(features: np.ndarray) -> tuple[float, float]:

@@ -45,14 +45,11 @@ def normalise(window: np.ndarray, white: float | None = None) -> np.ndarray:
     """Return ``window`` as float32 grey levels in [0, 1].
 
     Integer samples are divided by ``white``, the scan's full scale (:func:`significant_white`), by default the
-    largest value of their dtype (255 for uint8, 65535 for uint16); a sample above a ``white`` below that is read as 1
-    (a hot pixel of a 10-bit scan in 16 bits). Float samples are returned unchanged, as float32.
+    largest value of their dtype (255 for uint8, 65535 for uint16). Float samples are returned unchanged, as float32.
     """
     array = np.asarray(window)
     if array.dtype.kind in "ui":
-        top = np.iinfo(array.dtype).max
-        grey = array.astype(np.float32) / np.float32(white or top)
-        return np.minimum(grey, np.float32(1.0), out=grey) if white and white < top else grey
+        return array.astype(np.float32) / np.float32(white or np.iinfo(array.dtype).max)
     if array.dtype.kind == "f":
         return array.astype(np.float32, copy=False)
     raise AerofidInputError(

@@ -407,10 +407,7 @@ def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int,
     if source.dtype.kind not in "ui":
         return reduced.astype(np.float32), LEAST_GREY_STEP
     step = 1.0 / source.white
-    levels = (reduced * np.float32(step)).astype(np.float32)
-    if source.white < np.iinfo(source.dtype).max:          # a scan of fewer bits than its dtype's: at most white
-        np.minimum(levels, np.float32(1.0), out=levels)
-    return levels, max(step, LEAST_GREY_STEP)
+    return (reduced * np.float32(step)).astype(np.float32), max(step, LEAST_GREY_STEP)
 
 
 WHITE_PIXELS = 1_000_000

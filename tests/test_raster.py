@@ -16,15 +16,7 @@ from hypothesis import strategies as st
 from aerofid.errors import AerofidInputError
 from aerofid.io import raster as raster_module
 from aerofid.io.array import ArrayRaster
-from aerofid.io.colour import (
-    MIX_WEIGHTS,
-    choose_channel_mix,
-    luminance_first,
-    mark_contrast,
-    normalise,
-    significant_white,
-    to_grey,
-)
+from aerofid.io.colour import MIX_WEIGHTS, choose_channel_mix, luminance_first, mark_contrast, normalise, to_grey
 from aerofid.io.jpeg import subsampled_components
 from aerofid.io.raster import Raster, check_window_size, clip_box, open_raster, segment_indices
 from aerofid.io.reduce import ReducedView
@@ -599,23 +591,6 @@ def test_normalise():
     np.testing.assert_array_equal(normalise(floats), np.float32(floats))
     with pytest.raises(AerofidInputError, match="integer or float"):
         normalise(np.array([True, False]))
-
-
-@pytest.mark.parametrize(("bits", "white"), [(8, 511.0), (10, 2047.0), (11, 4095.0), (12, 65535.0), (16, 65535.0)])
-def test_a_16_bit_scan_is_read_on_the_scale_of_the_bits_it_uses_below_12(tmp_path, bits, white):
-    """A 16-bit TIFF whose samples use ``bits`` bits: below 12 its full scale is one bit above the brightest block of
-    its overview (the block means may lie below the brightest pixel), and every sample stays within it; from 12 on,
-    65535 as always. The same for the pixels as an array. 8-bit files need no read."""
-    rng = np.random.default_rng(bits)
-    image = (rng.uniform(0.1, 1.0, (300, 200)) * (2 ** bits - 1)).astype(np.uint16)
-    path = tmp_path / "scan.tif"
-    tifffile.imwrite(path, image, tile=(64, 64))
-    with open_raster(path) as r:
-        assert r.white == white and r.white >= image.max()
-        assert normalise(r.read_window((0, 0, 200, 300)), r.white).max() <= 1.0
-    assert ArrayRaster(image).white == white
-    assert ArrayRaster(np.zeros((8, 8), np.uint8)).white == 255.0 == significant_white(np.dtype(np.uint8), 7.0)
-    assert significant_white(np.dtype(np.uint16), 0.0) == 511.0
 
 
 def red_mark_on_black(seed=0):

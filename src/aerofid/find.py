@@ -218,8 +218,7 @@ class Measurer:
 
     def _grey(self, samples: np.ndarray, pol: Polarity) -> np.ndarray:
         """The window's grey levels, the mark bright for polarity ``pol``."""
-        grey = to_grey(samples, self.colour, pol, luma_first=self.luma_first and self.takes_luminance_first(),
-                       white=self.source.white)
+        grey = to_grey(samples, self.colour, pol, luma_first=self.luma_first and self.takes_luminance_first())
         return 1.0 - grey if pol == "dark" else grey
 
     def takes_luminance_first(self) -> bool:

@@ -13,7 +13,7 @@ import numpy as np
 
 from aerofid.errors import AerofidInputError
 from aerofid.io.raster import WINDOW_LIMIT_BYTES, Raster, _window_box, check_window_size, open_raster
-from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips, scan_white
+from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
 
 __all__ = ["ArrayRaster", "RasterLike", "as_image_array", "open_image"]
 
@@ -144,14 +144,6 @@ class ArrayRaster:
         self.bands = 1 if a.ndim == 2 else 3
         self.dtype = a.dtype.newbyteorder("=")
         self._array: np.ndarray | None = a[:, :, None] if a.ndim == 2 else a
-        self._white: float | None = None
-
-    @property
-    def white(self) -> float:
-        """The sample value read at full scale (:func:`~aerofid.io.reduce.scan_white`), found once."""
-        if self._white is None:
-            self._white = scan_white(self)
-        return self._white
 
     def _open_array(self) -> np.ndarray:
         """The kept ``(h, w, bands)`` array, or raise if closed."""

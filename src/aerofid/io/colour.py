@@ -14,14 +14,12 @@ from aerofid.robust import difference_noise_sigma, percentiles
 
 __all__ = [
     "COLOUR_POLICIES",
-    "LEAST_SIGNIFICANT_BITS",
     "MIX_WEIGHTS",
     "channel_mix",
     "choose_channel_mix",
     "luminance_first",
     "mark_contrast",
     "normalise",
-    "significant_white",
     "to_grey",
 ]
 
@@ -41,15 +39,16 @@ FLOAT_NOISE_FLOOR = 1e-6
 
 
 
-def normalise(window: np.ndarray, white: float | None = None) -> np.ndarray:
+def normalise(window: np.ndarray) -> np.ndarray:
     """Return ``window`` as float32 grey levels in [0, 1].
 
-    Integer samples are divided by ``white``, the scan's full scale (:func:`significant_white`), by default the
-    largest value of their dtype (255 for uint8, 65535 for uint16). Float samples are returned unchanged, as float32.
+    Integer samples are divided by the largest value of their dtype (255 for uint8, 65535 for uint16; a
+    16-bit file that holds 12-bit data is still divided by 65535: the bit depth is not guessed). Float
+    samples are returned unchanged, as float32.
     """
     array = np.asarray(window)
     if array.dtype.kind in "ui":
-        return array.astype(np.float32) / np.float32(white or np.iinfo(array.dtype).max)
+        return array.astype(np.float32) / np.float32(np.iinfo(array.dtype).max)
     if array.dtype.kind == "f":
         return array.astype(np.float32, copy=False)
     raise AerofidInputError(
@@ -57,41 +56,11 @@ def normalise(window: np.ndarray, white: float | None = None) -> np.ndarray:
     )
 
 
-def _noise_floor(dtype: np.dtype, white: float | None = None) -> float:
-    """Smallest noise level worth believing for samples of ``dtype`` read on the scale of ``white``
-    (:func:`normalise`), in [0, 1] grey levels."""
+def _noise_floor(dtype: np.dtype) -> float:
+    """Smallest noise level worth believing for samples of ``dtype``, in [0, 1] grey levels."""
     if dtype.kind in "ui":
-        return 1.0 / float(white or np.iinfo(dtype).max)
+        return 1.0 / float(np.iinfo(dtype).max)
     return FLOAT_NOISE_FLOOR
-
-
-LEAST_SIGNIFICANT_BITS = 12
-"""Integer samples wider than 8 bits that use fewer than this many bits (their largest below 2^12) are read on the
-scale of the bits they use (:func:`significant_white`): a 16-bit file that holds a 10-bit scan, or an 8-bit scan
-widened without scaling, spans 1.4 % or 0.4 % of 65535, below every detector's least grey range (2 %: a homogeneous
-window), and none of its marks was found. 12 bits or more are read on their dtype's scale, as always (6 % of it at
-least)."""
-
-
-def significant_white(dtype: np.dtype, brightest: float) -> float:
-    """The sample value a scan of integer ``dtype`` is read at full scale (:func:`normalise`): the dtype's largest,
-    but where it is wider than 8 bits and its ``brightest`` sample (a bound from its reduced overview: block means,
-    below the brightest pixel) uses fewer than :data:`LEAST_SIGNIFICANT_BITS` bits, ``2^(b + 1) - 1`` for the ``b``
-    bits it uses (at least 8): one bit more than the block means show, so no pixel exceeds it by much. 1.0 for float
-    samples.
-
-    >>> [significant_white(np.dtype(np.uint16), b) for b in (230.0, 920.0, 3680.0, 60000.0)]
-    [511.0, 2047.0, 65535.0, 65535.0]
-    >>> significant_white(np.dtype(np.uint8), 90.0), significant_white(np.dtype(np.float32), 0.5)
-    (255.0, 1.0)
-    """
-    if dtype.kind not in "ui":
-        return 1.0
-    top = float(np.iinfo(dtype).max)
-    bits = max(8, int(max(brightest, 0.0)).bit_length())
-    if top <= 255 or bits >= LEAST_SIGNIFICANT_BITS:
-        return top
-    return float(2 ** (bits + 1) - 1)
 
 
 def mark_contrast(grey: np.ndarray, polarity: Polarity = "bright", *, noise_floor: float) -> float:
@@ -199,7 +168,7 @@ def choose_channel_mix(window: np.ndarray, polarity: Polarity = "bright", *, lum
 
 
 def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "bright", *,
-            luma_first: bool = False, white: float | None = None) -> np.ndarray:
+            luma_first: bool = False) -> np.ndarray:
     """Turn a window into float32 grey levels in [0, 1] by a colour policy.
 
     Args:
@@ -213,16 +182,14 @@ def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "brig
         luma_first: whether the window comes from a file whose luminance alone has its full resolution and keeps the
             mark (:func:`luminance_first`: a 4:2:0 JPEG of a fair quality); ``"auto"`` then takes luminance wherever
             it shows the mark with :data:`LUMA_SHARE` of the best mix's contrast.
-        white: the scan's full scale for integer samples (:func:`significant_white`; default: their dtype's
-            largest value).
     """
     _check_choice(policy, COLOUR_POLICIES, "colour policy")
     _check_choice(polarity, POLARITIES, "polarity")
     array = _rgb_window(window)
-    grey = normalise(array, white)
+    grey = normalise(array)
     if array.ndim == 2:
         return grey
-    mix = _best_mix(grey, polarity, _noise_floor(array.dtype, white), luma_first) if policy == "auto" else policy
+    mix = _best_mix(grey, polarity, _noise_floor(array.dtype), luma_first) if policy == "auto" else policy
     return channel_mix(grey, mix)
 
 

@@ -50,7 +50,7 @@ from aerofid.io import jpeg
 from aerofid.io.budget import check_budget
 from aerofid.io.files import input_file
 from aerofid.io.jpeg_top import BackgroundJpegReader
-from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips, scan_white
+from aerofid.io.reduce import check_factor, check_reduced_size, reduce_in_strips
 from aerofid.parallel import THREADS
 
 if TYPE_CHECKING:
@@ -400,7 +400,6 @@ class Raster:
         self.format = _file_format(self.path)
         self._tif: tifffile.TiffFile | None = None
         self._reader: _Reader | None = None
-        self._white: float | None = None
         self._overview: jpeg.HugeJpegReader | None = None
         self._invert = False
         if self.format == "tiff":
@@ -639,14 +638,6 @@ class Raster:
             return self.read_reduced(window_box, factor)
         out = self._overview.read_reduced(window_box, factor)
         return out[:, :, 0] if self.bands == 1 else out
-
-    @property
-    def white(self) -> float:
-        """The sample value read at full scale (:func:`~aerofid.io.reduce.scan_white`: the dtype's largest, but the
-        scale of the bits a 16-bit file's samples use where they use fewer than 12), found once."""
-        if self._white is None:
-            self._white = scan_white(self)
-        return self._white
 
     @property
     def decoding(self) -> bool:

@@ -27,7 +27,6 @@ import numpy as np
 
 from aerofid.conventions import LEAST_GREY_STEP
 from aerofid.errors import AerofidInputError
-from aerofid.io.colour import significant_white
 from aerofid.io.source import ImageSource
 from aerofid.parallel import map_in_threads
 
@@ -368,11 +367,6 @@ class ReducedView:
         object.__setattr__(self, "chroma_subsampled", self.source.chroma_subsampled and self.factor < 2)
         object.__setattr__(self, "luma_step", self.source.luma_step if self.factor < 2 else None)
 
-    @property
-    def white(self) -> float:
-        """1.0: the view's grey levels are on [0, 1] already (on its source's scale, :func:`scan_white`)."""
-        return 1.0
-
     def read_window(self, box: Sequence[int]) -> np.ndarray:
         """The reduced window ``box`` (reduced pixels, x1 and y1 exclusive), float32 on [0, 1]."""
         return self.read_reduced(box, 1)
@@ -406,24 +400,6 @@ def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int,
     reduced = read(box, f)
     if source.dtype.kind not in "ui":
         return reduced.astype(np.float32), LEAST_GREY_STEP
-    step = 1.0 / source.white
+    step = 1.0 / float(np.iinfo(source.dtype).max)
     return (reduced * np.float32(step)).astype(np.float32), max(step, LEAST_GREY_STEP)
-
-
-WHITE_PIXELS = 1_000_000
-"""Most pixels of the reduced overview whose brightest block bounds a scan's significant bits (:func:`scan_white`)."""
-
-
-def scan_white(source: ImageSource) -> float:
-    """The sample value ``source`` is read at full scale (:func:`aerofid.io.colour.significant_white`): its dtype's
-    largest, found without a read for 8-bit and float samples; for wider integers from the brightest block of the
-    whole image reduced to at most :data:`WHITE_PIXELS` (a 16-bit file that holds a 10-bit scan)."""
-    dtype = source.dtype
-    if dtype.kind not in "ui" or np.iinfo(dtype).max <= 255:
-        return significant_white(dtype, 0.0)
-    f = 1
-    while math.ceil(source.width / f) * math.ceil(source.height / f) > WHITE_PIXELS:
-        f *= 2
-    brightest = float(np.max(source.read_reduced((0, 0, source.width, source.height), f)))
-    return significant_white(dtype, brightest)
 

@@ -1180,13 +1180,11 @@ def test_the_real_rc20_frame_without_its_pixel_size_measures_its_true_layout_fir
     assert max(_errors(res, RC20_CORNERS).values()) < 0.3
 
 
-@pytest.mark.xfail(strict=True, reason="known: integer samples are read on their dtype's scale; a 16-bit file of 10 "
-                   "bits spans 1.6 % of 65535, under the detectors' least grey range (docs/benchmarks_frames.md, "
-                   "session 58)")
-@pytest.mark.parametrize("bits", [10])
+@pytest.mark.parametrize("bits", [8, 10])
 def test_a_frame_in_16_bits_that_holds_fewer_is_oriented_as_in_8(tmp_path, bits):
-    """A synthetic frame stored as a 16-bit TIFF holding ``bits`` bits (a 10-bit scanner's): every window spans under
-    2 % of 65535, and the frame fails with no mark found. It should be oriented as its 8-bit pixels are."""
+    """A synthetic frame stored as a 16-bit TIFF holding ``bits`` bits (a 10-bit scanner's, or an 8-bit scan widened
+    without scaling): every window spanned under 2 % of 65535 and the frame failed, no mark found. Read at the scale
+    of its bits (``find.with_white``) it is oriented as its 8-bit pixels are."""
     spec = frame_spec(CAMERA, COARSE_MM, np.random.default_rng(2))
     image, truth = render_frame(spec), frame_truth(spec)
     wide = (image.astype(np.uint32) * (2 ** bits - 1) // 255).astype(np.uint16)

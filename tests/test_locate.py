@@ -71,6 +71,33 @@ def test_a_red_mark_in_a_4_2_0_jpeg_is_measured_in_its_luminance_to_its_true_cen
     assert (as_array.x, as_array.y) == (in_red.x, in_red.y) != (got.x, got.y)
 
 
+@pytest.mark.parametrize("bits", [8, 10])
+def test_a_mark_in_a_16_bit_file_that_holds_fewer_bits_is_found_as_in_full_range(tmp_path, bits):
+    """A 10-bit scan stored in 16 bits (or an 8-bit one widened without scaling) spans 1.6 % (0.4 %) of 65535, under
+    the detectors' least grey range: its mark was refused as a homogeneous window. Read at the scale of its bits,
+    decided from the box alone (a tile far from it, corrupt, is never read), it gives the centre of the same pixels
+    in full range; a hot pixel in the box does not change the scale."""
+    rng = np.random.default_rng(3)
+    scene = synth.mark_scene("ring_cross", size=40, window=160, rng=rng, noise_sigma=0.01)
+    full = np.clip(scene.image, 0, 1)
+    few = np.zeros((512, 512), np.uint16)
+    few[:160, :160] = np.round(full * (2 ** bits - 1))
+    few[25, 100] = 65535                                             # a hot pixel in the boxes
+    wide = few.astype(np.uint32) * 65535 // (2 ** bits - 1)
+    tifffile.imwrite(tmp_path / "few.tif", few, tile=(256, 256), compression="zlib")
+    tifffile.imwrite(tmp_path / "wide.tif", np.minimum(wide, 65535).astype(np.uint16), tile=(256, 256))
+    with tifffile.TiffFile(tmp_path / "few.tif") as tif:
+        offset, count = tif.pages[0].dataoffsets[3], tif.pages[0].databytecounts[3]   # the bottom right tile
+    with (tmp_path / "few.tif").open("r+b") as file:
+        file.seek(offset)
+        file.write(b"\xff" * count)
+    for box in ((20, 20, 140, 140), (50, 20, 110, 140)):             # 14400 px, and 7200: one passed over
+        got, ref = aerofid.locate(tmp_path / "few.tif", box), aerofid.locate(tmp_path / "wide.tif", box)
+        assert got.found and ref.found, got.reason
+        assert np.hypot(got.x - ref.x, got.y - ref.y) < 2e-3
+        assert np.hypot(got.x - scene.marks[0].x, got.y - scene.marks[0].y) < 0.05
+
+
 def test_box_partly_outside_is_clipped_and_said(scan):
     path, (cx, cy) = scan
     r = aerofid.locate(path, (180, 90, 450, 350), mark="external")

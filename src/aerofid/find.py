@@ -36,7 +36,7 @@ from aerofid.detect.result import Detection
 from aerofid.detect.screen import Candidate, merge_candidates, screen
 from aerofid.errors import AerofidInputError
 from aerofid.io.array import open_image
-from aerofid.io.colour import COLOUR_POLICIES, luminance_first, to_grey
+from aerofid.io.colour import COLOUR_POLICIES, first_look_white, luminance_first, to_grey
 from aerofid.io.raster import clip_box
 from aerofid.io.reduce import read_reduced_levels
 from aerofid.io.source import ImageSource
@@ -163,6 +163,9 @@ class Measurer:
     """Whether ``colour="auto"`` takes luminance first in a file that calls for it (:meth:`takes_luminance_first`);
     false: the mix that shows the mark best, the search that follows one in luminance that found too little
     (:func:`colour_again`)."""
+    white: float | None = None
+    """The full scale this search reads the source's integer samples at (:func:`with_white`; None: their dtype's
+    largest value)."""
 
     def at(self, x: float, y: float, half: float, candidate: Candidate | None = None,
            blank: tuple[float, float, float] | None = None) -> Located:
@@ -218,7 +221,8 @@ class Measurer:
 
     def _grey(self, samples: np.ndarray, pol: Polarity) -> np.ndarray:
         """The window's grey levels, the mark bright for polarity ``pol``."""
-        grey = to_grey(samples, self.colour, pol, luma_first=self.luma_first and self.takes_luminance_first())
+        grey = to_grey(samples, self.colour, pol, luma_first=self.luma_first and self.takes_luminance_first(),
+                       white=self.white)
         return 1.0 - grey if pol == "dark" else grey
 
     def takes_luminance_first(self) -> bool:
@@ -365,15 +369,29 @@ def reduction_for(width: int, height: int, budget: int = SCREEN_PIXELS) -> int:
     return f
 
 
+def with_white(measurer: Measurer, region: Box) -> Measurer:
+    """``measurer`` with its search's full scale (:attr:`Measurer.white`) from its first look: ``region`` read reduced
+    as its screening reads it, where the source's samples are integers wider than 8 bits and no scale is set yet
+    (:func:`~aerofid.io.colour.first_look_white`: a 16-bit file of fewer than 12 bits is read at the scale of the
+    bits it uses); else ``measurer`` itself. Only ``region`` is read."""
+    dtype = measurer.source.dtype
+    if measurer.white is not None or dtype.kind not in "ui" or np.iinfo(dtype).max <= 255:
+        return measurer
+    x0, y0, x1, y1 = region
+    levels, _ = read_reduced_levels(measurer.source, region, reduction_for(x1 - x0, y1 - y0))
+    return replace(measurer, white=first_look_white(levels, dtype) or float(np.iinfo(dtype).max))
+
+
 def screen_region(source: ImageSource, region: Box, colour: str, polarity: Polarity,
                   min_radius: float, max_radius: float | None,
-                  max_candidates: int) -> tuple[tuple[Candidate, ...], int]:
-    """Step 1: candidates whose centres lie in ``region`` (full-image pixels), and the reduction used."""
+                  max_candidates: int, white: float | None = None) -> tuple[tuple[Candidate, ...], int]:
+    """Step 1: candidates whose centres lie in ``region`` (full-image pixels), and the reduction used (``white``: the
+    search's full scale, :attr:`Measurer.white`)."""
     margin = int(min(CONTEXT, max_radius if max_radius is not None else CONTEXT))
     x0, y0, x1, y1 = region
     ctx, _ = clip_box((x0 - margin, y0 - margin, x1 + margin, y1 + margin), source.width, source.height)
     f = reduction_for(ctx[2] - ctx[0], ctx[3] - ctx[1])
-    reduced, step = read_reduced_levels(source, ctx, f)
+    reduced, step = read_reduced_levels(source, ctx, f, white=white)
     found: list[Candidate] = []
     for grey in screening_greys(reduced, colour, polarity):
         found += screen(grey, scale=f, min_radius=min_radius, max_radius=max_radius,
@@ -466,9 +484,9 @@ def find_marks(image: str | os.PathLike[str] | np.ndarray | Any, region: Sequenc
     with open_image(image, None if region is None else rows_read(region)) as source:
         area = (0, 0, source.width, source.height) if region is None else clip_box(region, source.width,
                                                                                   source.height)[0]
-        measurer = Measurer(source, detector, polarities, colour)
+        measurer = with_white(Measurer(source, detector, polarities, colour), area)
         candidates, f = screen_region(source, area, colour, polarities[0], min_radius, max_radius,
-                                      max_candidates)
+                                      max_candidates, measurer.white)
         return search(measurer, area, candidates, f)
 
 
@@ -513,4 +531,4 @@ def in_box(x: float, y: float, box: Box) -> bool:
 
 
 __all__ = ["FOUND", "NOT_FOUND", "Located", "MarkSearch", "Measurer", "configure", "find_marks", "in_box",
-           "recentred_half", "search"]
+           "recentred_half", "search", "with_white"]

@@ -39,6 +39,7 @@ from aerofid.find import (
     screen_region,
     search,
     window_ladder,
+    with_white,
 )
 from aerofid.io.array import open_image
 from aerofid.io.raster import Raster, clip_box
@@ -191,6 +192,7 @@ def locate(image: str | os.PathLike[str] | np.ndarray | Raster, box: Sequence[fl
 def search_box(measurer: Measurer, region: Box) -> MarkSearch:
     """The search of :func:`aerofid.find.find_marks` on one box, with the box's centre as a last candidate
     (a tight box: the mark fills it); a cloth panel's box is first measured whole (:func:`panel_box`)."""
+    measurer = with_white(measurer, region)
     w, h = region[2] - region[0], region[3] - region[1]
     centre = Candidate(x=region[0] + (w - 1) / 2.0, y=region[1] + (h - 1) / 2.0,
                        radius=min(w / 2.0, h / 2.0, MAX_MARK_RADIUS), strength=0.0, inner=2.0)
@@ -292,7 +294,8 @@ def screen_box(measurer: Measurer, region: Box) -> tuple[tuple[Candidate, ...], 
     w, h = region[2] - region[0], region[3] - region[1]
     n = int(min(max(LOCATE_CANDIDATES[0] * w * h / CANDIDATE_AREA, LOCATE_CANDIDATES[0]), LOCATE_CANDIDATES[1]))
     return screen_region(measurer.source, region, measurer.colour, measurer.polarities[0], min_radius=2.0,
-                         max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n)
+                         max_radius=min(max(w, h) / 2.0 + 2.0, MAX_MARK_RADIUS), max_candidates=n,
+                         white=measurer.white)
 
 
 def another_cross(measurer: Measurer, region: Box, panel: Located, screened: tuple[Candidate, ...]) -> bool:

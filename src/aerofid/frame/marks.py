@@ -380,7 +380,7 @@ def _coarse_first(measurer: Measurer, start: Candidate, at: tuple[float, float],
     f = _coarse_factor(start.radius)
     if f == 1:
         return None
-    view = ReducedView(measurer.source, f)
+    view = ReducedView(measurer.source, f, measurer.white)
     reduced = replace(measurer, source=view)
     coarse = reduced.candidate(_reduced(start, view), settle=False)
     if not coarse.found:
@@ -437,7 +437,7 @@ def _coarse(measurer: Measurer, name: str, start: Candidate, reach: float = 0.0,
     f = _coarse_factor(start.radius)
     if f == 1 and reach <= 0:
         return start
-    view = ReducedView(measurer.source, f)
+    view = ReducedView(measurer.source, f, measurer.white)
     small = _reduced(start, view)
     half = recentred_half(small.radius, ALONE_WINDOWS[0]) + reach / view.factor
     coarse = replace(measurer.alone(name), source=view).at(small.x, small.y, half, small)
@@ -448,7 +448,7 @@ def _matched(measurer: Measurer, template: MarkTemplate, start: Candidate, reach
     """``start`` moved to where the mark's ``template`` correlates best within ``reach`` px of it, on the scan
     reduced by the template's factor, in the measurer's (first) polarity
     (:func:`aerofid.frame.templates.match_template`); None where nothing there correlates enough."""
-    view = ReducedView(measurer.source, template.factor)
+    view = ReducedView(measurer.source, template.factor, measurer.white)
     small = _reduced(start, view)
     half = max(template.shape) / 2 + reach / view.factor
     box, grey = replace(measurer, source=view).grey(small.x, small.y, half, measurer.polarities[0])
@@ -608,7 +608,7 @@ def _nearest_mark(measurer: Measurer, area: Box, at: tuple[float, float], tolera
                   radius: float) -> Located | None:
     """The predicted area searched like a region: the found mark nearest ``at`` within ``tolerance``."""
     cands, f = screen_region(measurer.source, area, measurer.colour, measurer.polarities[0], 2.0,
-                             max(4.0 * radius, 8.0), AREA_CANDIDATES)
+                             max(4.0 * radius, 8.0), AREA_CANDIDATES, measurer.white)
     marks = [m for m in search(measurer, area, cands, f).marks if math.hypot(m.x - at[0], m.y - at[1]) <= tolerance]
     return min(marks, key=lambda m: math.hypot(m.x - at[0], m.y - at[1]), default=None)
 

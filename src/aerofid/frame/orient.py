@@ -38,6 +38,7 @@ from aerofid.find import (
     colour_again,
     configure,
     reduction_for,
+    with_white,
 )
 from aerofid.formats.camera_file import read_camera
 from aerofid.frame.layout import (
@@ -192,8 +193,9 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         # a nominal layout's scale is not the scan's: the layout search finds it, near a pixel size the scan declares
         size, size_source = (None, "estimated") if nominal is not None else declared
         size_range = nominal_sizes(declared[0]) if nominal is not None and declared[0] is not None else None
-        frame = _Frame(source, cam, Measurer(source, detector, polarities, colour), model, size, size_source, lie,
-                       profile, nominal is not None, size_range)
+        # the frame's full scale from the whole scan (a 16-bit file of fewer bits: find.with_white)
+        measurer = with_white(Measurer(source, detector, polarities, colour), (0, 0, source.width, source.height))
+        frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None, size_range)
         extras = {} if nominal is not None else extra_marks(cam)
         best = frame.search(extras, declared)
         if not best.fiducials:                  # no layout among the features: its reasons say all (_no_layout)

@@ -13,10 +13,13 @@ from aerofid.errors import AerofidInputError
 from aerofid.robust import difference_noise_sigma, percentiles
 
 __all__ = [
+    "BRIGHT_SHARE",
     "COLOUR_POLICIES",
+    "LEAST_SIGNIFICANT_BITS",
     "MIX_WEIGHTS",
     "channel_mix",
     "choose_channel_mix",
+    "first_look_white",
     "luminance_first",
     "mark_contrast",
     "normalise",
@@ -39,16 +42,19 @@ FLOAT_NOISE_FLOOR = 1e-6
 
 
 
-def normalise(window: np.ndarray) -> np.ndarray:
-    """Return ``window`` as float32 grey levels in [0, 1].
+def normalise(window: np.ndarray, white: float | None = None) -> np.ndarray:
+    """Return ``window`` as float32 grey levels, on [0, 1] for a scan's samples up to ``white``.
 
-    Integer samples are divided by the largest value of their dtype (255 for uint8, 65535 for uint16; a
-    16-bit file that holds 12-bit data is still divided by 65535: the bit depth is not guessed). Float
+    Integer samples are divided by ``white``, the full scale a search reads its scan at (:func:`first_look_white`),
+    by default the largest value of their dtype (255 for uint8, 65535 for uint16); one above a ``white`` below that
+    is read as 1, as a scan of the full range saturates (a hot pixel would otherwise outshine every mark). Float
     samples are returned unchanged, as float32.
     """
     array = np.asarray(window)
     if array.dtype.kind in "ui":
-        return array.astype(np.float32) / np.float32(np.iinfo(array.dtype).max)
+        top = np.iinfo(array.dtype).max
+        grey = array.astype(np.float32) / np.float32(white or top)
+        return np.minimum(grey, np.float32(1.0), out=grey) if white and white < top else grey
     if array.dtype.kind == "f":
         return array.astype(np.float32, copy=False)
     raise AerofidInputError(
@@ -56,11 +62,45 @@ def normalise(window: np.ndarray) -> np.ndarray:
     )
 
 
-def _noise_floor(dtype: np.dtype) -> float:
-    """Smallest noise level worth believing for samples of ``dtype``, in [0, 1] grey levels."""
+def _noise_floor(dtype: np.dtype, white: float | None = None) -> float:
+    """Smallest noise level worth believing for samples of ``dtype`` read at full scale ``white`` (:func:`normalise`),
+    in grey levels."""
     if dtype.kind in "ui":
-        return 1.0 / float(np.iinfo(dtype).max)
+        return 1.0 / float(white or np.iinfo(dtype).max)
     return FLOAT_NOISE_FLOOR
+
+
+LEAST_SIGNIFICANT_BITS = 12
+"""Integer samples wider than 8 bits whose first look (:func:`first_look_white`) uses fewer than this many bits are
+read at the scale of the bits they use: a 16-bit file that holds a 10-bit scan, or an 8-bit scan widened without
+scaling, spans 1.6 % or 0.4 % of 65535, under the detectors' least grey range (2 %: a homogeneous window), and none
+of its marks was found (session 58). From 12 bits on (3 % of 65535 or more) the dtype's scale, as always."""
+BRIGHT_SHARE = 1e-4
+"""Share of a first look's samples, the brightest, that :func:`first_look_white` passes over, one at least (a hot
+pixel, a speck of dust against the light: a 60 px box of a 10-bit scan with one was still read on 65535's scale)."""
+
+
+def first_look_white(levels: np.ndarray, dtype: np.dtype) -> float | None:
+    """The full scale (a sample value) a search reads a scan of ``dtype`` at, from the grey levels of its first look
+    (its region, or a whole frame, read reduced on the dtype's scale): None (the dtype's largest) but for integers
+    wider than 8 bits whose brightest levels, a :data:`BRIGHT_SHARE` of them passed over, use fewer than
+    :data:`LEAST_SIGNIFICANT_BITS` bits; then ``2^(b + 1) - 1`` for the ``b`` bits they use (at least 8): one bit above,
+    for the marks' pixels brighter than the blocks of a reduced look. A sample above it is read as 1.
+
+    >>> looks = [np.full((100, 100), v / 65535.0) for v in (230.0, 920.0, 3000.0)]
+    >>> [first_look_white(a, np.dtype(np.uint16)) for a in looks]
+    [511.0, 2047.0, None]
+    >>> hot = looks[1].copy(); hot[0, 0] = 1.0
+    >>> first_look_white(hot, np.dtype(np.uint16)), first_look_white(looks[0], np.dtype(np.uint8))
+    (2047.0, None)
+    """
+    if dtype.kind not in "ui" or np.iinfo(dtype).max <= 255 or levels.size == 0:
+        return None
+    flat = np.asarray(levels, np.float64).ravel()
+    rank = max(flat.size - 1 - max(1, int(flat.size * BRIGHT_SHARE)), 0)
+    bright = float(np.partition(flat, rank)[rank]) * float(np.iinfo(dtype).max)
+    bits = max(8, round(max(bright, 0.0)).bit_length())
+    return None if bits >= LEAST_SIGNIFICANT_BITS else float(2 ** (bits + 1) - 1)
 
 
 def mark_contrast(grey: np.ndarray, polarity: Polarity = "bright", *, noise_floor: float) -> float:
@@ -168,7 +208,7 @@ def choose_channel_mix(window: np.ndarray, polarity: Polarity = "bright", *, lum
 
 
 def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "bright", *,
-            luma_first: bool = False) -> np.ndarray:
+            luma_first: bool = False, white: float | None = None) -> np.ndarray:
     """Turn a window into float32 grey levels in [0, 1] by a colour policy.
 
     Args:
@@ -182,14 +222,15 @@ def to_grey(window: np.ndarray, policy: str = "auto", polarity: Polarity = "brig
         luma_first: whether the window comes from a file whose luminance alone has its full resolution and keeps the
             mark (:func:`luminance_first`: a 4:2:0 JPEG of a fair quality); ``"auto"`` then takes luminance wherever
             it shows the mark with :data:`LUMA_SHARE` of the best mix's contrast.
+        white: integer samples' full scale (:func:`normalise`; default: their dtype's largest value).
     """
     _check_choice(policy, COLOUR_POLICIES, "colour policy")
     _check_choice(polarity, POLARITIES, "polarity")
     array = _rgb_window(window)
-    grey = normalise(array)
+    grey = normalise(array, white)
     if array.ndim == 2:
         return grey
-    mix = _best_mix(grey, polarity, _noise_floor(array.dtype), luma_first) if policy == "auto" else policy
+    mix = _best_mix(grey, polarity, _noise_floor(array.dtype, white), luma_first) if policy == "auto" else policy
     return channel_mix(grey, mix)
 
 

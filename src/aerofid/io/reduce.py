@@ -345,12 +345,15 @@ def reduce_in_strips(read_rows: RowReader, box: Sequence[int], factor: int, band
 @dataclass(frozen=True)
 class ReducedView:
     """An image seen reduced by ``factor`` (block means, :meth:`~aerofid.io.raster.Raster.read_reduced`), as grey
-    levels on [0, 1] (integer samples divided by their type's maximum): a source that a window search reads like
-    the image itself, at a coarser scale. Reduced pixel ``i`` is the mean of full pixels ``f i .. f i + f - 1``,
-    so its centre is full pixel ``f i + (f - 1) / 2`` (:meth:`to_full`)."""
+    levels on [0, 1] (integer samples divided by ``white``, by default their type's maximum): a source that a window
+    search reads like the image itself, at a coarser scale. Reduced pixel ``i`` is the mean of full pixels
+    ``f i .. f i + f - 1``, so its centre is full pixel ``f i + (f - 1) / 2`` (:meth:`to_full`)."""
 
     source: ImageSource
     factor: int
+    white: float | None = None
+    """The search's full scale of the source's integer samples (:func:`read_reduced_levels`; None: their type's
+    maximum)."""
     width: int = field(init=False)
     height: int = field(init=False)
     dtype: np.dtype = field(init=False)
@@ -376,7 +379,7 @@ class ReducedView:
         f = self.factor
         x0, y0, x1, y1 = (int(v) for v in box)
         full = (x0 * f, y0 * f, min(x1 * f, self.source.width), min(y1 * f, self.source.height))
-        return read_reduced_levels(self.source, full, f * factor)[0]
+        return read_reduced_levels(self.source, full, f * factor, white=self.white)[0]
 
     def to_full(self, x: float, y: float) -> tuple[float, float]:
         """Full-image pixel coordinates of the reduced point (x, y)."""
@@ -390,9 +393,10 @@ class ReducedView:
 
 
 def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int,
-                        overview: bool = False) -> tuple[np.ndarray, float]:
-    """``box`` of ``source`` reduced by ``f`` as float32 grey levels on [0, 1] (integer samples divided by their
-    type's maximum), and one quantisation step of the samples on that scale, at least
+                        overview: bool = False, white: float | None = None) -> tuple[np.ndarray, float]:
+    """``box`` of ``source`` reduced by ``f`` as float32 grey levels on [0, 1] (integer samples divided by ``white``,
+    the search's full scale, :func:`~aerofid.io.colour.first_look_white`; default: their type's maximum), and one
+    quantisation step of the samples on that scale, at least
     :data:`~aerofid.conventions.LEAST_GREY_STEP` (float
     samples: that). With ``overview``, read by the source's ``read_overview`` where it has one (a JPEG's reduced
     decode: :meth:`aerofid.io.raster.Raster.read_overview`)."""
@@ -400,6 +404,10 @@ def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int,
     reduced = read(box, f)
     if source.dtype.kind not in "ui":
         return reduced.astype(np.float32), LEAST_GREY_STEP
-    step = 1.0 / float(np.iinfo(source.dtype).max)
-    return (reduced * np.float32(step)).astype(np.float32), max(step, LEAST_GREY_STEP)
+    top = np.iinfo(source.dtype).max
+    step = 1.0 / float(white or top)
+    levels = (reduced * np.float32(step)).astype(np.float32)
+    if white and white < top:                       # saturated at the search's full scale, as a window is
+        np.minimum(levels, np.float32(1.0), out=levels)
+    return levels, max(step, LEAST_GREY_STEP)
 

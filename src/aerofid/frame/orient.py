@@ -193,7 +193,6 @@ def orient_frame(image: str | os.PathLike[str] | np.ndarray | Any,
         # a nominal layout's scale is not the scan's: the layout search finds it, near a pixel size the scan declares
         size, size_source = (None, "estimated") if nominal is not None else declared
         size_range = nominal_sizes(declared[0]) if nominal is not None and declared[0] is not None else None
-        # the frame's full scale from the whole scan (a 16-bit file of fewer bits: find.with_white)
         measurer = with_white(Measurer(source, detector, polarities, colour), (0, 0, source.width, source.height))
         frame = _Frame(source, cam, measurer, model, size, size_source, lie, profile, nominal is not None, size_range)
         extras = {} if nominal is not None else extra_marks(cam)

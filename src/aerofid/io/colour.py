@@ -23,6 +23,7 @@ __all__ = [
     "luminance_first",
     "mark_contrast",
     "normalise",
+    "saturated",
     "to_grey",
 ]
 
@@ -53,13 +54,21 @@ def normalise(window: np.ndarray, white: float | None = None) -> np.ndarray:
     array = np.asarray(window)
     if array.dtype.kind in "ui":
         top = np.iinfo(array.dtype).max
-        grey = array.astype(np.float32) / np.float32(white or top)
-        return np.minimum(grey, np.float32(1.0), out=grey) if white and white < top else grey
+        return saturated(array.astype(np.float32) / np.float32(white or top), white, top)
     if array.dtype.kind == "f":
         return array.astype(np.float32, copy=False)
     raise AerofidInputError(
         f"cannot use samples of type {array.dtype} as grey levels; give integer or float samples"
     )
+
+
+def saturated(grey: np.ndarray, white: float | None, top: int) -> np.ndarray:
+    """``grey`` (float32 levels of integer samples of largest value ``top`` read at full scale ``white``) with the
+    levels above 1 set to 1 where ``white`` lies below ``top``, in place: a scan of fewer bits than its dtype's
+    saturates at its white as one of the full range does at ``top``."""
+    if white and white < top:
+        np.minimum(grey, np.float32(1.0), out=grey)
+    return grey
 
 
 def _noise_floor(dtype: np.dtype, white: float | None = None) -> float:

@@ -27,6 +27,7 @@ import numpy as np
 
 from aerofid.conventions import LEAST_GREY_STEP
 from aerofid.errors import AerofidInputError
+from aerofid.io.colour import saturated
 from aerofid.io.source import ImageSource
 from aerofid.parallel import map_in_threads
 
@@ -406,8 +407,5 @@ def read_reduced_levels(source: ImageSource, box: Sequence[int], f: int,
         return reduced.astype(np.float32), LEAST_GREY_STEP
     top = np.iinfo(source.dtype).max
     step = 1.0 / float(white or top)
-    levels = (reduced * np.float32(step)).astype(np.float32)
-    if white and white < top:                       # saturated at the search's full scale, as a window is
-        np.minimum(levels, np.float32(1.0), out=levels)
-    return levels, max(step, LEAST_GREY_STEP)
+    return saturated((reduced * np.float32(step)).astype(np.float32), white, top), max(step, LEAST_GREY_STEP)
 
